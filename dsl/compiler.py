@@ -1,0 +1,228 @@
+"""Compile a script: parse -> timing -> controls -> :class:`~dsl.plan.Plan`.
+
+::
+
+    from dsl import compile_file
+    result = compile_file("examples/mall_guide.sgt")
+    if result.ok:
+        arrays = result.plan.utterances[0].arrays   # pose (T,27), pose_mask (T,), style (T,3), style_mask (T,3)
+
+Every problem is a :class:`~dsl.diagnostics.Diagnostic` in ``result.diagnostics``; nothing a
+user writes raises.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from dsl.diagnostics import ERROR, NOTE, WARNING, Diagnostic, did_you_mean, sort_key
+from dsl.parser import analyse, read_source
+from dsl.plan import Control, Plan, UtterancePlan
+from dsl.script import Script, Utterance
+from dsl.timing import Timing, estimate_timing, speech_timing
+from model.controls import ControlArrays
+from model.skeleton import FPS, frame_count, seconds_to_frame
+
+Progress = Callable[[int, int, str], None]
+
+
+@dataclass
+class CompileResult:
+    script: Script
+    plan: Plan | None
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not any(d.is_error for d in self.diagnostics)
+
+
+def _library_problems(library, file: str) -> list[Diagnostic]:
+    out = []
+    for p in getattr(library, "problems", []):
+        line = getattr(p, "line", None) or 0
+        out.append(
+            Diagnostic(WARNING, f"gesture spec skipped: {p.field}: {p.message}", str(p.path), line, 1 if line else 0, 1,
+                       "fix the file; the other gestures still load", "bad-spec")
+        )
+    return out
+
+
+def load_script(path: Path | str, *, library=None, source: str | None = None):
+    """Read and statically analyse a script file; returns (script, library, diagnostics)."""
+    path = Path(path)
+    diags: list[Diagnostic] = []
+    if source is None:
+        try:
+            source, diags = read_source(path)
+        except OSError as exc:
+            d = Diagnostic(ERROR, f"cannot read the script: {exc.strerror or exc}", str(path), 0, 0, 1, None, "io")
+            return Script(str(path), "", None, [], [d]), None, [d]  # type: ignore[arg-type]
+    holder = {}
+
+    def names(header):
+        from library import load_library
+
+        lib = library if library is not None else load_library(extra_dirs=header.library_dirs)
+        holder["lib"] = lib
+        return lib.names()
+
+    script = analyse(source, str(path), gesture_names=names, base_dir=path.parent)
+    lib = holder.get("lib")
+    if lib is None:  # no utterance: still load the library so its problems are reported
+        from library import load_library
+
+        lib = library if library is not None else load_library(extra_dirs=script.header.library_dirs)
+    diags = diags + script.diagnostics + _library_problems(lib, str(path))
+    return script, lib, diags
+
+
+def compile_file(
+    path: Path | str,
+    *,
+    timing: str = "speech",
+    library=None,
+    cache_dir: Path | None = None,
+    progress: Progress | None = None,
+    source: str | None = None,
+    utterances: list[int] | None = None,
+) -> CompileResult:
+    """Compile a script file. ``timing`` is "speech" (real word times) or "estimate" (fast).
+
+    With "estimate", timing-dependent problems (overlapping pose controls) are warnings, since
+    real speech may differ; with "speech" they are errors.
+    """
+    script, lib, diags = load_script(path, library=library, source=source)
+    if script.header is None or any(d.is_error for d in diags):
+        return CompileResult(script, None, sorted(diags, key=sort_key))
+    plans: list[UtterancePlan] = []
+    selected = [u for u in script.utterances if utterances is None or u.index in utterances]
+    for n, utt in enumerate(selected):
+        if progress:
+            progress(n, len(selected), utt.display[:40])
+        t = _timing(script, utt, timing, cache_dir, diags)
+        if t is None:
+            continue
+        plans.append(_utterance_plan(script, utt, t, lib, timing == "estimate", diags))
+    if progress:
+        progress(len(selected), len(selected), "")
+    diags = sorted(diags, key=sort_key)
+    plan = Plan(source=str(path), fps=FPS, seed=script.header.seed, utterances=plans)
+    return CompileResult(script, plan if not any(d.is_error for d in diags) else None, diags)
+
+
+def _timing(script: Script, utt: Utterance, mode: str, cache_dir, diags: list[Diagnostic]) -> Timing | None:
+    if mode == "estimate":
+        return estimate_timing(utt)
+    from dsl.speech import SpeechError
+
+    try:
+        t = speech_timing(utt, cache_dir)
+    except SpeechError as exc:
+        diags.append(_speech_diagnostic(script, utt, exc))
+        return None
+    if len(t.words) != len(utt.words):  # a broken engine must not shift every control silently
+        diags.append(Diagnostic(ERROR, f"speech timing returned {len(t.words)} words for {len(utt.words)}", script.path, utt.line, 1, 1, None, "timing"))
+        return None
+    return t
+
+
+def _speech_diagnostic(script: Script, utt: Utterance, exc) -> Diagnostic:
+    message = getattr(exc, "message", None) or str(exc)
+    line, col, length, hint, sugg = utt.line, 1, 1, None, ()
+    idx = getattr(exc, "word_index", None)
+    if idx is not None and 0 <= idx < len(utt.words):
+        w = utt.words[idx].where
+        line, col, length = w.line, w.col, w.length
+    elif utt.audio is not None:
+        line, col, length = utt.audio.where.line, utt.audio.where.col, utt.audio.where.length
+    elif "voice" in message.lower():
+        where = script.header.voice_where.get(utt.speaker or "") or script.header.voice_where.get("")
+        if where is not None:
+            line, col, length = where.line, where.col, where.length
+        try:
+            from dsl.speech import list_voices
+
+            hint, sugg = did_you_mean(utt.voice.name, list_voices())
+        except Exception:  # the engine itself is missing: the message already says so
+            pass
+    return Diagnostic(ERROR, message, script.path, line, col, length, hint, "speech", tuple(sugg))
+
+
+def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: bool, diags: list[Diagnostic]) -> UtterancePlan:
+    n_frames = frame_count(t.duration)
+    arrays = ControlArrays.empty(n_frames)
+    controls: list[Control] = []
+
+    # Style spans in opening order: an inner span opens later, so it wins where they overlap.
+    for span in utt.styles:
+        if span.first_word is None:
+            continue
+        a = seconds_to_frame(t.words[span.first_word].start)
+        b = max(a + 1, min(n_frames, int(math.ceil(t.words[span.last_word].end * FPS - 1e-6))))
+        arrays.set_style(a, b, span.values)
+        controls.append(Control("style", span.name, a, b, span.where.line, span.where.col, dict(sorted(span.values.items()))))
+
+    for p in utt.pauses:
+        end = t.words[p.word_index].start if p.word_index < len(t.words) else t.duration
+        a = seconds_to_frame(max(0.0, end - p.seconds))
+        b = max(a + 1, min(n_frames, seconds_to_frame(end)))
+        controls.append(Control("pause", "pause", a, b, p.where.line, p.where.col, {"seconds": p.seconds}))
+
+    placed: list[tuple[int, int, object]] = []
+    for mark in utt.poses:
+        gesture = lib.get(mark.name)
+        if gesture is None:  # already reported by the analyser
+            continue
+        clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
+        if mark.word_index is not None:
+            anchor = seconds_to_frame(t.words[mark.word_index].start)
+        else:
+            anchor = seconds_to_frame(t.words[mark.after_word].end)
+        stroke = clip.stroke_frame or 0
+        start = anchor - stroke
+        end = start + len(clip.poses)
+        w = mark.where
+        if start < 0:
+            diags.append(Diagnostic(NOTE, f"'{mark.name}' would start {-start / FPS:.2f}s before the speech; its first {-start} frames are cut", script.path, w.line, w.col, w.length, "anchor it to a later word, or use x2 for a quicker gesture", "cut"))
+        if end > n_frames:
+            diags.append(Diagnostic(WARNING, f"'{mark.name}' runs {(end - n_frames) / FPS:.2f}s past the end of the speech and is cut", script.path, w.line, w.col, w.length, "use x2 or x3, move it to an earlier word, or add a [pause] after it", "cut"))
+        lo, hi = max(0, start), min(n_frames, end)
+        for plo, phi, other in placed:
+            if lo < phi and plo < hi:
+                how = " (with estimated timing; real speech may differ)" if estimated else ""
+                diags.append(Diagnostic(
+                    WARNING if estimated else ERROR,
+                    f"pose control '{mark.name}' overlaps '{other.name}' (line {other.where.line}, col {other.where.col}) in frames {max(lo, plo)}-{min(hi, phi)}{how}",
+                    script.path, w.line, w.col, w.length,
+                    "use x2 or x3 for a shorter gesture, anchor it to a later word, or add a [pause] between them",
+                    "overlap",
+                ))
+                break
+        else:
+            arrays.set_pose(start, clip.poses)
+        placed.append((lo, hi, mark))
+        controls.append(Control("pose", mark.name, lo, max(lo, hi), w.line, w.col, mark.options))
+
+    controls.sort(key=lambda c: (c.start_frame, c.kind, c.line, c.col))
+    speech = {"engine": t.source}
+    if utt.audio is not None:
+        speech = {"engine": t.source, "audio": _rel(utt.audio.path, script.path)}
+        if utt.audio.timings is not None:
+            speech["timings"] = _rel(utt.audio.timings, script.path)
+    elif t.source != "estimate":
+        speech.update(voice=utt.voice.name, rate=utt.voice.rate, pitch=utt.voice.pitch)
+    return UtterancePlan(
+        index=utt.index, speaker=utt.speaker, line=utt.line, text=utt.display, duration=t.duration,
+        n_frames=n_frames, words=t.words, controls=controls, arrays=arrays, speech=speech, audio_path=t.audio_path,
+    )
+
+
+def _rel(path: Path, script_path: str) -> str:
+    try:
+        return str(Path(path).resolve().relative_to(Path(script_path).resolve().parent))
+    except ValueError:
+        return str(path)

@@ -1,0 +1,126 @@
+"""The compiled plan: per utterance its words, controls and the per-frame control arrays.
+
+``plan.json`` is deterministic and human-readable (reviewable in a diff); ``--npz`` holds the
+arrays the generator consumes (layout owned by :mod:`model.controls`). Both are written
+atomically.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dsl.timing import TimedWord
+from model.controls import STYLE_NAMES, ControlArrays
+
+PLAN_FORMAT = "sgt-plan"
+PLAN_VERSION = 1
+
+
+@dataclass
+class Control:
+    kind: str  # "pose", "style" or "pause"
+    name: str
+    start_frame: int
+    end_frame: int  # exclusive
+    line: int
+    col: int
+    options: dict
+
+    def to_dict(self) -> dict:
+        return {
+            "kind": self.kind,
+            "name": self.name,
+            "start_frame": self.start_frame,
+            "end_frame": self.end_frame,
+            "line": self.line,
+            "col": self.col,
+            "options": self.options,
+        }
+
+
+@dataclass
+class UtterancePlan:
+    index: int
+    speaker: str | None
+    line: int
+    text: str
+    duration: float
+    n_frames: int
+    words: list[TimedWord]
+    controls: list[Control]
+    arrays: ControlArrays
+    speech: dict = field(default_factory=dict)
+    audio_path: Path | None = None
+
+    def to_dict(self) -> dict:
+        return {
+            "index": self.index,
+            "speaker": self.speaker,
+            "line": self.line,
+            "text": self.text,
+            "duration": round(self.duration, 3),
+            "frames": self.n_frames,
+            "speech": self.speech,
+            "words": [{"word": w.word, "start": round(w.start, 3), "end": round(w.end, 3)} for w in self.words],
+            "controls": [c.to_dict() for c in self.controls],
+        }
+
+
+@dataclass
+class Plan:
+    source: str
+    fps: int
+    seed: int
+    utterances: list[UtterancePlan]
+
+    def to_dict(self) -> dict:
+        return {
+            "format": PLAN_FORMAT,
+            "version": PLAN_VERSION,
+            "source": self.source,
+            "fps": self.fps,
+            "seed": self.seed,
+            "style_names": list(STYLE_NAMES),
+            "utterances": [u.to_dict() for u in self.utterances],
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2, ensure_ascii=False) + "\n"
+
+    def save_json(self, path: Path | str) -> None:
+        atomic_write(Path(path), self.to_json().encode("utf-8"))
+
+    def save_npz(self, path: Path | str) -> None:
+        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I`` per utterance I, plus ``plan`` (JSON)."""
+        arrays: dict[str, np.ndarray] = {"plan": np.array(self.to_json())}
+        for i, u in enumerate(self.utterances):
+            for key, value in u.arrays.as_dict().items():
+                arrays[f"{key}_{i}"] = value
+        buf = io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        atomic_write(Path(path), buf.getvalue())
+
+
+def atomic_write(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so that readers see the old file or the new one, never half."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise

@@ -1,0 +1,126 @@
+"""The parsed form of a script: what the analyser produces and the compiler consumes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from dsl.diagnostics import Diagnostic
+
+
+@dataclass(frozen=True)
+class Span:
+    """A place in the source file (1-based line and column) and its length in characters."""
+
+    line: int
+    col: int
+    length: int = 1
+
+
+@dataclass
+class WordToken:
+    text: str
+    start: int  # character offsets in Utterance.text
+    end: int
+    where: Span
+
+
+@dataclass
+class PoseMark:
+    name: str
+    speed: int
+    flip: bool
+    hold: float  # seconds
+    offset: int  # character offset in Utterance.text
+    where: Span
+    word_index: int | None  # anchored to this word's onset ...
+    after_word: int | None = None  # ... or, with no word after it, to the end of this one
+
+    @property
+    def options(self) -> dict:
+        opts: dict = {"speed": self.speed, "flip": self.flip}
+        if self.hold:
+            opts["hold"] = self.hold
+        return opts
+
+
+@dataclass
+class StyleSpan:
+    name: str  # the first name in the tag: a style element or a preset
+    values: dict[str, float]  # requested values, inner spans already applied
+    own_values: dict[str, float]  # what this tag itself asked for
+    offset: int
+    end_offset: int  # where it closes (end of utterance when left open)
+    where: Span
+    first_word: int | None = None
+    last_word: int | None = None  # inclusive; None when the span holds no word
+
+
+@dataclass
+class Pause:
+    seconds: float
+    offset: int
+    where: Span
+    word_index: int  # the pause comes before this word (== number of words at the end)
+
+
+@dataclass
+class AudioRef:
+    path: Path
+    timings: Path | None
+    where: Span
+
+
+@dataclass
+class Voice:
+    name: str = "en-us"
+    rate: int = 165
+    pitch: int = 50
+
+
+@dataclass
+class Utterance:
+    index: int
+    speaker: str | None
+    line: int
+    text: str  # spoken text; offsets of words, marks and pauses refer to it
+    words: list[WordToken] = field(default_factory=list)
+    poses: list[PoseMark] = field(default_factory=list)
+    styles: list[StyleSpan] = field(default_factory=list)
+    pauses: list[Pause] = field(default_factory=list)
+    voice: Voice = field(default_factory=Voice)
+    audio: AudioRef | None = None
+
+    display: str = ""  # the text as a reader sees it: no tags, whitespace collapsed
+
+    @property
+    def word_spans(self) -> list[tuple[int, int]]:
+        return [(w.start, w.end) for w in self.words]
+
+
+@dataclass
+class Header:
+    voice: Voice = field(default_factory=Voice)
+    speaker_overrides: dict[str, dict] = field(default_factory=dict)  # speaker -> {name, rate, pitch}
+    seed: int = 0
+    library_dirs: list[Path] = field(default_factory=list)
+    library_where: dict[Path, Span] = field(default_factory=dict)
+    presets: dict[str, dict[str, float]] = field(default_factory=dict)
+    voice_where: dict[str, Span] = field(default_factory=dict)  # speaker ("" = default) -> directive
+
+    def voice_for(self, speaker: str | None) -> Voice:
+        over = self.speaker_overrides.get(speaker or "", {})
+        return Voice(over.get("name", self.voice.name), over.get("rate", self.voice.rate), over.get("pitch", self.voice.pitch))
+
+
+@dataclass
+class Script:
+    path: str
+    source: str
+    header: Header
+    utterances: list[Utterance]
+    diagnostics: list[Diagnostic]
+
+    @property
+    def has_errors(self) -> bool:
+        return any(d.is_error for d in self.diagnostics)

@@ -1,0 +1,80 @@
+"""Where user gesture folders come from.
+
+Sources, in order (a later folder overrides gestures of an earlier one):
+
+1. ``$XDG_CONFIG_HOME/sgt/config.toml`` (default ``~/.config/sgt/config.toml``),
+2. ``./sgt.toml`` in the current directory,
+3. the environment variable ``SGT_LIBRARY_PATH`` (folders separated by ``os.pathsep``).
+
+In the TOML files the key is ``[library] paths = ["folder", ...]``; relative paths are
+resolved against the folder of the config file, ``~`` is expanded. Folders passed by a
+script header (``extra_dirs`` of :func:`library.load_library`) come after all of these.
+Problems (unreadable file, wrong types) are reported, never raised.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from pathlib import Path
+
+from library.spec import LibraryProblem
+
+ENV_VAR = "SGT_LIBRARY_PATH"
+
+
+def config_files() -> list[Path]:
+    """The config files that are consulted, in order (whether they exist or not)."""
+    xdg = os.environ.get("XDG_CONFIG_HOME")
+    base = Path(xdg) if xdg else Path.home() / ".config"
+    return [base / "sgt" / "config.toml", Path.cwd() / "sgt.toml"]
+
+
+def _paths_from_file(path: Path) -> tuple[list[Path], list[LibraryProblem]]:
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        return [], []
+    except OSError as exc:
+        return [], [LibraryProblem(path, "file", f"cannot read: {exc}")]
+    except tomllib.TOMLDecodeError as exc:
+        return [], [LibraryProblem(path, "toml", f"TOML syntax error: {exc}")]
+    section = data.get("library")
+    if section is None:
+        return [], []
+    if not isinstance(section, dict):
+        return [], [LibraryProblem(path, "library", "[library] must be a table")]
+    paths = section.get("paths", [])
+    if not isinstance(paths, list) or not all(isinstance(p, str) for p in paths):
+        return [], [LibraryProblem(path, "library.paths", "must be a list of folder names")]
+    out = []
+    for p in paths:
+        folder = Path(os.path.expanduser(p))
+        if not folder.is_absolute():
+            folder = path.parent / folder
+        out.append(folder)
+    return out, []
+
+
+def configured_paths() -> tuple[list[Path], list[LibraryProblem]]:
+    """User gesture folders from the config files and ``SGT_LIBRARY_PATH``, in order."""
+    folders: list[Path] = []
+    problems: list[LibraryProblem] = []
+    for cfg in config_files():
+        found, probs = _paths_from_file(cfg)
+        folders += found
+        problems += probs
+    env = os.environ.get(ENV_VAR, "")
+    for part in env.split(os.pathsep):
+        if part.strip():
+            folders.append(Path(os.path.expanduser(part.strip())))
+    # Keep the first mention of a folder only.
+    seen: set[Path] = set()
+    unique = []
+    for f in folders:
+        key = Path(os.path.abspath(f))
+        if key not in seen:
+            seen.add(key)
+            unique.append(f)
+    return unique, problems

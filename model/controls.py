@@ -1,0 +1,76 @@
+"""The control layout: the per-frame arrays the generator consumes (SGToolkit Eq. 1-3).
+
+- pose controls: ``pose`` (T, 27) requested poses, ``pose_mask`` (T,) 1 where a pose is requested;
+- style controls: ``style`` (T, 3) values in [-3, 3] for (speed, space, handedness), and
+  ``style_mask`` (T, 3) 1 where that style element is requested.
+
+Uncontrolled frames hold zeros. This module is the only place that knows the layout; the
+compiler fills it, the generator and the metrics read it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from model.skeleton import POSE_DIM
+
+#: Style elements, in array order.
+STYLE_NAMES: tuple[str, ...] = ("speed", "space", "handedness")
+STYLE_INDEX = {name: i for i, name in enumerate(STYLE_NAMES)}
+#: Style values are normalised statistics clamped to [-STYLE_LIMIT, STYLE_LIMIT].
+STYLE_LIMIT = 3.0
+
+#: Width of the packed control vector: pose (27) + pose mask (1) + style (3) + style mask (3).
+CONTROL_DIM = POSE_DIM + 1 + 2 * len(STYLE_NAMES)
+
+
+@dataclass
+class ControlArrays:
+    pose: np.ndarray  # (T, 27) float32
+    pose_mask: np.ndarray  # (T,) float32
+    style: np.ndarray  # (T, 3) float32
+    style_mask: np.ndarray  # (T, 3) float32
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.pose.shape[0])
+
+    @classmethod
+    def empty(cls, n_frames: int) -> "ControlArrays":
+        return cls(
+            pose=np.zeros((n_frames, POSE_DIM), np.float32),
+            pose_mask=np.zeros((n_frames,), np.float32),
+            style=np.zeros((n_frames, len(STYLE_NAMES)), np.float32),
+            style_mask=np.zeros((n_frames, len(STYLE_NAMES)), np.float32),
+        )
+
+    def set_pose(self, start: int, poses: np.ndarray) -> None:
+        """Request ``poses`` (L, 27) from frame ``start``; parts outside [0, T) are dropped."""
+        lo, hi = max(0, start), min(self.n_frames, start + len(poses))
+        if hi > lo:
+            self.pose[lo:hi] = poses[lo - start : hi - start]
+            self.pose_mask[lo:hi] = 1.0
+
+    def set_style(self, start: int, end: int, values: dict[str, float]) -> None:
+        """Request style ``values`` (by name) on frames [start, end)."""
+        lo, hi = max(0, start), min(self.n_frames, end)
+        for name, value in values.items():
+            k = STYLE_INDEX[name]
+            self.style[lo:hi, k] = float(np.clip(value, -STYLE_LIMIT, STYLE_LIMIT))
+            self.style_mask[lo:hi, k] = 1.0
+
+    def packed(self) -> np.ndarray:
+        """(T, CONTROL_DIM) float32: [pose, pose_mask, style, style_mask] per frame."""
+        return np.concatenate(
+            [self.pose, self.pose_mask[:, None], self.style, self.style_mask], axis=1
+        ).astype(np.float32)
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        return {
+            "pose": self.pose,
+            "pose_mask": self.pose_mask,
+            "style": self.style,
+            "style_mask": self.style_mask,
+        }

@@ -1,0 +1,60 @@
+"""sgt compile: script -> plan.json (words, controls) and control arrays (.npz)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+HELP = "compile a script into a timing and control plan"
+DESCRIPTION = """\
+Compile a script: synthesize (or read) the speech, time every word, and turn the
+pose and style marks into per-frame controls at 15 fps.
+
+The plan (JSON) lists for each utterance its speaker, text, duration, words with
+start/end seconds, and controls (kind, name, start_frame, end_frame exclusive,
+source line/col, options). --npz writes the arrays the generator consumes:
+pose_I (T x 27), pose_mask_I (T), style_I (T x 3), style_mask_I (T x 3)."""
+
+
+def register(sub) -> None:
+    p = sub.add_parser("compile", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", metavar="FILE", help="script file (.sgt)")
+    p.add_argument("-o", "--output", metavar="PLAN", help="write the plan JSON here (default: stdout)")
+    p.add_argument("--npz", metavar="FILE", help="also write the control arrays as .npz")
+    p.add_argument("--utterance", type=int, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
+    p.add_argument("--estimate", action="store_true", help="estimate word times from the text instead of synthesizing speech")
+    p.add_argument("--format", choices=("text", "json"), default="text", help="diagnostics format (default text, on stderr)")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from dsl.compiler import compile_file
+    from sgt_tui.cli import UsageError
+    from sgt_tui.commands.common import existing_file, exit_code, print_diagnostics
+    from sgt_tui.progress import ProgressBar
+
+    path = existing_file(args.file)
+    result = compile_file(path, timing="estimate" if args.estimate else "speech", progress=ProgressBar("speech"), utterances=args.utterance)
+    diags = result.diagnostics
+    if args.utterance and result.plan is not None:
+        known = {u.index for u in result.script.utterances}
+        missing = [n for n in args.utterance if n not in known]
+        if missing:
+            raise UsageError(f"no utterance {missing[0]}: the script has {len(known)} (0..{len(known) - 1})")
+    print_diagnostics(diags, {str(path): result.script.source}, args.format)
+    if result.plan is None:
+        return exit_code(diags) or 1
+    plan = result.plan
+    if args.output and args.output != "-":
+        plan.save_json(args.output)
+    else:
+        sys.stdout.write(plan.to_json())
+    if args.npz:
+        plan.save_npz(args.npz)
+    if args.output and args.output != "-":
+        frames = sum(u.n_frames for u in plan.utterances)
+        seconds = sum(u.duration for u in plan.utterances)
+        n_ctl = sum(len(u.controls) for u in plan.utterances)
+        extra = f" and {args.npz}" if args.npz else ""
+        print(f"wrote {args.output}{extra}: {len(plan.utterances)} utterances, {seconds:.1f}s, {frames} frames, {n_ctl} controls", file=sys.stderr)
+    return exit_code(diags)

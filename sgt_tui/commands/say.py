@@ -1,0 +1,59 @@
+"""sgt say: synthesize (or read) the speech of a script and print its word timings."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "synthesize the speech and print the word timing table"
+DESCRIPTION = """\
+Speak every utterance of a script with espeak-ng (or read its @audio recording),
+write one WAV per utterance, and print each word with its start and end time.
+Results are cached by content, so running it again is instant."""
+
+
+def register(sub) -> None:
+    p = sub.add_parser("say", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", metavar="FILE", help="script file (.sgt)")
+    p.add_argument("-o", "--out-dir", metavar="DIR", help="folder for the WAV files (default: ./STEM_speech)")
+    p.add_argument("--utterance", type=int, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
+    p.add_argument("--json", action="store_true", help="print the words as JSON instead of a table")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import json
+    import shutil
+    from pathlib import Path
+
+    from dsl.compiler import compile_file
+    from sgt_tui.commands.common import existing_file, exit_code, print_diagnostics
+    from sgt_tui.progress import ProgressBar
+
+    path = existing_file(args.file)
+    result = compile_file(path, timing="speech", progress=ProgressBar("speech"), utterances=args.utterance)
+    print_diagnostics(result.diagnostics, {str(path): result.script.source})
+    if result.plan is None:
+        return exit_code(result.diagnostics) or 1
+    out_dir = Path(args.out_dir) if args.out_dir else Path(f"{path.stem}_speech")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    report = []
+    for u in result.plan.utterances:
+        wav = out_dir / f"{path.stem}_{u.index:03d}.wav"
+        if u.audio_path is not None and Path(u.audio_path).resolve() != wav.resolve():
+            tmp = wav.with_name(f".{wav.name}.tmp")
+            shutil.copyfile(u.audio_path, tmp)
+            tmp.replace(wav)
+        report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav), "duration": round(u.duration, 3),
+                       "words": [{"word": w.word, "start": round(w.start, 3), "end": round(w.end, 3)} for w in u.words]})
+    if args.json:
+        print(json.dumps(report, indent=2, ensure_ascii=False))
+        return exit_code(result.diagnostics)
+    for r in report:
+        who = f"{r['speaker']}: " if r["speaker"] else ""
+        print(f"[{r['index']}] {who}{r['text']}")
+        print(f"    {r['audio']}  ({r['duration']:.2f}s)")
+        print(f"    {'word':<20} {'start':>7} {'end':>7}")
+        for w in r["words"]:
+            print(f"    {w['word']:<20} {w['start']:7.3f} {w['end']:7.3f}")
+        print()
+    return exit_code(result.diagnostics)

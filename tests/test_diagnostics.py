@@ -1,0 +1,78 @@
+"""Error messages: every problem reported in one run, at the right place, with a fix.
+
+The rendered messages are compared with reviewed snapshots in tests/snapshots/. After an
+intended change of wording, regenerate them with SGT_UPDATE_SNAPSHOTS=1 and review the diff.
+"""
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from dsl.diagnostics import format_json, format_text
+from dsl.parser import analyse
+
+NAMES = ["open_arms", "point_right", "point_left", "wave", "nod", "beat_both"]
+SNAPSHOTS = Path(__file__).with_name("snapshots")
+
+CASES = {
+    "unknown_names": "guide: hi [pose:point_rigth] and <hapy>smile</hapy> [paws 300ms] ok\n",
+    "bad_values": "a [pose:wave x4 hold=2] <speed:7 space:fast>b</> [pause 3] [pause 20s] c\n",
+    "unclosed_and_mismatched": "a [pose:wave b <speed:1> c </space> d\nsecond [pose:nod] line ] x <speed:1\n",
+    "stray_and_escapes": "a ] b > c \\q d \\\n",
+    "empty_utterance_pose": "guide: [pose:wave]\n",
+    "directives": "@voise en-us\n@rate 9000\n@seed -1\n@preset happy = speed:1\n@preset x1 = sped:1\n@library nowhere\n@audio missing.wav\nhi\n@seed 3\n  indented continuation after a directive\n",
+    "options": "a [pose:wave x2 x3 flip=1 mirror] b [pose:] c\n",
+    "dangling_audio": "hello\n@audio missing.wav timings=x.txt\n",
+}
+
+
+def render(name):
+    src = CASES[name]
+    s = analyse(src, f"{name}.sgt", gesture_names=NAMES, base_dir=Path("/nonexistent-base"))
+    return s, format_text(s.diagnostics, {f"{name}.sgt": src})
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_message_snapshot(name):
+    _, text = render(name)
+    text = text.replace("/nonexistent-base/", "")
+    snap = SNAPSHOTS / f"{name}.txt"
+    if os.environ.get("SGT_UPDATE_SNAPSHOTS") or not snap.exists():
+        snap.write_text(text + "\n")
+    assert text + "\n" == snap.read_text()
+
+
+def test_every_error_in_a_file_is_reported_not_just_the_first():
+    s, _ = render("unclosed_and_mismatched")
+    lines = {d.line for d in s.diagnostics if d.is_error}
+    assert lines == {1, 2}
+    assert sum(d.is_error for d in s.diagnostics) >= 4
+
+
+def test_suggestions_for_misspelt_names():
+    s, _ = render("unknown_names")
+    sugg = {d.code: d.suggestions for d in s.diagnostics}
+    assert "point_right" in sugg["unknown-gesture"]
+    assert "happy" in sugg["bad-style"]
+    assert "pause" in sugg["unknown-tag"]
+
+
+def test_positions_point_at_the_offending_text():
+    src = CASES["unknown_names"]
+    s, _ = render("unknown_names")
+    for d in s.diagnostics:
+        line = src.splitlines()[d.line - 1]
+        snippet = line[d.col - 1 : d.col - 1 + d.length]
+        assert snippet.strip(), (d, snippet)
+    g = next(d for d in s.diagnostics if d.code == "unknown-gesture")
+    assert src.splitlines()[0][g.col - 1 : g.col - 1 + g.length] == "point_rigth"
+
+
+def test_json_format_carries_the_same_diagnostics():
+    s, _ = render("bad_values")
+    data = json.loads(format_json(s.diagnostics))
+    assert data["errors"] == sum(d.is_error for d in s.diagnostics)
+    first = data["diagnostics"][0]
+    assert {"file", "line", "col", "length", "severity", "message", "hint", "suggestions"} <= set(first)

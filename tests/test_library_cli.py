@@ -1,0 +1,150 @@
+"""Tests of `sgt library list|show|add`, called through sgt_tui.cli.main."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from sgt_tui import cli
+from library import load_library
+from model.motion_file import MotionClip, save_motion
+from model.skeleton import N_BONES
+
+
+@pytest.fixture(autouse=True)
+def _env(tmp_path, monkeypatch):
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.delenv("XDG_CONFIG_HOME", raising=False)
+    monkeypatch.delenv("SGT_LIBRARY_PATH", raising=False)
+    monkeypatch.chdir(tmp_path)
+
+
+def _run(capsys, *argv):
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_list(capsys):
+    code, out, err = _run(capsys, "library", "list")
+    assert code == 0
+    names = load_library(use_config=False).names()
+    for n in names:
+        assert f"\n{n} " in out
+    assert f"{len(names)} gestures" in out
+    assert max(len(line) for line in out.splitlines()) <= 80
+    assert "problem" not in out
+
+
+def test_list_tag_and_json(capsys):
+    code, out, _ = _run(capsys, "library", "list", "--tag", "deictic", "--json")
+    assert code == 0
+    doc = json.loads(out)
+    names = {g["name"] for g in doc["gestures"]}
+    assert {"point_left", "point_right", "point_self"} <= names
+    assert "wave" not in names
+    assert all("deictic" in g["tags"] and g["origin"] == "built-in" for g in doc["gestures"])
+
+
+def test_list_override_and_problems(tmp_path, capsys):
+    user = tmp_path / "mine"
+    user.mkdir()
+    (user / "nod.toml").write_text(
+        'name = "nod"\nduration = 1\n[[keyframes]]\ntime = 0\nstroke = true\n')
+    (user / "bad.toml").write_text('name = "bad"\n')
+    code, out, _ = _run(capsys, "library", "list", "--dir", str(user))
+    assert code == 0
+    nod_line = next(line for line in out.splitlines() if line.startswith("nod "))
+    assert str(user) in nod_line and "overrides" in nod_line
+    assert "1 problem" in out and "bad.toml" in out and "duration" in out
+
+
+def test_show(capsys):
+    code, out, _ = _run(capsys, "library", "show", "point_right")
+    assert code == 0
+    g = load_library(use_config=False).get("point_right")
+    assert g.description.split()[0] in out
+    assert f"{len(g.clip().poses)} frames" in out
+    assert f"frame {g.clip().stroke_frame}" in out
+    assert "right_elbow" in out
+    assert max(len(line) for line in out.splitlines()) <= 80
+    code, out2, _ = _run(capsys, "library", "show", "point_right", "--speed", "2", "--json")
+    doc = json.loads(out2)
+    assert doc["frames"] == len(g.clip(speed=2).poses)
+    assert doc["stroke_frame"] == g.clip(speed=2).stroke_frame
+    assert len(doc["keyframes"]) == len(g.keyframes)
+
+
+def test_show_unknown(capsys):
+    code, out, err = _run(capsys, "library", "show", "point_rigth")
+    assert code == 1
+    assert "point_right" in err
+
+
+def test_no_subcommand_is_usage_error(capsys):
+    code, _, err = _run(capsys, "library")
+    assert code == 2
+
+
+def _motion(tmp_path, name="rec.json"):
+    lib = load_library(use_config=False)
+    a = lib.get("wave").clip().poses
+    b = lib.get("point_left").clip(flip=True).poses
+    path = tmp_path / name
+    save_motion(path, [MotionClip(poses=np.concatenate([a, b])), MotionClip(poses=b)])
+    return path, np.concatenate([a, b])
+
+
+@pytest.mark.parametrize("suffix", [".json", ".npz"])
+def test_add_round_trip(tmp_path, capsys, suffix):
+    path, poses = _motion(tmp_path, "rec" + suffix)
+    a, b = 5, 40
+    code, out, err = _run(capsys, "library", "add", "my_wave", "--from", str(path),
+                          "--frames", f"{a}:{b}", "--to", str(tmp_path / "lib"),
+                          "--tags", "greeting, test", "--description", "mine")
+    assert code == 0, err
+    target = tmp_path / "lib" / "my_wave.toml"
+    assert target.exists() and str(target) in out
+    lib = load_library([tmp_path / "lib"], use_config=False)
+    assert lib.problems == []
+    g = lib.get("my_wave")
+    assert g.tags == ["greeting", "test"] and g.description == "mine"
+    got = g.clip().poses.reshape(-1, N_BONES, 3).astype(np.float64)
+    want = poses[a:b].reshape(-1, N_BONES, 3).astype(np.float64)
+    assert got.shape == want.shape
+    err_deg = np.degrees(np.arccos(np.clip(np.sum(got * want, axis=-1), -1, 1)))
+    assert err_deg.max() < 3.0
+    assert len(g.keyframes) < (b - a)  # it really chose keyframes
+    assert g.clip().stroke_frame is not None
+
+
+def test_add_refuses_overwrite_and_bad_ranges(tmp_path, capsys):
+    path, poses = _motion(tmp_path)
+    args = ["library", "add", "span", "--from", str(path), "--to", str(tmp_path / "lib")]
+    assert _run(capsys, *args, "--frames", "0:10")[0] == 0
+    code, _, err = _run(capsys, *args, "--frames", "0:12")
+    assert code == 1 and "--force" in err
+    assert _run(capsys, *args, "--frames", "0:12", "--force")[0] == 0
+    assert len(load_library([tmp_path / "lib"], use_config=False).get("span").clip().poses) == 12
+    code, _, err = _run(capsys, *args, "--frames", "10:5000", "--force")
+    assert code == 1 and str(len(poses)) in err
+    code, _, err = _run(capsys, *args, "--frames", "7:7", "--force")
+    assert code == 1 and "at least 2" in err
+    code, _, err = _run(capsys, *args, "--frames", "abc", "--force")
+    assert code == 2 and "A:B" in err
+    code, _, err = _run(capsys, *args, "--frames", "0:5", "--utterance", "7", "--force")
+    assert code == 1 and "utterance 7" in err
+    code, _, err = _run(capsys, "library", "add", "x", "--from", str(tmp_path / "none.json"),
+                        "--frames", "0:5")
+    assert code == 1 and "no such file" in err
+
+
+def test_add_default_folder(tmp_path, capsys, monkeypatch):
+    path, _ = _motion(tmp_path)
+    assert _run(capsys, "library", "add", "here", "--from", str(path), "--frames", "0:8")[0] == 0
+    assert (tmp_path / "gestures" / "here.toml").exists()
+    monkeypatch.setenv("SGT_LIBRARY_PATH", str(tmp_path / "cfg"))
+    assert _run(capsys, "library", "add", "there", "--from", str(path), "--frames", "0:8")[0] == 0
+    assert (tmp_path / "cfg" / "there.toml").exists()

@@ -1,0 +1,109 @@
+"""Tests of the sgt-motion file format (json and npz)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from model.motion_file import MotionClip, MotionFileError, load_motion, save_motion
+from model.skeleton import FPS, JOINTS, REST_POSE, mirror_pose, normalize_pose, positions_from_pose
+
+
+def _clips():
+    rng = np.random.default_rng(0)
+    a = normalize_pose(REST_POSE + 0.3 * rng.standard_normal((12, 27)).astype(np.float32))
+    b = normalize_pose(mirror_pose(a[:5]))
+    return [
+        MotionClip(poses=a, speaker="ann", text="hello there",
+                   words=[{"word": "hello", "start": 0.0, "end": 0.4},
+                          {"word": "there", "start": 0.4, "end": 0.8}],
+                   controls=[{"kind": "pose", "gesture": "wave", "frame": 3}]),
+        MotionClip(poses=b),
+    ]
+
+
+@pytest.mark.parametrize("suffix", [".json", ".npz"])
+def test_round_trip(tmp_path, suffix):
+    path = tmp_path / f"m{suffix}"
+    clips = _clips()
+    save_motion(path, clips)
+    back = load_motion(path)
+    assert len(back) == 2
+    for orig, got in zip(clips, back):
+        assert got.fps == FPS
+        assert got.poses.shape == orig.poses.shape
+        assert np.allclose(got.poses, orig.poses, atol=1e-5)
+        assert got.positions.shape == (len(orig.poses), 10, 3)
+        assert np.allclose(got.positions, positions_from_pose(orig.poses), atol=1e-4)
+        assert got.speaker == orig.speaker and got.text == orig.text
+        assert got.words == orig.words and got.controls == orig.controls
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_json_layout(tmp_path):
+    path = tmp_path / "m.json"
+    save_motion(path, _clips())
+    doc = json.loads(path.read_text())
+    assert doc["format"] == "sgt-motion" and doc["version"] == 1 and doc["fps"] == FPS
+    assert doc["joints"] == list(JOINTS)
+    assert len(doc["bones"]) == 9 and "faces +z" in doc["coordinates"]
+    u = doc["utterances"][0]
+    assert len(u["poses"][0]) == 27 and len(u["positions"][0]) == 10
+    assert all(round(x, 5) == x for x in u["poses"][0])
+
+
+def test_npz_layout(tmp_path):
+    path = tmp_path / "m.npz"
+    save_motion(path, _clips())
+    with np.load(path) as z:
+        assert {"meta", "poses_0", "positions_0", "poses_1", "positions_1"} <= set(z.files)
+        meta = json.loads(str(z["meta"]))
+    assert meta["format"] == "sgt-motion" and meta["utterances"][0]["speaker"] == "ann"
+
+
+@pytest.mark.parametrize("change", [{"version": 2}, {"format": "bvh"}, {"fps": 30}])
+def test_refuses_other_formats(tmp_path, change):
+    path = tmp_path / "m.json"
+    save_motion(path, _clips())
+    doc = json.loads(path.read_text())
+    doc.update(change)
+    path.write_text(json.dumps(doc))
+    with pytest.raises(MotionFileError) as exc:
+        load_motion(path)
+    key = next(iter(change))
+    assert key in str(exc.value) or str(change[key]) in str(exc.value)
+
+
+def test_refuses_bad_version_npz(tmp_path):
+    path = tmp_path / "m.npz"
+    meta = {"format": "sgt-motion", "version": 99, "fps": FPS, "joints": list(JOINTS),
+            "utterances": []}
+    np.savez(path, meta=np.array(json.dumps(meta)))
+    with pytest.raises(MotionFileError, match="version 99"):
+        load_motion(path)
+
+
+def test_bad_files(tmp_path):
+    with pytest.raises(MotionFileError, match="no such file"):
+        load_motion(tmp_path / "none.json")
+    (tmp_path / "junk.json").write_text("{not json")
+    with pytest.raises(MotionFileError, match="JSON"):
+        load_motion(tmp_path / "junk.json")
+    with pytest.raises(MotionFileError, match="unknown motion file type"):
+        save_motion(tmp_path / "m.bvh", _clips())
+    with pytest.raises(MotionFileError):
+        MotionClip(poses=np.zeros((4, 26)))
+
+
+def test_save_is_atomic_on_error(tmp_path):
+    path = tmp_path / "m.json"
+    save_motion(path, _clips())
+    before = path.read_bytes()
+    bad = _clips()
+    bad[0].words = [{"word": object()}]  # not JSON-serialisable
+    with pytest.raises(TypeError):
+        save_motion(path, bad)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json"]
