@@ -18,11 +18,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from dsl.diagnostics import ERROR, NOTE, WARNING, Diagnostic, did_you_mean, sort_key
+from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
 from dsl.parser import analyse, read_source
 from dsl.plan import Control, Plan, UtterancePlan
 from dsl.script import Script, Utterance
-from dsl.timing import Timing, estimate_timing, speech_timing
+from dsl.timing import TimedWord, Timing, estimate_timing, speech_timing
 from model.controls import ControlArrays
 from model.skeleton import FPS, frame_count, seconds_to_frame
 
@@ -152,8 +152,36 @@ def _speech_diagnostic(script: Script, utt: Utterance, exc) -> Diagnostic:
     return Diagnostic(ERROR, message, script.path, line, col, length, hint, "speech", tuple(sugg))
 
 
+def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, int]]:
+    """(mark, clip, start frame) per pose control: its stroke lands on its anchor frame."""
+    out = []
+    for mark in utt.poses:
+        gesture = lib.get(mark.name)
+        if gesture is None:  # already reported by the analyser
+            continue
+        clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
+        at = t.words[mark.word_index].start if mark.word_index is not None else t.words[mark.after_word].end
+        out.append((mark, clip, seconds_to_frame(at) - (clip.stroke_frame or 0)))
+    return out
+
+
+def _shifted(t: Timing, lead: float) -> Timing:
+    words = [TimedWord(w.word, w.start + lead, w.end + lead) for w in t.words]
+    return Timing(words, t.duration + lead, t.source, t.audio_path, t.sample_rate)
+
+
 def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: bool, diags: list[Diagnostic]) -> UtterancePlan:
-    n_frames = frame_count(t.duration)
+    # People start preparing a gesture before they speak and finish it after: the motion gets
+    # a lead-in before the speech (whole frames, so onsets keep their frame phase) and a tail
+    # after it, so that no gesture loses its preparation or its retraction.
+    poses = _place_poses(utt, t, lib)
+    lead_frames = max([0] + [-start for _, _, start in poses])
+    lead = lead_frames / FPS
+    if lead_frames:
+        t = _shifted(t, lead)
+        poses = [(m, c, start + lead_frames) for m, c, start in poses]
+    n_frames = max([frame_count(t.duration)] + [start + len(c.poses) for _, c, start in poses])
+    tail = max(0.0, n_frames / FPS - t.duration)
     arrays = ControlArrays.empty(n_frames)
     controls: list[Control] = []
 
@@ -173,24 +201,9 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         controls.append(Control("pause", "pause", a, b, p.where.line, p.where.col, {"seconds": p.seconds}))
 
     placed: list[tuple[int, int, object]] = []
-    for mark in utt.poses:
-        gesture = lib.get(mark.name)
-        if gesture is None:  # already reported by the analyser
-            continue
-        clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
-        if mark.word_index is not None:
-            anchor = seconds_to_frame(t.words[mark.word_index].start)
-        else:
-            anchor = seconds_to_frame(t.words[mark.after_word].end)
-        stroke = clip.stroke_frame or 0
-        start = anchor - stroke
-        end = start + len(clip.poses)
+    for mark, clip, start in poses:
+        lo, hi = start, start + len(clip.poses)
         w = mark.where
-        if start < 0:
-            diags.append(Diagnostic(NOTE, f"'{mark.name}' would start {-start / FPS:.2f}s before the speech; its first {-start} frames are cut", script.path, w.line, w.col, w.length, "anchor it to a later word, or use x2 for a quicker gesture", "cut"))
-        if end > n_frames:
-            diags.append(Diagnostic(WARNING, f"'{mark.name}' runs {(end - n_frames) / FPS:.2f}s past the end of the speech and is cut", script.path, w.line, w.col, w.length, "use x2 or x3, move it to an earlier word, or add a [pause] after it", "cut"))
-        lo, hi = max(0, start), min(n_frames, end)
         for plo, phi, other in placed:
             if lo < phi and plo < hi:
                 how = " (with estimated timing; real speech may differ)" if estimated else ""
@@ -205,19 +218,20 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         else:
             arrays.set_pose(start, clip.poses)
         placed.append((lo, hi, mark))
-        controls.append(Control("pose", mark.name, lo, max(lo, hi), w.line, w.col, mark.options))
+        controls.append(Control("pose", mark.name, lo, hi, w.line, w.col, mark.options))
 
     controls.sort(key=lambda c: (c.start_frame, c.kind, c.line, c.col))
-    speech = {"engine": t.source}
+    speech = {"engine": t.source, "lead_in": round(lead, 6), "tail": round(tail, 6)}
     if utt.audio is not None:
-        speech = {"engine": t.source, "audio": _rel(utt.audio.path, script.path)}
+        speech["audio"] = _rel(utt.audio.path, script.path)
         if utt.audio.timings is not None:
             speech["timings"] = _rel(utt.audio.timings, script.path)
     elif t.source != "estimate":
         speech.update(voice=utt.voice.name, rate=utt.voice.rate, pitch=utt.voice.pitch)
     return UtterancePlan(
-        index=utt.index, speaker=utt.speaker, line=utt.line, text=utt.display, duration=t.duration,
+        index=utt.index, speaker=utt.speaker, line=utt.line, text=utt.display, duration=n_frames / FPS,
         n_frames=n_frames, words=t.words, controls=controls, arrays=arrays, speech=speech, audio_path=t.audio_path,
+        lead_in=lead,
     )
 
 

@@ -9,13 +9,21 @@ from __future__ import annotations
 import re
 from functools import lru_cache
 from pathlib import Path
-from typing import Iterable
 
 from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
 from dsl.directives import DirectiveContext, apply_directive
 from dsl.lines import Statement, decode_source, split_statements
 from dsl.presets import BUILTIN_PRESETS
-from dsl.script import Header, Pause, PoseMark, Script, Span, StyleSpan, Utterance, WordToken
+from dsl.script import (
+    Header,
+    Pause,
+    PoseMark,
+    Script,
+    Span,
+    StyleSpan,
+    Utterance,
+    WordToken,
+)
 from dsl.styles import STYLE_ITEM_HELP, parse_style_value
 from model.controls import STYLE_NAMES
 

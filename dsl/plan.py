@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,6 +16,7 @@ import numpy as np
 
 from dsl.timing import TimedWord
 from model.controls import STYLE_NAMES, ControlArrays
+from model.fileio import atomic_write
 
 PLAN_FORMAT = "sgt-plan"
 PLAN_VERSION = 1
@@ -58,6 +57,7 @@ class UtterancePlan:
     arrays: ControlArrays
     speech: dict = field(default_factory=dict)
     audio_path: Path | None = None
+    lead_in: float = 0.0  # seconds of silence before the audio starts (words are already shifted)
 
     def to_dict(self) -> dict:
         return {
@@ -106,21 +106,3 @@ class Plan:
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         atomic_write(Path(path), buf.getvalue())
-
-
-def atomic_write(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so that readers see the old file or the new one, never half."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise

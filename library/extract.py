@@ -15,7 +15,14 @@ from pathlib import Path
 import numpy as np
 
 from library.spec import REST_DIRS, parse_spec_text, sample
-from model.skeleton import BONE_NAMES, FPS, JOINT_INDEX, N_BONES, frame_count, positions_from_pose
+from model.skeleton import (
+    BONE_NAMES,
+    FPS,
+    JOINT_INDEX,
+    N_BONES,
+    frame_count,
+    positions_from_pose,
+)
 
 #: Bones are written only when they moved more than this since the previous keyframe.
 SAME_DEG = 0.3

@@ -19,14 +19,13 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
+from model.fileio import atomic_write
 from model.skeleton import BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 
 FORMAT = "sgt-motion"
@@ -87,21 +86,6 @@ def _utterance_meta(c: MotionClip) -> dict:
     }
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
 def _kind(path: Path) -> str:
     suffix = Path(path).suffix.lower()
     if suffix not in (".json", ".npz"):
@@ -133,7 +117,7 @@ def save_motion(path, clips: Sequence[MotionClip]) -> None:
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         data = buf.getvalue()
-    _atomic_write(path, data)
+    atomic_write(path, data)
 
 
 def _check_header(doc, path: Path) -> None:

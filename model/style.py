@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from model.controls import STYLE_LIMIT, STYLE_NAMES
-from model.skeleton import BONE_LENGTH_ARRAY, JOINT_INDEX, N_BONES, ROOT_POSITION, BONES
+from model.skeleton import BONE_LENGTH_ARRAY, BONES, JOINT_INDEX, N_BONES, ROOT_POSITION
 
 #: Window of the style statistics, in frames (2 s at 15 fps), as in the paper.
 WINDOW = 30

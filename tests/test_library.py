@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 
 from library import BUILTIN_DIR, Clip, Gesture, LibraryProblem, load_library
-from model.skeleton import REST_POSE, JOINT_INDEX, N_BONES, frame_count, mirror_pose, positions_from_pose
+from model.skeleton import (
+    JOINT_INDEX,
+    N_BONES,
+    REST_POSE,
+    frame_count,
+    mirror_pose,
+    positions_from_pose,
+)
 
 REQUIRED = """point_left point_right point_front point_up point_down point_self beat_right beat_left
 beat_both wave nod head_shake shrug stop thumbs_up open_arms frame cup sweep big small count_one

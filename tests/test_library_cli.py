@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from sgt_tui import cli
 from library import load_library
 from model.motion_file import MotionClip, save_motion
 from model.skeleton import N_BONES
+from sgt_tui import cli
 
 
 @pytest.fixture(autouse=True)

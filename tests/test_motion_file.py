@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from model.motion_file import MotionClip, MotionFileError, load_motion, save_motion
-from model.skeleton import FPS, JOINTS, REST_POSE, mirror_pose, normalize_pose, positions_from_pose
+from model.skeleton import (
+    FPS,
+    JOINTS,
+    REST_POSE,
+    mirror_pose,
+    normalize_pose,
+    positions_from_pose,
+)
 
 
 def _clips():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 HELP = "check scripts and report every problem (file:line:col)"
 DESCRIPTION = """\
@@ -40,5 +41,5 @@ def run(args) -> int:
         if args.format == "text" and not args.quiet and not result.diagnostics:
             n = len(result.script.utterances)
             print(f"{path}: ok ({n} utterance{'s' if n != 1 else ''})")
-    print_diagnostics(all_diags, sources, args.format)
+    print_diagnostics(all_diags, sources, args.format, stream=sys.stdout)
     return exit_code(all_diags)

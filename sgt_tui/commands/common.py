@@ -7,8 +7,6 @@ import sys
 from pathlib import Path
 
 
-
-
 def existing_file(path: str) -> Path:
     from sgt_tui.cli import UsageError
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
-
 HELP = "list, inspect and extend the gesture library"
 
 
@@ -210,10 +208,9 @@ def _add(args) -> int:
     stroke = None if args.stroke is None else args.stroke - a
     text, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
                                      stroke=stroke)
-    folder.mkdir(parents=True, exist_ok=True)
-    tmp = target.with_name(f".{target.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(target)
+    from model.fileio import atomic_write_text
+
+    atomic_write_text(target, text)
     print(f"wrote {target} ({b - a} frames; max error {err:.1f} degrees on re-load)")
     return 0
 

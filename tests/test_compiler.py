@@ -1,0 +1,159 @@
+"""The compiler: timing -> controls -> plan and control arrays (estimated timing: no engine)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from dsl.compiler import compile_file
+from library import load_library
+from model.controls import STYLE_INDEX
+from model.skeleton import FPS, seconds_to_frame
+from sgt_tui import cli
+
+
+@pytest.fixture(scope="module")
+def lib():
+    return load_library(use_config=False)
+
+
+def build(tmp_path, text, lib, **kw):
+    path = tmp_path / "s.sgt"
+    path.write_text(text, encoding="utf-8")
+    return compile_file(path, timing="estimate", library=lib, **kw)
+
+
+def test_pose_stroke_lands_on_the_next_word_onset(tmp_path, lib):
+    r = build(tmp_path, "one two three four five [pose:point_right] six seven eight nine ten\n", lib)
+    assert r.ok, r.diagnostics
+    u = r.plan.utterances[0]
+    (c,) = [c for c in u.controls if c.kind == "pose"]
+    clip = lib.get("point_right").clip()
+    assert c.start_frame + clip.stroke_frame == seconds_to_frame(u.words[5].start)
+    assert c.end_frame - c.start_frame == len(clip.poses)
+    assert np.allclose(u.arrays.pose[c.start_frame : c.end_frame], clip.poses)
+    assert u.arrays.pose_mask.sum() == len(clip.poses)
+    assert (c.line, c.col) == (1, 25) and c.options == {"speed": 1, "flip": False}
+
+
+def test_pose_with_no_following_word_anchors_to_the_end_of_the_previous(tmp_path, lib):
+    r = build(tmp_path, "please look at this one right here [pose:nod x2]\n", lib)
+    u = r.plan.utterances[0]
+    (c,) = u.controls
+    stroke = lib.get("nod").clip(speed=2).stroke_frame
+    assert c.start_frame + stroke == seconds_to_frame(u.words[-1].end)
+
+
+def test_speed_flip_and_hold_reach_the_arrays(tmp_path, lib):
+    r = build(tmp_path, "a b c d e f g [pose:point_right x2 flip hold=600ms] h i j k l m n o p\n", lib)
+    u = r.plan.utterances[0]
+    (c,) = u.controls
+    clip = lib.get("point_right").clip(speed=2, flip=True, hold=0.6)
+    assert np.allclose(u.arrays.pose[c.start_frame : c.end_frame], clip.poses)
+    assert c.options == {"speed": 2, "flip": True, "hold": 0.6}
+
+
+def test_lead_in_makes_room_for_a_gesture_on_the_first_word(tmp_path, lib):
+    r = build(tmp_path, "[pose:wave] Hello there, friend.\n", lib)
+    assert r.ok and not r.diagnostics
+    u = r.plan.utterances[0]
+    (c,) = u.controls
+    stroke = lib.get("wave").clip().stroke_frame
+    assert u.lead_in == pytest.approx(stroke / FPS - seconds_to_frame(0.05) / FPS, abs=1 / FPS)
+    assert c.start_frame == 0
+    assert c.start_frame + stroke == seconds_to_frame(u.words[0].start)
+    assert u.speech["lead_in"] == round(u.lead_in, 6)
+
+
+def test_style_spans_nest_inner_wins_and_masks_are_per_element(tmp_path, lib):
+    r = build(tmp_path, "w1 w2 <happy>w3 w4 <speed:-1>w5 w6</speed> w7</happy> w8 w9 w10 w11 w12\n", lib)
+    u = r.plan.utterances[0]
+    a = u.arrays
+    outer, inner = [c for c in u.controls if c.kind == "style"]
+    assert outer.name == "happy" and inner.name == "speed"
+    sp, sc, hd = STYLE_INDEX["speed"], STYLE_INDEX["space"], STYLE_INDEX["handedness"]
+    mid = (inner.start_frame + inner.end_frame) // 2
+    assert a.style[mid, sp] == -1.0 and a.style[mid, sc] == 1.5  # inner speed, inherited space
+    first = outer.start_frame
+    assert a.style[first, sp] == 2.5
+    assert a.style_mask[first, sp] == 1 and a.style_mask[first, hd] == 0
+    assert a.style_mask[: outer.start_frame].sum() == 0 and a.style_mask[outer.end_frame :].sum() == 0
+    assert outer.start_frame == seconds_to_frame(u.words[2].start)
+
+
+def test_pause_lengthens_the_speech_and_is_a_control(tmp_path, lib):
+    base = build(tmp_path, "one two three four\n", lib).plan.utterances[0]
+    r = build(tmp_path, "one two [pause 1.2s] three four\n", lib).plan.utterances[0]
+    assert r.duration == pytest.approx(base.duration + 1.2)
+    assert r.words[2].start == pytest.approx(base.words[2].start + 1.2)
+    (p,) = r.controls
+    assert p.kind == "pause" and p.options == {"seconds": 1.2}
+    assert p.end_frame - p.start_frame == pytest.approx(1.2 * FPS, abs=1)
+
+
+def test_overlapping_poses_warn_with_estimated_timing(tmp_path, lib):
+    r = build(tmp_path, "look [pose:point_right] here [pose:point_left] and there now\n", lib)
+    (d,) = [d for d in r.diagnostics if d.code == "overlap"]
+    assert d.severity == "warning" and "point_left" in d.message and "point_right" in d.message
+    assert (d.line, d.col) == (1, 30)
+
+
+def test_plan_json_is_deterministic_and_complete(tmp_path, lib):
+    text = open("examples/lecture.sgt", encoding="utf-8").read()
+    a = build(tmp_path, text, lib).plan.to_json()
+    b = build(tmp_path, text, lib).plan.to_json()
+    assert a == b
+    data = json.loads(a)
+    assert data["fps"] == FPS and len(data["utterances"]) == 6
+    u = data["utterances"][1]
+    assert {"speaker", "text", "duration", "words", "controls"} <= set(u)
+    for c in u["controls"]:
+        assert {"kind", "name", "start_frame", "end_frame", "line", "col", "options"} <= set(c)
+        assert 0 <= c["start_frame"] < c["end_frame"] <= u["frames"]
+    starts = [w["start"] for w in u["words"]]
+    assert starts == sorted(starts) and all(w["end"] <= u["duration"] for w in u["words"])
+
+
+def test_npz_holds_the_arrays(tmp_path, lib):
+    r = build(tmp_path, open("examples/mall_guide.sgt", encoding="utf-8").read(), lib)
+    r.plan.save_npz(tmp_path / "c.npz")
+    with np.load(tmp_path / "c.npz") as z:
+        for i, u in enumerate(r.plan.utterances):
+            assert z[f"pose_{i}"].shape == (u.n_frames, 27)
+            assert z[f"pose_mask_{i}"].shape == (u.n_frames,)
+            assert z[f"style_{i}"].shape == (u.n_frames, 3)
+            assert np.array_equal(z[f"style_mask_{i}"], u.arrays.style_mask)
+        assert json.loads(str(z["plan"]))["source"].endswith("s.sgt")
+
+
+def test_errors_give_no_plan(tmp_path, lib):
+    r = build(tmp_path, "hi [pose:nope]\n", lib)
+    assert not r.ok and r.plan is None
+
+
+def test_cli_compile_writes_plan_and_exit_codes(tmp_path, capsys):
+    good = tmp_path / "g.sgt"
+    good.write_text("guide: hello [pose:nod] there, how are you today?\n")
+    out = tmp_path / "plan.json"
+    assert cli.main(["compile", str(good), "--estimate", "-o", str(out), "--npz", str(tmp_path / "c.npz")]) == 0
+    assert json.loads(out.read_text())["utterances"][0]["speaker"] == "guide"
+    bad = tmp_path / "b.sgt"
+    bad.write_text("hello [pose:wav]\n")
+    assert cli.main(["compile", str(bad), "--estimate", "-o", str(tmp_path / "x.json")]) == 1
+    assert not (tmp_path / "x.json").exists()
+    err = capsys.readouterr().err
+    assert "b.sgt:1:13: error: unknown gesture 'wav'" in err and "did you mean 'wave'" in err
+    assert cli.main(["compile", str(tmp_path / "missing.sgt")]) == 2
+
+
+def test_cli_check_many_files_and_json(tmp_path, capsys):
+    a = tmp_path / "a.sgt"
+    a.write_text("x [pose:wave] y z\n")
+    b = tmp_path / "b.sgt"
+    b.write_text("x <speed:5>y</>\nz [pose:nodd]\n")
+    assert cli.main(["check", str(a), str(b)]) == 1
+    out = capsys.readouterr().out
+    assert "a.sgt: ok" in out and "b.sgt:1:4: error" in out and "b.sgt:2:9: error" in out
+    assert cli.main(["check", "--format", "json", str(b)]) == 1
+    data = json.loads(capsys.readouterr().out)
+    assert data["errors"] == 2 and {d["line"] for d in data["diagnostics"]} == {1, 2}
