@@ -20,10 +20,9 @@ from typing import Callable
 
 from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
 from dsl.parser import analyse, read_source
-from dsl.plan import Control, Plan, UtterancePlan
+from dsl.plan import ArrayRequests, Control, Plan, UtterancePlan
 from dsl.script import Script, Utterance
 from dsl.timing import TimedWord, Timing, estimate_timing, speech_timing
-from model.controls import ControlArrays
 from model.skeleton import FPS, frame_count, seconds_to_frame
 
 Progress = Callable[[int, int, str], None]
@@ -182,7 +181,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         poses = [(m, c, start + lead_frames) for m, c, start in poses]
     n_frames = max([frame_count(t.duration)] + [start + len(c.poses) for _, c, start in poses])
     tail = max(0.0, n_frames / FPS - t.duration)
-    arrays = ControlArrays.empty(n_frames)
+    requests = ArrayRequests(n_frames)
     controls: list[Control] = []
 
     # Style spans in opening order: an inner span opens later, so it wins where they overlap.
@@ -191,7 +190,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
             continue
         a = seconds_to_frame(t.words[span.first_word].start)
         b = max(a + 1, min(n_frames, int(math.ceil(t.words[span.last_word].end * FPS - 1e-6))))
-        arrays.set_style(a, b, span.values)
+        requests.styles.append((a, b, span.values))
         controls.append(Control("style", span.name, a, b, span.where.line, span.where.col, dict(sorted(span.values.items()))))
 
     for p in utt.pauses:
@@ -216,7 +215,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
                 ))
                 break
         else:
-            arrays.set_pose(start, clip.poses)
+            requests.poses.append((start, clip.poses))
         placed.append((lo, hi, mark))
         controls.append(Control("pose", mark.name, lo, hi, w.line, w.col, mark.options))
 
@@ -230,7 +229,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         speech.update(voice=utt.voice.name, rate=utt.voice.rate, pitch=utt.voice.pitch)
     return UtterancePlan(
         index=utt.index, speaker=utt.speaker, line=utt.line, text=utt.display, duration=n_frames / FPS,
-        n_frames=n_frames, words=t.words, controls=controls, arrays=arrays, speech=speech, audio_path=t.audio_path,
+        n_frames=n_frames, words=t.words, controls=controls, requests=requests, speech=speech, audio_path=t.audio_path,
         lead_in=lead,
     )
 

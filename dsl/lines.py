@@ -41,6 +41,8 @@ class Statement:
 
     def position(self, offset: int) -> tuple[int, int]:
         """File (line, col), 1-based, of character ``offset`` of :attr:`text`."""
+        if len(self._starts) == 1:  # most statements are one line
+            return self._lines[0], self._cols[0] + offset
         i = max(0, bisect.bisect_right(self._starts, offset) - 1)
         return self._lines[i], self._cols[i] + (offset - self._starts[i])
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 from functools import lru_cache
+from itertools import compress
 from pathlib import Path
 
 from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
@@ -36,6 +37,7 @@ POSE_OPTIONS = ("x1", "x2", "x3", "flip", "hold")
 MAX_PAUSE = 10.0
 MAX_HOLD = 10.0
 _MAX_RECOVERIES = 50
+_HIDDEN = [False]
 
 
 class _Node(tuple):
@@ -220,9 +222,8 @@ class _Analyser:
                         utt.words.append(WordToken(m.group(), s, s + len(m.group()), self.span(stmt, s, len(m.group()))))
                     continue
                 end = node.end + base
-                for i in range(start, end):  # tags and escapes are not spoken
-                    spoken[i] = " "
-                    shown[i] = False
+                spoken[start:end] = " " * (end - start)  # tags and escapes are not spoken
+                shown[start:end] = _HIDDEN * (end - start)
                 if node.kind == "escape":
                     ch = node.payload[1]
                     if ch not in ESCAPABLE:
@@ -233,7 +234,7 @@ class _Analyser:
                     continue
                 marks.append(node)
         utt.text = "".join(spoken)
-        utt.display = " ".join("".join(c for c, keep in zip(spoken, shown) if keep).split())
+        utt.display = " ".join("".join(compress(spoken, shown)).split())
         self._marks(stmt, utt, marks, header, base)
         return utt
 

@@ -45,6 +45,23 @@ class Control:
 
 
 @dataclass
+class ArrayRequests:
+    """What the control arrays must hold; they are built on first use (``sgt check`` never needs them)."""
+
+    n_frames: int
+    poses: list = field(default_factory=list)  # (start frame, (L, 27) poses)
+    styles: list = field(default_factory=list)  # (start, end, {name: value}), outer spans first
+
+    def build(self) -> ControlArrays:
+        arrays = ControlArrays.empty(self.n_frames)
+        for a, b, values in self.styles:
+            arrays.set_style(a, b, values)
+        for start, poses in self.poses:
+            arrays.set_pose(start, poses)
+        return arrays
+
+
+@dataclass
 class UtterancePlan:
     index: int
     speaker: str | None
@@ -54,10 +71,19 @@ class UtterancePlan:
     n_frames: int
     words: list[TimedWord]
     controls: list[Control]
-    arrays: ControlArrays
+    requests: ArrayRequests
     speech: dict = field(default_factory=dict)
     audio_path: Path | None = None
     lead_in: float = 0.0  # seconds of silence before the audio starts (words are already shifted)
+
+    _arrays: ControlArrays | None = field(default=None, repr=False)
+
+    @property
+    def arrays(self) -> ControlArrays:
+        """Per-frame control arrays (SGToolkit Eq. 1-3), layout from :mod:`model.controls`."""
+        if self._arrays is None:
+            self._arrays = self.requests.build()
+        return self._arrays
 
     def to_dict(self) -> dict:
         return {

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 from dsl.diagnostics import Diagnostic
 
 
-@dataclass(frozen=True)
-class Span:
+class Span(NamedTuple):
     """A place in the source file (1-based line and column) and its length in characters."""
 
     line: int

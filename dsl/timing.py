@@ -6,19 +6,20 @@ editor uses on every keystroke; ``sgt compile`` and ``sgt say`` always use real 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 from dsl.script import Utterance
 
-_SENTENCE_END = ".!?;:"
+_SENTENCE_END = re.compile(r"[.!?;:]")
 LEAD_IN = 0.05  # seconds of silence before the first estimated word
 
 
-@dataclass(frozen=True)
-class TimedWord:
+class TimedWord(NamedTuple):
     word: str
-    start: float
+    start: float  # seconds
     end: float
 
 
@@ -39,13 +40,18 @@ def estimate_timing(utt: Utterance) -> Timing:
     pauses = {}
     for p in utt.pauses:
         pauses[p.word_index] = pauses.get(p.word_index, 0.0) + p.seconds
+    text = utt.text
+    ends = [w.start for w in utt.words[1:]] + [len(text)]
     for i, w in enumerate(utt.words):
-        t += pauses.get(i, 0.0)
-        length = per_word * (0.45 + 0.55 * min(len(w.text), 14) / 5.0)
+        if pauses:
+            t += pauses.get(i, 0.0)
+        length = per_word * (0.45 + 0.11 * min(w.end - w.start, 14))
         words.append(TimedWord(w.text, t, t + length))
         t += length
-        tail = utt.text[w.end : utt.words[i + 1].start] if i + 1 < len(utt.words) else utt.text[w.end :]
-        if any(c in _SENTENCE_END for c in tail):
+        tail = text[w.end : ends[i]]
+        if tail.isspace() or not tail:
+            continue
+        if _SENTENCE_END.search(tail):
             t += 0.25
         elif "," in tail:
             t += 0.12

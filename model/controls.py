@@ -58,7 +58,7 @@ class ControlArrays:
         lo, hi = max(0, start), min(self.n_frames, end)
         for name, value in values.items():
             k = STYLE_INDEX[name]
-            self.style[lo:hi, k] = float(np.clip(value, -STYLE_LIMIT, STYLE_LIMIT))
+            self.style[lo:hi, k] = max(-STYLE_LIMIT, min(STYLE_LIMIT, float(value)))
             self.style_mask[lo:hi, k] = 1.0
 
     def packed(self) -> np.ndarray:

@@ -1,0 +1,69 @@
+"""Script -> motion: compile a script, then run a generation engine on every utterance.
+
+::
+
+    from model.generate import generate_clips
+    clips = generate_clips("examples/mall_guide.sgt", engine="keyframe")
+    clips[0].poses      # (T, 27) unit bone directions at 15 fps
+    clips[0].positions  # (T, 10, 3) metres
+
+Engines share one interface: ``generate(arrays: ControlArrays, *, seed) -> (T, 27)``.
+Available now: ``keyframe`` (SGToolkit's MANUAL condition). The neural generator and the
+``rules`` engine plug in here.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+ENGINES = ("keyframe",)
+DEFAULT_ENGINE = "keyframe"
+
+
+class GenerateError(Exception):
+    """The script has errors (``diagnostics`` holds them) or the engine cannot run."""
+
+    def __init__(self, message: str, diagnostics=(), source: str = "") -> None:
+        super().__init__(message)
+        self.diagnostics = list(diagnostics)
+        self.source = source
+
+
+def engine_function(name: str) -> Callable:
+    if name == "keyframe":
+        from model.keyframe import generate
+
+        return generate
+    raise GenerateError(f"unknown engine '{name}': choose one of {', '.join(ENGINES)}")
+
+
+def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None, progress=None) -> list:
+    """One :class:`~model.motion_file.MotionClip` per planned utterance."""
+    from model.motion_file import MotionClip
+
+    fn = engine_function(engine or DEFAULT_ENGINE)
+    clips = []
+    base_seed = plan.seed if seed is None else seed
+    for n, u in enumerate(plan.utterances):
+        if progress:
+            progress(n, len(plan.utterances), u.text[:40])
+        poses = fn(u.arrays, seed=base_seed + u.index)
+        words = [{"word": w.word, "start": round(w.start, 3), "end": round(w.end, 3)} for w in u.words]
+        clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=words,
+                                controls=[c.to_dict() for c in u.controls]))
+    if progress:
+        progress(len(plan.utterances), len(plan.utterances), "")
+    return clips
+
+
+def generate_clips(script_path, *, engine: str | None = None, utterances=None, seed: int | None = None,
+                   progress=None, timing: str = "speech") -> list:
+    """Compile ``script_path`` and generate motion; raises :class:`GenerateError` on script errors."""
+    from dsl.compiler import compile_file
+
+    engine_function(engine or DEFAULT_ENGINE)  # fail fast on a bad engine name
+    result = compile_file(Path(script_path), timing=timing, utterances=utterances)
+    if result.plan is None:
+        raise GenerateError(f"{script_path} has errors", result.diagnostics, result.script.source)
+    return clips_from_plan(result.plan, engine=engine, seed=seed, progress=progress)
