@@ -157,3 +157,80 @@ def test_cli_check_many_files_and_json(tmp_path, capsys):
     assert cli.main(["check", "--format", "json", str(b)]) == 1
     data = json.loads(capsys.readouterr().out)
     assert data["errors"] == 2 and {d["line"] for d in data["diagnostics"]} == {1, 2}
+
+
+# -- real speech (espeak-ng) -------------------------------------------------------------
+
+
+def test_real_speech_timing_is_increasing_and_inside_the_audio(tmp_path, lib):
+    import soundfile as sf
+
+    path = tmp_path / "s.sgt"
+    path.write_text("guide: [pose:wave] Welcome! Look at the shelf [pose:point_right x2] over there, in the 1990s aisle.\n")
+    r = compile_file(path, timing="speech", library=lib, cache_dir=tmp_path / "cache")
+    assert r.ok, r.diagnostics
+    u = r.plan.utterances[0]
+    audio_seconds = sf.info(str(u.audio_path)).duration
+    starts = [w.start for w in u.words]
+    assert starts == sorted(starts) and len(set(starts)) == len(starts)
+    for w in u.words:
+        assert u.lead_in <= w.start <= w.end <= u.lead_in + audio_seconds + 1e-6
+    assert u.duration >= u.lead_in + audio_seconds - 1 / 15
+    assert u.speech["engine"] == "espeak-ng" and u.speech["voice"] == "en-us"
+
+
+def test_real_speech_overlap_is_an_error(tmp_path, lib):
+    path = tmp_path / "s.sgt"
+    path.write_text("look [pose:point_right] here [pose:point_left] and there now\n")
+    r = compile_file(path, timing="speech", library=lib, cache_dir=tmp_path / "cache")
+    (d,) = [d for d in r.diagnostics if d.code == "overlap"]
+    assert d.is_error and r.plan is None
+
+
+def test_unknown_voice_points_at_the_directive(tmp_path, lib):
+    path = tmp_path / "s.sgt"
+    path.write_text("@voice en-uss\nhello there\n")
+    r = compile_file(path, timing="speech", library=lib, cache_dir=tmp_path / "cache")
+    (d,) = r.diagnostics
+    assert d.is_error and (d.line, d.col) == (1, 8)
+    assert "en-us" in (d.hint or "") + d.message
+
+
+def test_recording_with_json_timings_and_a_mismatch(tmp_path, lib):
+    import json
+
+    import numpy as np
+    import soundfile as sf
+
+    sf.write(tmp_path / "rec.wav", np.zeros(16000 * 2, np.float32), 16000)
+    words = [{"word": "hello", "start": 0.2, "end": 0.6}, {"word": "there", "start": 0.7, "end": 1.2}]
+    (tmp_path / "rec.json").write_text(json.dumps(words))
+    path = tmp_path / "s.sgt"
+    path.write_text("@audio rec.wav timings=rec.json\nbot: Hello [pose:nod] there.\n")
+    r = compile_file(path, timing="speech", library=lib, cache_dir=tmp_path / "cache")
+    assert r.ok, r.diagnostics
+    u = r.plan.utterances[0]
+    assert [round(w.start - u.lead_in, 3) for w in u.words] == [0.2, 0.7]
+    assert u.speech["audio"] == "rec.wav" and u.speech["timings"] == "rec.json"
+    path.write_text("@audio rec.wav timings=rec.json\nbot: Hello [pose:nod] where.\n")
+    r = compile_file(path, timing="speech", library=lib, cache_dir=tmp_path / "cache")
+    (d,) = r.diagnostics
+    assert d.is_error and (d.line, d.col) == (2, 23) and "where" in d.message and "0.7" in d.message
+
+
+def test_cli_say_writes_wavs_and_prints_the_table(tmp_path, capsys, monkeypatch):
+    import soundfile as sf
+
+    monkeypatch.setenv("SGT_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "s.sgt"
+    path.write_text("a: [pose:wave] Hello world.\nb: Second line here.\n")
+    assert cli.main(["say", str(path), "-o", str(tmp_path / "wav")]) == 0
+    out = capsys.readouterr().out
+    assert "Hello" in out and "Second" in out
+    wavs = sorted((tmp_path / "wav").glob("*.wav"))
+    assert len(wavs) == 2
+    assert cli.main(["say", str(path), "-o", str(tmp_path / "wav"), "--json", "--utterance", "0"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    (u,) = data
+    assert 0 <= u["words"][0]["start"] < 0.2  # audio time: no gesture lead-in in the table
+    assert u["words"][-1]["end"] <= sf.info(wavs[0]).duration + 1e-6

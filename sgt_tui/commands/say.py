@@ -43,8 +43,11 @@ def run(args) -> int:
             tmp = wav.with_name(f".{wav.name}.tmp")
             shutil.copyfile(u.audio_path, tmp)
             tmp.replace(wav)
-        report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav), "duration": round(u.duration, 3),
-                       "words": [{"word": w.word, "start": round(w.start, 3), "end": round(w.end, 3)} for w in u.words]})
+        # the plan's words are on the motion timeline (after the lead-in); the table is the audio's
+        lead = u.lead_in
+        speech_end = u.duration - u.speech.get("tail", 0.0) - lead
+        report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav), "duration": round(speech_end, 3),
+                       "words": [{"word": w.word, "start": round(w.start - lead, 3), "end": round(w.end - lead, 3)} for w in u.words]})
     if args.json:
         print(json.dumps(report, indent=2, ensure_ascii=False))
         return exit_code(result.diagnostics)

@@ -1,0 +1,294 @@
+"""Minimal ctypes binding to the espeak-ng C library (``libespeak-ng.so.1``).
+
+The library is process-global state, so every call goes through :data:`_LOCK`, and it is
+loaded and initialised lazily on first use (importing this module loads nothing).
+
+Determinism: espeak-ng keeps generator state (pitch flutter phase...) between synthesis calls
+in one process, so the same text synthesized twice in one process gives slightly different
+audio, while the *first* synthesis after loading the library is identical in every process.
+``espeak_Terminate`` followed by a new ``espeak_Initialize`` hangs in 1.51, so every synthesis
+runs in a short-lived worker process (this file run as a script, stdlib only, ~20 ms overhead):
+:func:`run_synth`. The in-process engine is only used to list and check voices.
+
+Facts verified by experiment against espeak-ng 1.51 (see tests/test_speech_synth.py):
+* ``espeak_Initialize(AUDIO_OUTPUT_SYNCHRONOUS, ...)`` returns the sample rate, 22050 Hz.
+* ``espeak_EVENT`` is ``{int type; unsigned uid; int text_position; int length;
+  int audio_position; int sample; void *user_data; union{int; char*; char[8]} id}``.
+* With ``espeakCHARS_UTF8`` and ``POS_CHARACTER``, ``text_position`` of a word event is the
+  1-based *character* (code point) index in the input, not a byte offset ("café" counts 4).
+* ``sample`` is the sample index of the event in the output stream (``audio_position`` is the
+  same in ms), so word times are exact to the sample.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import glob
+import os
+import threading
+from dataclasses import dataclass
+
+
+
+class EngineError(Exception):
+    """Engine failure; ``kind`` is "missing-lib", "init", "voice" or "synth"."""
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(message)
+        self.kind = kind
+        self.message = message
+
+_LOCK = threading.RLock()
+
+LIBRARY_NAME = "libespeak-ng.so.1"
+_LIB_DIRS = (
+    "/usr/lib/x86_64-linux-gnu",
+    "/usr/lib/aarch64-linux-gnu",
+    "/usr/lib64",
+    "/usr/lib",
+    "/usr/local/lib",
+)
+
+AUDIO_OUTPUT_SYNCHRONOUS = 2
+espeakINITIALIZE_DONT_EXIT = 0x8000
+espeakCHARS_UTF8 = 1
+POS_CHARACTER = 1
+espeakRATE = 1
+espeakPITCH = 3
+
+EVENT_LIST_TERMINATED = 0
+EVENT_WORD = 1
+EVENT_SENTENCE = 2
+EVENT_END = 5
+EVENT_MSG_TERMINATED = 6
+EVENT_SAMPLERATE = 8
+
+
+class _Event(ctypes.Structure):
+    _fields_ = [
+        ("type", ctypes.c_int),
+        ("unique_identifier", ctypes.c_uint),
+        ("text_position", ctypes.c_int),
+        ("length", ctypes.c_int),
+        ("audio_position", ctypes.c_int),
+        ("sample", ctypes.c_int),
+        ("user_data", ctypes.c_void_p),
+        ("id", ctypes.c_char * 8),
+    ]
+
+
+class _Voice(ctypes.Structure):
+    _fields_ = [
+        ("name", ctypes.c_char_p),
+        ("languages", ctypes.c_void_p),
+        ("identifier", ctypes.c_char_p),
+        ("gender", ctypes.c_ubyte),
+        ("age", ctypes.c_ubyte),
+        ("variant", ctypes.c_ubyte),
+        ("xx1", ctypes.c_ubyte),
+        ("score", ctypes.c_int),
+        ("spare", ctypes.c_void_p),
+    ]
+
+
+_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(ctypes.c_short), ctypes.c_int, ctypes.POINTER(_Event))
+
+
+@dataclass(frozen=True)
+class WordEvent:
+    char_index: int  # 0-based code-point index into the synthesized text
+    length: int  # characters, as reported by the engine
+    sample: int  # sample index of the word's start
+
+
+@dataclass(frozen=True)
+class VoiceInfo:
+    name: str
+    identifier: str
+    languages: tuple[str, ...]
+
+
+def find_library() -> str | None:
+    """Path of libespeak-ng without loading it (used for the cache key and error messages)."""
+    env_dirs = [d for d in os.environ.get("LD_LIBRARY_PATH", "").split(":") if d]
+    for d in (*env_dirs, *_LIB_DIRS):
+        p = os.path.join(d, LIBRARY_NAME)
+        if os.path.exists(p):
+            return p
+    for d in _LIB_DIRS:
+        hits = sorted(glob.glob(os.path.join(d, "*", LIBRARY_NAME)))
+        if hits:
+            return hits[0]
+    return None
+
+
+def engine_fingerprint() -> str:
+    """Identifies the installed engine build (resolved library file name and size) without loading it."""
+    p = find_library()
+    if p is None:
+        return "missing"
+    real = os.path.realpath(p)
+    try:
+        size = os.path.getsize(real)
+    except OSError:
+        size = -1
+    return f"{os.path.basename(real)}:{size}"
+
+
+class _Engine:
+    def __init__(self) -> None:
+        path = find_library() or LIBRARY_NAME
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError as e:
+            raise EngineError(
+                "missing-lib",
+                f"the espeak-ng speech library ({LIBRARY_NAME}) could not be loaded ({e}); "
+                "install it with `apt-get install espeak-ng` (or use a recorded voice)",
+            ) from None
+        lib.espeak_Initialize.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_char_p, ctypes.c_int]
+        lib.espeak_Initialize.restype = ctypes.c_int
+        lib.espeak_SetSynthCallback.argtypes = [_CALLBACK]
+        lib.espeak_SetSynthCallback.restype = None
+        lib.espeak_SetVoiceByName.argtypes = [ctypes.c_char_p]
+        lib.espeak_SetVoiceByName.restype = ctypes.c_int
+        lib.espeak_SetParameter.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_int]
+        lib.espeak_SetParameter.restype = ctypes.c_int
+        lib.espeak_Synth.argtypes = [
+            ctypes.c_void_p, ctypes.c_size_t, ctypes.c_uint, ctypes.c_int,
+            ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p, ctypes.c_void_p,
+        ]
+        lib.espeak_Synth.restype = ctypes.c_int
+        lib.espeak_ListVoices.argtypes = [ctypes.c_void_p]
+        lib.espeak_ListVoices.restype = ctypes.POINTER(ctypes.POINTER(_Voice))
+        lib.espeak_Info.argtypes = [ctypes.c_void_p]
+        lib.espeak_Info.restype = ctypes.c_char_p
+        rate = lib.espeak_Initialize(AUDIO_OUTPUT_SYNCHRONOUS, 0, None, espeakINITIALIZE_DONT_EXIT)
+        if rate <= 0:
+            raise EngineError(
+                "init",
+                "espeak-ng could not be initialised (its data folder is missing?); "
+                "reinstall it with `apt-get install --reinstall espeak-ng espeak-ng-data`",
+            )
+        self.lib = lib
+        self.sample_rate = int(rate)
+        self.version = (lib.espeak_Info(None) or b"?").decode("ascii", "replace")
+        self._chunks: list[bytes] = []
+        self._events: list[WordEvent] = []
+        self._callback = _CALLBACK(self._on_audio)  # keep a reference: C holds a raw pointer
+        lib.espeak_SetSynthCallback(self._callback)
+        self._voices: list[VoiceInfo] | None = None
+
+    def _on_audio(self, wav, n, events) -> int:
+        if wav and n > 0:
+            self._chunks.append(ctypes.string_at(wav, n * 2))
+        i = 0
+        while events[i].type != EVENT_LIST_TERMINATED:
+            ev = events[i]
+            if ev.type == EVENT_WORD:
+                self._events.append(WordEvent(ev.text_position - 1, ev.length, ev.sample))
+            i += 1
+        return 0
+
+    def voices(self) -> list[VoiceInfo]:
+        if self._voices is None:
+            arr = self.lib.espeak_ListVoices(None)
+            out = []
+            i = 0
+            while arr[i]:
+                v = arr[i].contents
+                langs = []
+                p = v.languages
+                while p:
+                    priority = ctypes.c_ubyte.from_address(p).value
+                    if priority == 0:
+                        break
+                    s = ctypes.string_at(p + 1)
+                    langs.append(s.decode("utf-8", "replace"))
+                    p += 2 + len(s)
+                out.append(VoiceInfo((v.name or b"").decode("utf-8", "replace"),
+                                     (v.identifier or b"").decode("utf-8", "replace"), tuple(langs)))
+                i += 1
+            self._voices = out
+        return self._voices
+
+    def set_voice(self, name: str) -> bool:
+        return self.lib.espeak_SetVoiceByName(name.encode("utf-8")) == 0
+
+    def synth(self, text: str, voice: str, rate: int, pitch: int) -> tuple[bytes, list[WordEvent]]:
+        if not self.set_voice(voice):
+            raise EngineError("voice", f"espeak-ng rejected the voice {voice!r}")
+        self.lib.espeak_SetParameter(espeakRATE, int(rate), 0)
+        self.lib.espeak_SetParameter(espeakPITCH, int(pitch), 0)
+        data = text.encode("utf-8") + b"\0"
+        buf = ctypes.create_string_buffer(data, len(data))
+        self._chunks, self._events = [], []
+        try:
+            err = self.lib.espeak_Synth(buf, len(data), 0, POS_CHARACTER, 0, espeakCHARS_UTF8, None, None)
+            if err != 0:
+                raise EngineError("synth", f"espeak-ng failed to synthesize the text (error {err})")
+            return b"".join(self._chunks), list(self._events)
+        finally:
+            self._chunks, self._events = [], []
+
+
+_engine: _Engine | None = None
+
+
+def engine() -> _Engine:
+    """The process-wide engine, loaded on first use. Call with :data:`_LOCK` held."""
+    global _engine
+    if _engine is None:
+        _engine = _Engine()
+    return _engine
+
+
+def run_synth(text: str, voice: str, rate: int, pitch: int, timeout: float = 120.0) -> tuple[int, bytes, list[WordEvent]]:
+    """Synthesize in a fresh worker process (deterministic); returns (sample_rate, s16le bytes, word events)."""
+    import json
+    import subprocess
+    import sys
+
+    request = json.dumps({"text": text, "voice": voice, "rate": rate, "pitch": pitch}).encode("utf-8")
+    try:
+        proc = subprocess.run([sys.executable, "-I", "-S", os.path.abspath(__file__)], input=request,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=timeout, check=False)
+    except subprocess.TimeoutExpired:
+        raise EngineError("synth", f"espeak-ng took longer than {timeout:.0f} s to synthesize the text") from None
+    header, sep, body = proc.stdout.partition(b"\n")
+    try:
+        info = json.loads(header.decode("utf-8")) if sep else None
+    except ValueError:
+        info = None
+    if not isinstance(info, dict):
+        err = proc.stderr.decode("utf-8", "replace").strip().splitlines()
+        raise EngineError("synth", "the espeak-ng worker failed" + (f": {err[-1]}" if err else f" (exit {proc.returncode})"))
+    if not info.get("ok"):
+        raise EngineError(info.get("kind", "synth"), info.get("message", "espeak-ng failed"))
+    if len(body) != info["nbytes"]:
+        raise EngineError("synth", "the espeak-ng worker returned truncated audio")
+    events = [WordEvent(int(c), int(n), int(s)) for c, n, s in info["events"]]
+    return int(info["sample_rate"]), body, events
+
+
+def _worker_main() -> int:
+    import json
+    import sys
+
+    try:
+        req = json.loads(sys.stdin.buffer.read().decode("utf-8"))
+        eng = _Engine()
+        raw, events = eng.synth(req["text"], req["voice"], req["rate"], req["pitch"])
+        header = {"ok": True, "sample_rate": eng.sample_rate, "nbytes": len(raw),
+                  "events": [[e.char_index, e.length, e.sample] for e in events]}
+    except EngineError as e:
+        raw, header = b"", {"ok": False, "kind": e.kind, "message": e.message}
+    out = sys.stdout.buffer
+    out.write(json.dumps(header).encode("utf-8") + b"\n")
+    out.write(raw)
+    out.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(_worker_main())

@@ -1,0 +1,49 @@
+"""Content-addressed cache of speech results: ``<hash>.wav`` + ``<hash>.json``."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+from model.fileio import atomic_write
+
+#: Bump when the timing algorithm changes so that old cache entries are not reused.
+ALGORITHM_VERSION = 1
+
+
+def default_cache_dir() -> Path:
+    """``$SGT_CACHE_DIR`` if set (and non-empty), else ``~/.cache/sgt/speech``."""
+    env = os.environ.get("SGT_CACHE_DIR")
+    if env:
+        return Path(env).expanduser()
+    return Path.home() / ".cache" / "sgt" / "speech"
+
+
+def content_hash(payload: dict) -> str:
+    """sha256 of a canonical JSON rendering of ``payload``."""
+    blob = json.dumps(payload, sort_keys=True, ensure_ascii=True, separators=(",", ":"))
+    return hashlib.sha256(blob.encode("ascii")).hexdigest()
+
+
+def file_hash(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def read_json(path: Path) -> dict | None:
+    """The JSON object in ``path``, or None if missing/corrupt (treated as a cache miss)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            data = json.load(f)
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def write_json(path: Path, data: dict) -> None:
+    atomic_write(path, json.dumps(data, ensure_ascii=False, indent=1).encode("utf-8"))

@@ -1,0 +1,360 @@
+"""Recorded speech: read the audio, get word timings (TextGrid / JSON / pocketsphinx), insert pauses.
+
+Timings files
+-------------
+* Praat TextGrid, long ("ooTextFile" with ``xmin = ...`` lines) or short format, UTF-8 or
+  UTF-16. The tier named ``words`` (or ``word``, any case) is used, else the first interval
+  tier. Empty, ``sil``, ``sp``, ``spn`` and ``<eps>`` intervals are skipped.
+* JSON: a list of ``{"word": str, "start": seconds, "end": seconds}`` (or ``{"words": [...]}``).
+
+Timed words are matched one-to-one with the transcript's word spans after normalisation
+(Unicode NFKD without accents, case folded, only letters/digits kept, so curly apostrophes and
+punctuation do not matter). Without a timings file the transcript is aligned to the audio
+with pocketsphinx (see :mod:`dsl.speech.align`).
+
+Pauses are inserted into the audio as digital silence at the quietest point between the
+neighbouring words; the audio is then written (mono, 16-bit PCM) to the cache.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import unicodedata
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from model.fileio import atomic_write
+
+from . import audio, cache
+from .synth import check_pauses, check_spans, pause_boundaries
+from .types import Speech, SpeechError, Word
+
+SKIP_LABELS = {"", "sil", "sp", "spn", "<eps>", "<sil>", "sil1"}
+#: Timed words may run this far past the end of the audio (rounding in aligners) before it is an error.
+END_TOLERANCE = 0.05
+
+
+def normalise_word(w: str) -> str:
+    w = unicodedata.normalize("NFKD", w)
+    w = "".join(c for c in w if not unicodedata.combining(c))
+    return "".join(c for c in w.casefold() if c.isalnum())
+
+
+# -- audio ----------------------------------------------------------------------------------
+
+
+def read_audio(path: Path) -> tuple[np.ndarray, int]:
+    """Mono float32 samples and the sample rate; SpeechError naming the file if unreadable."""
+    import soundfile as sf
+
+    try:
+        data, sr = sf.read(str(path), dtype="float32", always_2d=True)
+    except Exception as e:  # soundfile raises LibsndfileError/RuntimeError/OSError/TypeError
+        raise SpeechError(f"cannot read the audio file {str(path)!r}: {e}") from None
+    if data.shape[0] == 0:
+        raise SpeechError(f"the audio file {str(path)!r} is empty")
+    mono = data.mean(axis=1) if data.shape[1] > 1 else data[:, 0]
+    return np.ascontiguousarray(mono, dtype=np.float32), int(sr)
+
+
+# -- timings files --------------------------------------------------------------------------
+
+_TOKEN = re.compile(r'"((?:[^"]|"")*)"|(\S+)', re.S)
+
+
+def _textgrid_tokens(text: str) -> list[tuple[str, object]]:
+    """Praat's reading rule: only string literals, numbers and <flags> count; labels are skipped."""
+    out: list[tuple[str, object]] = []
+    for m in _TOKEN.finditer(text):
+        if m.group(1) is not None:
+            out.append(("str", m.group(1).replace('""', '"')))
+            continue
+        tok = m.group(2)
+        if tok.startswith("<") and tok.endswith(">"):
+            out.append(("flag", tok))
+            continue
+        try:
+            val = float(tok)
+        except ValueError:
+            continue
+        if math.isfinite(val):
+            out.append(("num", val))
+    return out
+
+
+def _decode_text(raw: bytes) -> str:
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return raw.decode("utf-16")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")
+
+
+def parse_textgrid(path: Path) -> list[tuple[str, float, float]]:
+    """Timed words (label, start, end) from a TextGrid's word tier (see module docstring)."""
+    name = str(path)
+    try:
+        text = _decode_text(Path(path).read_bytes())
+    except OSError as e:
+        raise SpeechError(f"cannot read the timings file {name!r}: {e}") from None
+    toks = _textgrid_tokens(text)
+    pos = 0
+
+    def take(kind: str, what: str):
+        nonlocal pos
+        if pos >= len(toks):
+            raise SpeechError(f"{name}: the TextGrid ends early (expected {what})")
+        k, v = toks[pos]
+        if k != kind:
+            raise SpeechError(f"{name}: malformed TextGrid (expected {what}, found {v!r})")
+        pos += 1
+        return v
+
+    if len(toks) < 2 or toks[0] != ("str", "ooTextFile") or toks[1] != ("str", "TextGrid"):
+        raise SpeechError(f"{name}: not a Praat TextGrid (it must start with File type = \"ooTextFile\" "
+                          "and Object class = \"TextGrid\")")
+    pos = 2
+    take("num", "xmin")
+    take("num", "xmax")
+    if pos < len(toks) and toks[pos][0] == "flag":
+        if toks[pos][1] != "<exists>":
+            return []
+        pos += 1
+    n_tiers = int(take("num", "the number of tiers"))
+    tiers = []
+    for t in range(n_tiers):
+        cls = take("str", f"the class of tier {t + 1}")
+        tier_name = take("str", f"the name of tier {t + 1}")
+        take("num", "tier xmin")
+        take("num", "tier xmax")
+        count = int(take("num", f"the size of tier {tier_name!r}"))
+        items = []
+        for i in range(count):
+            where = f"tier {tier_name!r} {'interval' if cls == 'IntervalTier' else 'point'} {i + 1}"
+            if cls == "IntervalTier":
+                a = take("num", f"xmin of {where}")
+                b = take("num", f"xmax of {where}")
+                label = take("str", f"the text of {where}")
+                items.append((label, a, b, where))
+            else:
+                take("num", f"time of {where}")
+                take("str", f"the mark of {where}")
+        tiers.append((cls, tier_name, items))
+    intervals = [t for t in tiers if t[0] == "IntervalTier"]
+    if not intervals:
+        raise SpeechError(f"{name}: the TextGrid has no interval tier with words")
+    chosen = next((t for t in intervals if t[1].strip().lower() in ("words", "word")), intervals[0])
+    out = []
+    for label, a, b, where in chosen[2]:
+        if label.strip().lower() in SKIP_LABELS:
+            continue
+        out.append((label.strip(), a, b, f"{name}: {where}"))
+    return _validate(out)
+
+
+def parse_json_timings(path: Path) -> list[tuple[str, float, float]]:
+    name = str(path)
+    try:
+        data = json.loads(_decode_text(Path(path).read_bytes()))
+    except OSError as e:
+        raise SpeechError(f"cannot read the timings file {name!r}: {e}") from None
+    except ValueError as e:
+        raise SpeechError(f"{name}: not valid JSON ({e})") from None
+    if isinstance(data, dict) and isinstance(data.get("words"), list):
+        data = data["words"]
+    if not isinstance(data, list):
+        raise SpeechError(f"{name}: expected a JSON list of {{\"word\", \"start\", \"end\"}} objects")
+    out = []
+    for i, entry in enumerate(data):
+        where = f"{name}: entry {i + 1}"
+        if not isinstance(entry, dict):
+            raise SpeechError(f"{where} is not an object with \"word\", \"start\" and \"end\"")
+        for field in ("word", "start", "end"):
+            if field not in entry:
+                raise SpeechError(f"{where} has no {field!r}")
+        word, a, b = entry["word"], entry["start"], entry["end"]
+        if not isinstance(word, str):
+            raise SpeechError(f"{where}: \"word\" must be a string, got {word!r}")
+        for field, v in (("start", a), ("end", b)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise SpeechError(f"{where} ({word!r}): {field!r} must be a number of seconds, got {v!r}")
+        if word.strip().lower() in SKIP_LABELS:
+            continue
+        out.append((word.strip(), float(a), float(b), where))
+    return _validate(out)
+
+
+def _validate(items) -> list[tuple[str, float, float]]:
+    prev_start = -math.inf
+    out = []
+    for label, a, b, where in items:
+        if a < 0:
+            raise SpeechError(f"{where} ({label!r}): start {a} is negative", time=a)
+        if b < a:
+            raise SpeechError(f"{where} ({label!r}): end {b} is before start {a}", time=a)
+        if a < prev_start:
+            raise SpeechError(f"{where} ({label!r}): start {a} is before the previous word's start {prev_start}",
+                              time=a)
+        prev_start = a
+        out.append((label, a, b))
+    return out
+
+
+def read_timings(path: Path) -> tuple[list[tuple[str, float, float]], str]:
+    """(timed words, source) from a TextGrid or JSON file, chosen by suffix or content."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix == ".json":
+        return parse_json_timings(p), "json"
+    if suffix == ".textgrid":
+        return parse_textgrid(p), "textgrid"
+    try:
+        head = _decode_text(p.read_bytes()[:200]).lstrip()
+    except OSError as e:
+        raise SpeechError(f"cannot read the timings file {str(p)!r}: {e}") from None
+    except UnicodeDecodeError:
+        head = ""
+    if head.startswith(("[", "{")):
+        return parse_json_timings(p), "json"
+    return parse_textgrid(p), "textgrid"
+
+
+def match_words(text: str, spans, timed, source_name: str) -> list[tuple[float, float]]:
+    """Check the timed words against the transcript; (start, end) per span."""
+    for i, ((s, e), (label, a, _b)) in enumerate(zip(spans, timed)):
+        if normalise_word(text[s:e]) != normalise_word(label):
+            raise SpeechError(
+                f"{source_name}: word {i + 1} does not match the script: expected {text[s:e]!r}, "
+                f"found {label!r} at {a:.2f} s", word_index=i, time=a)
+    if len(timed) != len(spans):
+        if len(timed) > len(spans):
+            label, a, _ = timed[len(spans)]
+            raise SpeechError(
+                f"{source_name} has {len(timed)} words but the script has {len(spans)}; the first extra "
+                f"word is {label!r} at {a:.2f} s", word_index=len(spans), time=a)
+        s, e = spans[len(timed)]
+        last = timed[-1][2] if timed else None
+        raise SpeechError(
+            f"{source_name} has {len(timed)} words but the script has {len(spans)}; no timing for "
+            f"{text[s:e]!r} (word {len(timed) + 1})", word_index=len(timed), time=last)
+    return [(a, b) for _, a, b in timed]
+
+
+# -- public entry point ---------------------------------------------------------------------
+
+
+def load_recording(audio_path: Path, text: str, word_spans: list[tuple[int, int]],
+                   pauses: Sequence[tuple[int, float]] = (), *, timings_path: Path | None = None,
+                   cache_dir: Path | None = None) -> Speech:
+    """Time the word spans of ``text`` in a recording (WAV/FLAC/MP3...; stereo is mixed to mono).
+
+    With ``timings_path`` (TextGrid or JSON) the timings are read and checked against the
+    transcript; without it the transcript is aligned with pocketsphinx (en-us), with built
+    pronunciations for words missing from its dictionary (see :mod:`dsl.speech.align`).
+    Pauses (character offset, seconds) are inserted as silence. The returned ``audio_path`` is
+    the original file when it is a mono WAV and no pause was inserted, else a mono 16-bit WAV
+    in the cache.
+    """
+    audio_path = Path(audio_path)
+    if not isinstance(text, str):
+        raise SpeechError("the transcript must be a string")
+    spans = check_spans(text, word_spans)
+    pause_list = check_pauses(text, pauses)
+    samples, sr = read_audio(audio_path)
+    duration = len(samples) / sr
+    cdir = Path(cache_dir) if cache_dir is not None else cache.default_cache_dir()
+
+    if timings_path is not None:
+        timed, source = read_timings(Path(timings_path))
+        times = match_words(text, spans, timed, str(timings_path))
+        for i, (a, b) in enumerate(times):
+            if a > duration + END_TOLERANCE:
+                raise SpeechError(f"{timings_path}: word {i + 1} ({timed[i][0]!r}) starts at {a:.2f} s, after the "
+                                  f"end of the audio ({duration:.2f} s) - is it the right recording?",
+                                  word_index=i, time=a)
+    else:
+        source = "pocketsphinx"
+        times = _cached_alignment(audio_path, text, spans, samples, sr, cdir)
+
+    starts = [min(a, duration) for a, _ in times]
+    ends = [min(max(b, a), duration) for (a, _), b in zip(times, [t[1] for t in times])]
+    for k in range(1, len(starts)):  # keep starts non-decreasing after clamping
+        starts[k] = max(starts[k], starts[k - 1])
+        ends[k] = max(ends[k], starts[k])
+
+    boundaries = pause_boundaries(spans, pause_list)
+    needs_copy = bool(boundaries) or audio_path.suffix.lower() != ".wav" or _channels(audio_path) != 1
+    out_path = audio_path
+    if boundaries:
+        samples, starts, ends = _insert_pauses(samples, sr, starts, ends, boundaries)
+        duration = len(samples) / sr
+    if needs_copy:
+        key = cache.content_hash({"kind": "recording", "algorithm": cache.ALGORITHM_VERSION,
+                                  "audio": cache.file_hash(audio_path),
+                                  "pauses": sorted([[b, s] for b, s in boundaries.items()]),
+                                  "spans": [list(s) for s in spans]})
+        out_path = cdir / f"{key}.wav"
+        if not out_path.is_file():
+            atomic_write(out_path, audio.wav_bytes(samples, sr))
+    words = []
+    for (s, e), a, b in zip(spans, starts, ends):
+        a = min(max(a, 0.0), duration)
+        words.append(Word(text[s:e], a, min(max(b, a), duration)))
+    return Speech(out_path, sr, duration, words, source)
+
+
+def _channels(path: Path) -> int:
+    import soundfile as sf
+
+    try:
+        return sf.info(str(path)).channels
+    except Exception:
+        return 0
+
+
+def _insert_pauses(samples, sr, starts, ends, boundaries: dict[int, float]):
+    n = len(starts)
+    inserts = []
+    offsets = [0] * n
+    for b, secs in sorted(boundaries.items()):
+        cnt = int(round(secs * sr))
+        if b == 0:
+            pos = 0
+        elif b >= n:
+            pos = len(samples)
+        else:
+            lo = int(round(min(ends[b - 1], starts[b]) * sr))
+            lo = max(lo, int(round(starts[b - 1] * sr)))
+            hi = int(round(starts[b] * sr))
+            pos = audio.quiet_cut(samples, sr, lo, hi) if hi > lo else hi
+            ends[b - 1] = min(ends[b - 1], pos / sr)
+        inserts.append((pos, cnt))
+        for k in range(b, n):
+            offsets[k] += cnt
+    out = audio.insert_silences(samples, inserts)
+    starts = [a + o / sr for a, o in zip(starts, offsets)]
+    ends = [e + o / sr for e, o in zip(ends, offsets)]
+    return out, starts, ends
+
+
+def _cached_alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Path) -> list[tuple[float, float]]:
+    from . import align
+
+    words = [text[s:e] for s, e in spans]
+    key = cache.content_hash({"kind": "pocketsphinx-align", "algorithm": cache.ALGORITHM_VERSION,
+                              "audio": cache.file_hash(audio_path), "words": words})
+    meta_path = cdir / f"{key}.json"
+    meta = cache.read_json(meta_path)
+    if meta is not None and meta.get("key") == key and len(meta.get("times", [])) == len(words):
+        return [(float(a), float(b)) for a, b in meta["times"]]
+    if not words:
+        return []
+    times = align.align_words(samples, sr, words)
+    cdir.mkdir(parents=True, exist_ok=True)
+    cache.write_json(meta_path, {"key": key, "source": "pocketsphinx", "times": [list(t) for t in times]})
+    return times

@@ -1,0 +1,358 @@
+"""Text-to-speech with exact word timings, through espeak-ng.
+
+Timing model
+------------
+espeak-ng reports a *word event* (sample index + character position) whenever it starts
+speaking a word; these are used as word start times. Engine words are mapped to our word
+spans by character position:
+
+* several events inside one span (``"1999"`` -> "nineteen ninety-nine") -> the span starts at
+  the first of them;
+* spans that got no event (the engine merges ``"in the"`` into one word, and some punctuation
+  or symbols produce no event) share the interval from the previous anchored span's start to
+  the end of voiced audio before the next anchored span, in proportion to their character
+  counts; spans before the first event / after the last are placed the same way against the
+  start / end of voiced audio;
+* a word ends where the next one starts, except the last word before a pause and the final
+  word, which end where the voiced audio ends (energy threshold, 5 ms frames).
+
+The whole text is synthesized in one call (so prosody is that of the whole utterance) and
+pauses are inserted afterwards as exact digital silence at the quietest point just before the
+first word after the pause; every later time is shifted by the pause length, so a pause
+lengthens the audio by exactly its length (to the sample).
+
+Leading silence is trimmed or padded to exactly :data:`LEAD_IN` seconds before the first voiced
+sample and trailing silence to exactly :data:`TAIL` seconds after the last one, so the first
+word starts near 0.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from model.fileio import atomic_write
+
+from . import _espeak, audio, cache
+from .types import Speech, SpeechError, Word
+
+#: Silence kept before the first voiced sample, seconds.
+LEAD_IN = 0.05
+#: Silence kept after the last voiced sample, seconds.
+TAIL = 0.10
+
+RATE_RANGE = (80, 450)
+PITCH_RANGE = (0, 100)
+
+# -- validation -----------------------------------------------------------------------------
+
+
+def check_spans(text: str, word_spans) -> list[tuple[int, int]]:
+    spans = []
+    prev_end = 0
+    for i, span in enumerate(word_spans):
+        try:
+            s, e = span
+        except (TypeError, ValueError):
+            raise SpeechError(f"word span {i} is not a (start, end) pair: {span!r}", word_index=i) from None
+        if not (isinstance(s, int) and isinstance(e, int)) or isinstance(s, bool) or isinstance(e, bool):
+            raise SpeechError(f"word span {i} must hold integer character offsets, got {span!r}", word_index=i)
+        if not (0 <= s < e <= len(text)):
+            raise SpeechError(f"word span {i} {span!r} is outside the text (length {len(text)}) or empty",
+                              word_index=i)
+        if s < prev_end:
+            raise SpeechError(f"word span {i} {span!r} overlaps or precedes the previous span", word_index=i)
+        spans.append((s, e))
+        prev_end = e
+    return spans
+
+
+def check_pauses(text: str, pauses) -> list[tuple[int, float]]:
+    out = []
+    for i, p in enumerate(pauses):
+        try:
+            off, secs = p
+            secs = float(secs)
+        except (TypeError, ValueError):
+            raise SpeechError(f"pause {i} is not an (offset, seconds) pair: {p!r}") from None
+        if not isinstance(off, int) or isinstance(off, bool) or not (0 <= off <= len(text)):
+            raise SpeechError(f"pause {i} offset {off!r} is outside the text (length {len(text)})")
+        if not math.isfinite(secs) or secs < 0:
+            raise SpeechError(f"pause {i} length must be a non-negative number of seconds, got {secs!r}")
+        out.append((off, secs))
+    return out
+
+
+def pause_boundaries(spans: list[tuple[int, int]], pauses: list[tuple[int, float]]) -> dict[int, float]:
+    """Map each pause to a word boundary ``b`` (the pause goes before word ``b``; ``b == len(spans)``
+    is the end). A pause offset inside a word is moved to after that word. Seconds are summed."""
+    out: dict[int, float] = {}
+    for off, secs in pauses:
+        b = 0
+        for s, e in spans:
+            if s < off:  # word starts before the pause offset: it is spoken before the pause
+                b += 1
+            else:
+                break
+        out[b] = out.get(b, 0.0) + secs
+    return {b: s for b, s in out.items() if s > 0}
+
+
+def pause_sample_counts(boundaries: dict[int, float], sample_rate: int) -> dict[int, int]:
+    return {b: int(round(secs * sample_rate)) for b, secs in boundaries.items()}
+
+
+# -- voices ---------------------------------------------------------------------------------
+
+_voice_names: list[str] | None = None
+
+
+def list_voices() -> list[str]:
+    """Voice names accepted by :func:`synthesize`: the espeak-ng language codes (``en-us``,
+    ``en-gb-scotland``, ``fr``...), sorted. ``+variant`` suffixes (``en-us+f3``) are accepted too."""
+    global _voice_names
+    with _espeak._LOCK:
+        if _voice_names is None:
+            try:
+                eng = _espeak.engine()
+            except _espeak.EngineError as e:
+                raise SpeechError(e.message) from None
+            names = set()
+            for v in eng.voices():
+                if v.languages:
+                    names.add(v.languages[0].lower())
+            _voice_names = sorted(names)
+        return list(_voice_names)
+
+
+def _resolve_voice(eng, voice: str) -> str:
+    """An espeak voice name for ``voice`` or SpeechError with suggestions."""
+    import difflib
+
+    if not isinstance(voice, str) or not voice.strip():
+        raise SpeechError("the voice name is empty")
+    base, plus, variant = voice.strip().partition("+")
+    key = base.lower()
+    chosen = None
+    for v in eng.voices():
+        if key in (v.name.lower(), v.identifier.lower()) or (v.languages and v.languages[0].lower() == key):
+            chosen = v.identifier
+            break
+    if chosen is None:
+        for v in eng.voices():
+            if key in (lang.lower() for lang in v.languages):
+                chosen = v.identifier
+                break
+    if chosen is not None:
+        candidate = chosen + (plus + variant if plus else "")
+        if eng.set_voice(candidate):
+            return candidate
+    if chosen is None or plus:
+        names = list_voices()
+        close = difflib.get_close_matches(key, names, n=3, cutoff=0.5)
+        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else "; see `list_voices()`"
+        what = f"voice variant {voice!r}" if chosen is not None else f"voice {voice!r}"
+        raise SpeechError(f"unknown {what}{hint}")
+    raise SpeechError(f"espeak-ng could not load the voice {voice!r}")
+
+
+# -- timing ---------------------------------------------------------------------------------
+
+
+def _event_starts(spans, events, n_samples, mask, hop) -> list[float]:
+    """Start sample (float) per span from engine word events; see the module docstring."""
+    n = len(spans)
+    anchor: list[int | None] = [None] * n
+    starts_sorted = [s for s, _ in spans]
+    import bisect
+
+    for ev in events:
+        pos = ev.char_index
+        j = bisect.bisect_right(starts_sorted, pos) - 1
+        if j >= 0 and spans[j][0] <= pos < spans[j][1]:
+            k = j
+        else:  # event starts in a gap (space/punctuation): give it to the span it runs into
+            k = j + 1
+            if not (k < n and spans[k][0] < pos + max(ev.length, 1)):
+                continue
+        if anchor[k] is None or ev.sample < anchor[k]:
+            anchor[k] = ev.sample
+    # keep anchors monotonic in word order
+    last = -1
+    for k in range(n):
+        if anchor[k] is not None:
+            if anchor[k] < last:
+                anchor[k] = None
+            else:
+                last = anchor[k]
+    bounds = audio.voiced_bounds(mask, hop, n_samples)
+    v0, v1 = bounds if bounds else (0, n_samples)
+    starts: list[float] = [0.0] * n
+    anchored = [k for k in range(n) if anchor[k] is not None]
+    for k in anchored:
+        starts[k] = float(anchor[k])
+
+    def spread(ks: list[int], t0: float, t1: float) -> None:
+        lens = [spans[k][1] - spans[k][0] for k in ks]
+        total = float(sum(lens))
+        acc = 0
+        for k, ln in zip(ks, lens):
+            starts[k] = t0 + (t1 - t0) * acc / total
+            acc += ln
+
+    if not anchored:
+        spread(list(range(n)), float(v0), float(v1))
+        return starts
+    first = anchored[0]
+    if first > 0:
+        t1 = float(anchor[first])
+        spread(list(range(first)), min(float(v0), t1), t1)
+    for a, b in zip(anchored, anchored[1:] + [n]):
+        if b - a <= 1:
+            continue
+        ta = float(anchor[a])
+        hi = int(anchor[b]) if b < n else n_samples
+        tb = float(audio.voiced_end_in(mask, hop, int(ta), hi))
+        tb = max(tb, ta)
+        spread(list(range(a, b)), ta, tb)
+    return starts
+
+
+def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float], pause_n: dict[int, int],
+              lead: float, tail: float):
+    """Trim/pad the ends, compute word ends, insert pauses. Returns (samples, starts, ends) in samples."""
+    n = len(spans)
+    mask, hop = audio.voiced_mask(samples, sample_rate)
+    bounds = audio.voiced_bounds(mask, hop, len(samples))
+    v0, v1 = bounds if bounds else (0, len(samples))
+    lead_n, tail_n = int(round(lead * sample_rate)), int(round(tail * sample_rate))
+    # word ends before trimming
+    cuts: dict[int, int] = {}
+    for b in pause_n:
+        if 0 < b < n:
+            lo = int(max(starts[b - 1], starts[b] - 0.12 * sample_rate))
+            cuts[b] = audio.quiet_cut(samples, sample_rate, lo, int(starts[b]))
+    ends = [0.0] * n
+    for k in range(n):
+        if k + 1 < n and (k + 1) not in cuts:
+            ends[k] = starts[k + 1]
+        else:
+            hi = cuts.get(k + 1, v1 if k + 1 == n else len(samples))
+            hi = max(hi, int(math.ceil(starts[k])))
+            ends[k] = float(max(audio.voiced_end_in(mask, hop, int(starts[k]), hi), starts[k]))
+            if k + 1 == n:
+                ends[k] = min(max(ends[k], starts[k]), max(float(v1), starts[k]))
+    # trim/pad ends: keep exactly lead_n before v0 and tail_n after v1
+    shift = lead_n - v0
+    body = samples[v0:v1]
+    out = np.concatenate([np.zeros(lead_n, samples.dtype), body, np.zeros(tail_n, samples.dtype)])
+    total = len(out)
+    starts = [min(max(s + shift, 0.0), float(total)) for s in starts]
+    ends = [min(max(e + shift, 0.0), float(total)) for e in ends]
+    cut_pos = {b: min(max(c + shift, 0), total) for b, c in cuts.items()}
+    # pauses: at boundary 0 -> at time 0; at n -> appended; else at the cut
+    inserts = []
+    if pause_n.get(0):
+        inserts.append((0, pause_n[0]))
+    for b, c in cut_pos.items():
+        inserts.append((int(c), pause_n[b]))
+    if pause_n.get(n) and n > 0:
+        inserts.append((total, pause_n[n]))
+    out = audio.insert_silences(out, inserts)
+    offs = [0] * n
+    for b, cnt in pause_n.items():
+        for k in range(b, n):
+            offs[k] += cnt
+    starts = [s + o for s, o in zip(starts, offs)]
+    ends = [e + o for e, o in zip(ends, offs)]
+    return out, starts, ends
+
+
+def _build_words(text, spans, starts, ends, sample_rate, n_samples) -> list[Word]:
+    dur = n_samples / sample_rate
+    words = []
+    prev = 0.0
+    for (s, e), a, b in zip(spans, starts, ends):
+        st = min(max(a / sample_rate, prev), dur)
+        en = min(max(b / sample_rate, st), dur)
+        words.append(Word(text[s:e], st, en))
+        prev = st
+    return words
+
+
+# -- public entry point ---------------------------------------------------------------------
+
+
+def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tuple[int, float]] = (), *,
+               voice: str = "en-us", rate: int = 175, pitch: int = 50, cache_dir: Path | None = None) -> Speech:
+    """Speak ``text`` with espeak-ng and time each word span (see the module docstring).
+
+    ``word_spans`` are (start, end) character offsets of the word tokens in ``text``; ``pauses``
+    are (character offset, seconds) of silences to insert. ``rate`` is words per minute
+    (80..450), ``pitch`` 0..100. Results are cached by content hash in ``cache_dir``
+    (default :func:`default_cache_dir`); a cache hit does not touch the engine.
+    """
+    if not isinstance(text, str):
+        raise SpeechError("the text to speak must be a string")
+    spans = check_spans(text, word_spans)
+    pause_list = check_pauses(text, pauses)
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not (RATE_RANGE[0] <= rate <= RATE_RANGE[1]):
+        raise SpeechError(f"speech rate must be {RATE_RANGE[0]}..{RATE_RANGE[1]} words per minute, got {rate!r}")
+    if isinstance(pitch, bool) or not isinstance(pitch, (int, float)) or not (PITCH_RANGE[0] <= pitch <= PITCH_RANGE[1]):
+        raise SpeechError(f"pitch must be {PITCH_RANGE[0]}..{PITCH_RANGE[1]}, got {pitch!r}")
+    if not isinstance(voice, str) or not voice.strip():
+        raise SpeechError("the voice name is empty")
+    rate, pitch = int(round(rate)), int(round(pitch))
+    clean = text.replace("\0", " ")
+    boundaries = pause_boundaries(spans, pause_list)
+
+    key = cache.content_hash({
+        "kind": "espeak-ng", "algorithm": cache.ALGORITHM_VERSION, "engine": _espeak.engine_fingerprint(),
+        "voice": voice.strip(), "rate": rate, "pitch": pitch, "text": clean,
+        "spans": [list(s) for s in spans], "pauses": sorted([b, s] for b, s in boundaries.items()),
+        "lead": LEAD_IN, "tail": TAIL,
+    })
+    cdir = Path(cache_dir) if cache_dir is not None else cache.default_cache_dir()
+    wav_path, meta_path = cdir / f"{key}.wav", cdir / f"{key}.json"
+    hit = _load_cached(wav_path, meta_path, key, len(spans))
+    if hit is not None:
+        return hit
+
+    try:
+        with _espeak._LOCK:
+            eng = _espeak.engine()
+            resolved = _resolve_voice(eng, voice)
+            sr = eng.sample_rate
+        if spans:
+            sr, raw, events = _espeak.run_synth(clean, resolved, rate, pitch)
+        else:
+            raw, events = b"", []
+    except _espeak.EngineError as e:
+        raise SpeechError(e.message) from None
+    samples = np.frombuffer(raw, dtype="<i2").astype(np.int16)
+    mask, hop = audio.voiced_mask(samples, sr)
+    starts = _event_starts(spans, events, len(samples), mask, hop) if spans else []
+    out, starts, ends = _timeline(samples, sr, spans, starts, pause_sample_counts(boundaries, sr), LEAD_IN, TAIL)
+    words = _build_words(clean, spans, starts, ends, sr, len(out))
+    cdir.mkdir(parents=True, exist_ok=True)
+    atomic_write(wav_path, audio.wav_bytes(out, sr))
+    meta = {"key": key, "source": "espeak-ng", "sample_rate": sr, "duration": len(out) / sr,
+            "words": [[w.text, w.start, w.end] for w in words]}
+    cache.write_json(meta_path, meta)
+    return Speech(wav_path, sr, len(out) / sr, words, "espeak-ng")
+
+
+def _load_cached(wav_path: Path, meta_path: Path, key: str, n_words: int) -> Speech | None:
+    if not (wav_path.is_file() and meta_path.is_file()):
+        return None
+    meta = cache.read_json(meta_path)
+    try:
+        if meta is None or meta.get("key") != key or len(meta["words"]) != n_words:
+            return None
+        words = [Word(str(t), float(a), float(b)) for t, a, b in meta["words"]]
+        return Speech(wav_path, int(meta["sample_rate"]), float(meta["duration"]), words, str(meta["source"]))
+    except (KeyError, TypeError, ValueError):
+        return None

@@ -1,0 +1,46 @@
+"""Plain data types shared by the speech modules (cheap to import)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class Word:
+    """One word token of the utterance and when it is spoken, in seconds from the audio start."""
+
+    text: str
+    start: float
+    end: float
+
+
+@dataclass
+class Speech:
+    """Audio of an utterance plus one :class:`Word` per requested word span, in order.
+
+    Invariants: ``0 <= start <= end <= duration`` for every word, and starts are non-decreasing.
+    """
+
+    audio_path: Path
+    sample_rate: int
+    duration: float
+    words: list[Word] = field(default_factory=list)
+    source: str = ""
+
+
+class SpeechError(Exception):
+    """A user-facing speech problem (bad voice, unreadable file, timing mismatch...).
+
+    ``message`` is meant to be shown as is, without a traceback. ``word_index`` (index into the
+    word spans) and ``time`` (seconds into the audio) locate the problem when known.
+    """
+
+    def __init__(self, message: str, word_index: int | None = None, time: float | None = None):
+        super().__init__(message)
+        self.message = message
+        self.word_index = word_index
+        self.time = time
+
+    def __str__(self) -> str:
+        return self.message
