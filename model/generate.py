@@ -7,18 +7,40 @@
     clips[0].poses      # (T, 27) unit bone directions at 15 fps
     clips[0].positions  # (T, 10, 3) metres
 
-Engines share one interface: ``generate(arrays: ControlArrays, *, seed) -> (T, 27)``.
+Engines share one interface: ``generate(inputs: EngineInputs, *, seed) -> (T, 27)``, where
+:class:`EngineInputs` carries the per-frame controls, the timed words and the speech audio.
 Available now: ``keyframe`` (SGToolkit's MANUAL condition). The neural generator and the
 ``rules`` engine plug in here.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from model.controls import ControlArrays
+
 ENGINES = ("keyframe",)
 DEFAULT_ENGINE = "keyframe"
+
+
+@dataclass
+class EngineInputs:
+    """Everything an engine may use for one utterance, on the motion timeline."""
+
+    arrays: ControlArrays  # pose and style controls, T frames
+    words: list  # TimedWord (word, start, end) in seconds, lead-in already added
+    audio_path: Path | None = None  # speech audio; it starts ``lead_in`` seconds into the motion
+    lead_in: float = 0.0
+
+    @property
+    def n_frames(self) -> int:
+        return self.arrays.n_frames
+
+    @classmethod
+    def from_plan(cls, u) -> "EngineInputs":
+        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in)
 
 
 class GenerateError(Exception):
@@ -48,7 +70,7 @@ def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None,
     for n, u in enumerate(plan.utterances):
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
-        poses = fn(u.arrays, seed=base_seed + u.index)
+        poses = fn(EngineInputs.from_plan(u), seed=base_seed + u.index)
         words = [{"word": w.word, "start": round(w.start, 3), "end": round(w.end, 3)} for w in u.words]
         clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=words,
                                 controls=[c.to_dict() for c in u.controls]))

@@ -15,10 +15,14 @@ from model.skeleton import REST_POSE, normalize_pose
 NAME = "keyframe"
 
 
-def generate(arrays: ControlArrays, *, mean_pose: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
-    """Poses (T, 27) through the pose controls of ``arrays``; deterministic (``seed`` unused)."""
+def generate(inputs, *, mean_pose: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
+    """Poses (T, 27) through the pose controls; deterministic (``seed`` unused).
+
+    ``inputs`` is an :class:`~model.generate.EngineInputs` or a bare :class:`ControlArrays`.
+    """
     from scipy.interpolate import CubicSpline
 
+    arrays = inputs if isinstance(inputs, ControlArrays) else inputs.arrays
     mean = REST_POSE if mean_pose is None else np.asarray(mean_pose, np.float32)
     t_count = arrays.n_frames
     keys = np.flatnonzero(arrays.pose_mask > 0.5)
