@@ -9,8 +9,8 @@
 
 Engines share one interface: ``generate(inputs: EngineInputs, *, seed) -> (T, 27)``, where
 :class:`EngineInputs` carries the per-frame controls, the timed words and the speech audio.
-Available now: ``keyframe`` (SGToolkit's MANUAL condition). The neural generator and the
-``rules`` engine plug in here.
+Engines: ``neural`` (the controllable generator, default), ``keyframe`` (SGToolkit's MANUAL
+condition) and ``rules`` (the procedural teacher).
 """
 
 from __future__ import annotations
@@ -21,8 +21,12 @@ from typing import Callable
 
 from model.controls import ControlArrays
 
-ENGINES = ("keyframe",)
-DEFAULT_ENGINE = "keyframe"
+#: Engine name -> module with ``generate(inputs, *, seed, ...)``.
+ENGINES = {
+    "neural": "model.neural",  # the controllable generator (shipped weights)
+    "keyframe": "model.keyframe",  # SGToolkit's MANUAL condition: splines through the pose controls
+}
+DEFAULT_ENGINE = "neural"
 
 
 @dataclass
@@ -52,19 +56,33 @@ class GenerateError(Exception):
         self.source = source
 
 
-def engine_function(name: str) -> Callable:
-    if name == "keyframe":
-        from model.keyframe import generate
+def engine_function(name: str, options=None) -> Callable:
+    """The engine's ``generate`` function; ``options`` (neural only) set post-processing and weights."""
+    import importlib
 
-        return generate
-    raise GenerateError(f"unknown engine '{name}': choose one of {', '.join(ENGINES)}")
+    if name not in ENGINES:
+        raise GenerateError(f"unknown engine '{name}': choose one of {', '.join(ENGINES)}")
+    fn = importlib.import_module(ENGINES[name]).generate
+    if name == "neural":
+        from functools import partial
+
+        from model.weights import WeightsError
+
+        try:  # fail early, with the fix, when the weights are missing or unusable
+            from model.neural import _model
+
+            _model(getattr(options, "weights", None))
+        except WeightsError as exc:
+            raise GenerateError(str(exc)) from None
+        return partial(fn, options=options)
+    return fn
 
 
-def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None, progress=None) -> list:
+def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None, progress=None, options=None) -> list:
     """One :class:`~model.motion_file.MotionClip` per planned utterance."""
     from model.motion_file import MotionClip
 
-    fn = engine_function(engine or DEFAULT_ENGINE)
+    fn = engine_function(engine or DEFAULT_ENGINE, options)
     clips = []
     base_seed = plan.seed if seed is None else seed
     for n, u in enumerate(plan.utterances):
@@ -80,12 +98,12 @@ def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None,
 
 
 def generate_clips(script_path, *, engine: str | None = None, utterances=None, seed: int | None = None,
-                   progress=None, timing: str = "speech") -> list:
+                   progress=None, timing: str = "speech", options=None) -> list:
     """Compile ``script_path`` and generate motion; raises :class:`GenerateError` on script errors."""
     from dsl.compiler import compile_file
 
-    engine_function(engine or DEFAULT_ENGINE)  # fail fast on a bad engine name
+    engine_function(engine or DEFAULT_ENGINE, options)  # fail fast on a bad engine or missing weights
     result = compile_file(Path(script_path), timing=timing, utterances=utterances)
     if result.plan is None:
         raise GenerateError(f"{script_path} has errors", result.diagnostics, result.script.source)
-    return clips_from_plan(result.plan, engine=engine, seed=seed, progress=progress)
+    return clips_from_plan(result.plan, engine=engine, seed=seed, progress=progress, options=options)

@@ -1,0 +1,100 @@
+"""The controllable gesture generator (SGToolkit section 4), in PyTorch.
+
+Per frame it sees speech audio features, the word being spoken (hashed embedding and an onset
+flag), pose controls (27 numbers + mask bit, Eq. 1-2) and style controls (3 values + 3 mask
+bits, Eq. 3), plus one noise vector per window (a different seed gives a different take).
+It outputs the 27-number pose (unit bone directions).
+
+Architecture (chosen by measurement, see docs/model.md): per-frame inputs are projected to
+``hidden`` channels, then a stack of residual dilated 1-D convolutions (non-causal: the whole
+window of speech is known) and an optional bidirectional GRU, then a linear head that predicts
+an offset from a base pose (the requested pose on controlled frames, the mean pose elsewhere);
+every bone is renormalised to unit length.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from model.controls import STYLE_NAMES
+from model.features import AUDIO_DIM, WORD_BUCKETS
+from model.skeleton import N_BONES, POSE_DIM, REST_POSE
+
+DEFAULT_CONFIG = {
+    "hidden": 128,
+    "word_dim": 32,
+    "noise_dim": 16,
+    "layers": 4,
+    "kernel": 5,
+    "gru": True,
+}
+
+
+class _Block(nn.Module):
+    def __init__(self, channels: int, kernel: int, dilation: int) -> None:
+        super().__init__()
+        pad = (kernel - 1) // 2 * dilation
+        self.conv = nn.Conv1d(channels, channels, kernel, padding=pad, dilation=dilation)
+        self.norm = nn.GroupNorm(8, channels)
+        self.act = nn.LeakyReLU(0.2)
+
+    def forward(self, x):
+        return x + self.act(self.norm(self.conv(x)))
+
+
+class GestureNet(nn.Module):
+    def __init__(self, config: dict | None = None) -> None:
+        super().__init__()
+        cfg = {**DEFAULT_CONFIG, **(config or {})}
+        self.config = cfg
+        h = cfg["hidden"]
+        n_style = len(STYLE_NAMES)
+        self.word_emb = nn.Embedding(WORD_BUCKETS, cfg["word_dim"])
+        in_dim = AUDIO_DIM + cfg["word_dim"] + 1 + (POSE_DIM + 1) + 2 * n_style + cfg["noise_dim"]
+        self.inp = nn.Linear(in_dim, h)
+        self.blocks = nn.ModuleList(_Block(h, cfg["kernel"], 2**i) for i in range(cfg["layers"]))
+        self.gru = nn.GRU(h, h // 2, batch_first=True, bidirectional=True) if cfg["gru"] else None
+        self.head = nn.Linear(h, POSE_DIM)
+        self.register_buffer("mean_pose", torch.as_tensor(REST_POSE, dtype=torch.float32))
+
+    def forward(self, audio, word_ids, onsets, pose, pose_mask, style, style_mask, z):
+        """All inputs batched (B, T, ...); ``z`` is (B, noise_dim). Returns poses (B, T, 27)."""
+        b, t, _ = audio.shape
+        zz = z[:, None, :].expand(b, t, z.shape[-1])
+        x = torch.cat(
+            [audio, self.word_emb(word_ids), onsets[..., None], pose * pose_mask[..., None], pose_mask[..., None],
+             style * style_mask, style_mask, zz],
+            dim=-1,
+        )
+        x = self.inp(x).transpose(1, 2)
+        for block in self.blocks:
+            x = block(x)
+        x = x.transpose(1, 2)
+        if self.gru is not None:
+            x = x + self.gru(x)[0]
+        # Offsets from a base pose: the requested pose on controlled frames, else the mean pose,
+        # so following a pose control is the easy default and the network learns the rest.
+        m = pose_mask[..., None]
+        base = self.mean_pose + m * (pose - self.mean_pose)
+        out = self.head(x) + base
+        dirs = out.reshape(b, t, N_BONES, 3)
+        dirs = dirs / dirs.norm(dim=-1, keepdim=True).clamp_min(1e-6)
+        return dirs.reshape(b, t, POSE_DIM)
+
+
+class Discriminator(nn.Module):
+    """Judges whether a window of poses (and their velocities) looks like the training motion."""
+
+    def __init__(self, hidden: int = 64) -> None:
+        super().__init__()
+        self.net = nn.Sequential(
+            nn.Conv1d(2 * POSE_DIM, hidden, 5, padding=2), nn.LeakyReLU(0.2),
+            nn.Conv1d(hidden, hidden, 5, padding=2, stride=2), nn.LeakyReLU(0.2),
+            nn.Conv1d(hidden, hidden, 5, padding=2, stride=2), nn.LeakyReLU(0.2),
+            nn.Conv1d(hidden, 1, 3, padding=1),
+        )
+
+    def forward(self, poses):
+        vel = torch.diff(poses, dim=1, prepend=poses[:, :1])
+        return self.net(torch.cat([poses, vel], dim=-1).transpose(1, 2)).mean(dim=(1, 2))

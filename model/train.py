@@ -1,0 +1,236 @@
+"""Training the controllable generator (SGToolkit section 5) on CPU.
+
+Objective (Eq. 7): ``alpha * Huber(p, p_hat) + beta * GAN(p_hat) + gamma * L1(style(p), style(p_hat))``,
+with the adversarial term switchable (``beta = 0``). Controls are simulated from the reference
+motion as in the paper: a pose-control span of random length 1..T at a random place, seed poses
+at the start of the window (what sliding-window generation feeds), style controls computed from
+the reference with one element dropped at random, and all controls dropped at random so the
+model also works as a fully automatic generator.
+
+Checkpoints (``checkpoint.pt``) are written atomically after every epoch and training resumes
+from them; per-epoch metrics go to ``metrics.jsonl``; validation uses a held-out split.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from model.fileio import atomic_write
+
+WINDOW = 60
+
+
+@dataclass
+class TrainConfig:
+    epochs: int = 30
+    steps_per_epoch: int = 120
+    batch: int = 48
+    lr: float = 5e-4
+    window: int = WINDOW
+    alpha: float = 500.0  # Huber pose term
+    beta: float = 5.0  # adversarial term; 0 switches it off
+    gamma: float = 5.0  # style-consistency term
+    huber_delta: float = 0.05
+    p_drop_all: float = 0.25
+    p_pose: float = 0.5
+    p_seed: float = 0.5
+    p_style: float = 0.5
+    seed: int = 0
+    threads: int = 2
+    minutes: float | None = None  # stop after this much wall time (finishing the epoch)
+    net: dict = field(default_factory=dict)
+
+
+# -- data -------------------------------------------------------------------------------------
+
+
+class Windows:
+    """Random training windows drawn from a list of clips (dicts of per-frame arrays)."""
+
+    KEYS = ("audio", "word_ids", "onsets", "poses")
+
+    def __init__(self, clips: list[dict], window: int) -> None:
+        self.clips = [c for c in clips if len(c["poses"]) >= window]
+        if not self.clips:
+            raise ValueError(f"no clip is at least {window} frames long")
+        self.window = window
+        lengths = np.array([len(c["poses"]) - window + 1 for c in self.clips], np.float64)
+        self.p = lengths / lengths.sum()
+
+    def sample(self, rng: np.random.Generator, batch: int) -> dict[str, np.ndarray]:
+        picks = rng.choice(len(self.clips), size=batch, p=self.p)
+        out = {k: [] for k in self.KEYS}
+        for i in picks:
+            c = self.clips[i]
+            s = int(rng.integers(0, len(c["poses"]) - self.window + 1))
+            for k in self.KEYS:
+                out[k].append(np.asarray(c[k][s : s + self.window]))
+        return {k: np.stack(v) for k, v in out.items()}
+
+    def fixed(self, count: int, seed: int = 1234) -> dict[str, np.ndarray]:
+        return self.sample(np.random.default_rng(seed), count)
+
+
+def simulate_controls(poses: np.ndarray, ref_style: np.ndarray, rng: np.random.Generator, cfg: TrainConfig):
+    """Pose controls (B,T,27), pose mask (B,T), style (B,T,3), style mask (B,T,3) from the reference."""
+    b, t, _ = poses.shape
+    pose = np.zeros_like(poses)
+    pmask = np.zeros((b, t), np.float32)
+    style = np.zeros_like(ref_style)
+    smask = np.zeros_like(ref_style)
+    for i in range(b):
+        if rng.random() < cfg.p_drop_all:
+            continue
+        if rng.random() < cfg.p_pose:
+            length = int(rng.integers(1, t + 1))
+            start = int(rng.integers(0, t - length + 1))
+            pmask[i, start : start + length] = 1
+        if rng.random() < cfg.p_seed:
+            pmask[i, : int(rng.integers(1, t // 2 + 1))] = 1
+        if rng.random() < cfg.p_style:
+            keep = np.ones(3, np.float32)
+            if rng.random() < 0.5:
+                keep[rng.integers(0, 3)] = 0
+            smask[i] = keep
+    pose[pmask > 0] = poses[pmask > 0]
+    style = ref_style * smask
+    return pose, pmask, style, smask
+
+
+# -- training ---------------------------------------------------------------------------------
+
+
+def _tensors(batch: dict, torch):
+    return (
+        torch.as_tensor(batch["audio"], dtype=torch.float32),
+        torch.as_tensor(batch["word_ids"], dtype=torch.long),
+        torch.as_tensor(batch["onsets"], dtype=torch.float32),
+        torch.as_tensor(batch["poses"], dtype=torch.float32),
+    )
+
+
+def validate(model, val: Windows, cfg: TrainConfig, count: int = 192) -> dict:
+    """Held-out figures: Huber loss without controls, PCS (5 controlled frames mid-window), SCS."""
+    import torch
+
+    from model.style import style as style_of
+
+    batch = val.fixed(count)
+    audio, ids, onsets, ref = _tensors(batch, torch)
+    b, t, _ = ref.shape
+    z = torch.zeros(b, model.config["noise_dim"])
+    zeros_p = torch.zeros_like(ref)
+    zeros_m = torch.zeros(b, t)
+    zeros_s = torch.zeros(b, t, 3)
+    with torch.no_grad():
+        ref_style = style_of(ref)
+        free = model(audio, ids, onsets, zeros_p, zeros_m, zeros_s, zeros_s, z)
+        m = torch.zeros(b, t)
+        mid = t // 2
+        m[:, mid - 2 : mid + 3] = 1  # SGToolkit Eq. 8: a 5-frame pose control in the middle
+        posed = model(audio, ids, onsets, ref * m[..., None], m, zeros_s, zeros_s, z)
+        ones = torch.ones(b, t, 3)
+        styled = model(audio, ids, onsets, zeros_p, zeros_m, ref_style, ones, z)
+        huber = torch.nn.functional.huber_loss(free, ref, delta=cfg.huber_delta).item()
+        pcs = (posed - ref).abs()[:, mid - 2 : mid + 3].mean().item()
+        scs = (style_of(styled) - ref_style).abs().mean().item()
+    return {"val_huber": huber, "val_pcs": pcs, "val_scs": scs}
+
+
+def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bool = True, progress=None, log=print):
+    """Train (or resume) and return the model; writes checkpoint.pt, metrics.jsonl and generator.pt in ``out_dir``."""
+    import torch
+
+    from model.net import Discriminator, GestureNet
+    from model.style import style as style_of
+    from model.weights import save_weights
+
+    torch.set_num_threads(max(1, cfg.threads))
+    torch.manual_seed(cfg.seed)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    ckpt_path = out_dir / "checkpoint.pt"
+    metrics_path = out_dir / "metrics.jsonl"
+
+    data = Windows(train_clips, cfg.window)
+    val = Windows(val_clips, cfg.window)
+    model = GestureNet(cfg.net)
+    disc = Discriminator() if cfg.beta > 0 else None
+    opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
+    opt_d = torch.optim.Adam(disc.parameters(), lr=cfg.lr) if disc is not None else None
+    rng = np.random.default_rng(cfg.seed)
+    epoch0 = 0
+    if resume and ckpt_path.exists():
+        state = torch.load(str(ckpt_path), map_location="cpu", weights_only=False)
+        if state.get("config") == asdict(cfg) | {"minutes": state["config"].get("minutes")}:
+            model.load_state_dict(state["model"])
+            opt.load_state_dict(state["opt"])
+            if disc is not None and state.get("disc") is not None:
+                disc.load_state_dict(state["disc"])
+                opt_d.load_state_dict(state["opt_d"])
+            rng.bit_generator.state = state["rng"]
+            torch.set_rng_state(state["torch_rng"])
+            epoch0 = state["epoch"]
+            log(f"resumed from {ckpt_path} after epoch {epoch0}")
+        else:
+            log(f"{ckpt_path} was made with other settings: starting afresh")
+    started = time.monotonic()
+    total_steps = cfg.epochs * cfg.steps_per_epoch
+    for epoch in range(epoch0, cfg.epochs):
+        model.train()
+        sums = {"loss": 0.0, "huber": 0.0, "style": 0.0, "gan": 0.0, "disc": 0.0}
+        for step in range(cfg.steps_per_epoch):
+            batch = data.sample(rng, cfg.batch)
+            audio, ids, onsets, ref = _tensors(batch, torch)
+            with torch.no_grad():
+                ref_style = style_of(ref)
+            pose, pmask, sty, smask = simulate_controls(batch["poses"], ref_style.numpy(), rng, cfg)
+            z = torch.as_tensor(rng.standard_normal((cfg.batch, model.config["noise_dim"])), dtype=torch.float32)
+            out = model(audio, ids, onsets, torch.as_tensor(pose), torch.as_tensor(pmask), torch.as_tensor(sty),
+                        torch.as_tensor(smask), z)
+            huber = torch.nn.functional.huber_loss(out, ref, delta=cfg.huber_delta)
+            style_loss = (style_of(out) - ref_style).abs().mean()
+            loss = cfg.alpha * huber + cfg.gamma * style_loss
+            if disc is not None:
+                # discriminator step (non-saturating GAN)
+                d_real = disc(ref)
+                d_fake = disc(out.detach())
+                d_loss = torch.nn.functional.softplus(-d_real).mean() + torch.nn.functional.softplus(d_fake).mean()
+                opt_d.zero_grad()
+                d_loss.backward()
+                opt_d.step()
+                gan = torch.nn.functional.softplus(-disc(out)).mean()
+                loss = loss + cfg.beta * gan
+                sums["gan"] += gan.item()
+                sums["disc"] += d_loss.item()
+            opt.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+            opt.step()
+            sums["loss"] += loss.item()
+            sums["huber"] += huber.item()
+            sums["style"] += style_loss.item()
+            if progress:
+                progress(epoch * cfg.steps_per_epoch + step + 1, total_steps, f"epoch {epoch + 1} loss {loss.item():.3f}")
+        model.eval()
+        row = {"epoch": epoch + 1, **{k: v / cfg.steps_per_epoch for k, v in sums.items()}, **validate(model, val, cfg),
+               "minutes": (time.monotonic() - started) / 60}
+        with open(metrics_path, "a", encoding="utf-8") as f:
+            f.write(json.dumps(row) + "\n")
+        log(" ".join(f"{k}={v:.4f}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()))
+        buf = io.BytesIO()
+        torch.save({"model": model.state_dict(), "opt": opt.state_dict(), "disc": disc.state_dict() if disc else None,
+                    "opt_d": opt_d.state_dict() if opt_d else None, "rng": rng.bit_generator.state,
+                    "torch_rng": torch.get_rng_state(), "epoch": epoch + 1, "config": asdict(cfg)}, buf)
+        atomic_write(ckpt_path, buf.getvalue())
+        save_weights(out_dir / "generator.pt", model, meta={"train_config": asdict(cfg), "epochs_done": epoch + 1, "validation": row})
+        if cfg.minutes is not None and (time.monotonic() - started) / 60 >= cfg.minutes:
+            log(f"time budget of {cfg.minutes} min reached after epoch {epoch + 1}")
+            break
+    return model

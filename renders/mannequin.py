@@ -1,0 +1,174 @@
+"""An offscreen shaded mannequin: one pyrender scene, node poses updated per frame.
+
+The meshes (trimesh primitives) are built once; :meth:`Mannequin.render` only moves the
+nodes. The camera is fixed at a three-quarter view from the front-right of the character
+(who faces +z), so its right hand is on the left of the picture.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from model.skeleton import BONE_LENGTHS
+from model.skeleton import JOINT_INDEX as J
+from renders.rotations import align_z, frame_from, transform
+
+BACKGROUND = (236, 239, 243)
+BODY = (0.25, 0.36, 0.55)
+SKIN = (0.80, 0.62, 0.48)
+JOINT_COLOR = (0.17, 0.24, 0.37)
+
+#: Camera: looks at TARGET from AZIMUTH degrees off the character's front (towards its
+#: right, -x), slightly from above; vertical field of view in degrees.
+TARGET = np.array([0.0, 1.39, 0.0])
+AZIMUTH = 30.0
+ELEVATION = 6.0
+DISTANCE = 2.95
+YFOV = 30.0
+
+# (name, parent joint, child joint, radius): capsules drawn along bones.
+_LIMBS = (
+    ("l_clav", "neck", "left_shoulder", 0.045),
+    ("l_upper", "left_shoulder", "left_elbow", 0.045),
+    ("l_fore", "left_elbow", "left_wrist", 0.037),
+    ("r_clav", "neck", "right_shoulder", 0.045),
+    ("r_upper", "right_shoulder", "right_elbow", 0.045),
+    ("r_fore", "right_elbow", "right_wrist", 0.037),
+)
+_BALLS = (("left_shoulder", 0.058), ("right_shoulder", 0.058), ("left_elbow", 0.047),
+          ("right_elbow", 0.047))
+
+
+def camera_pose() -> np.ndarray:
+    az = np.radians(AZIMUTH)
+    el = np.radians(ELEVATION)
+    # Front is +z; the character's right is -x.
+    eye = TARGET + DISTANCE * np.array([-np.sin(az) * np.cos(el), np.sin(el), np.cos(az) * np.cos(el)])
+    return transform(_look_frame(eye - TARGET), eye)  # the camera looks along its own -z
+
+
+def _look_frame(back: np.ndarray) -> np.ndarray:
+    """Rotation whose -z looks against ``back`` with +y as close to world up as possible."""
+    z = back / np.linalg.norm(back)
+    x = np.cross(np.array([0.0, 1.0, 0.0]), z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=1)
+
+
+class Mannequin:
+    """Offscreen renderer of skeleton positions (10, 3) to RGB images (H, W, 3) uint8."""
+
+    def __init__(self, width: int = 320, height: int = 320) -> None:
+        from renders import gl
+
+        self.width, self.height = int(width), int(height)
+        self.pyrender, self.renderer, self.platform = gl.start(self.width, self.height)
+        import trimesh
+
+        pr = self.pyrender
+        self.scene = pr.Scene(bg_color=[c / 255 for c in BACKGROUND] + [1.0], ambient_light=[0.18, 0.18, 0.2])
+        self._nodes: dict[str, object] = {}
+
+        def mat(rgb, rough=0.75):
+            return pr.MetallicRoughnessMaterial(baseColorFactor=list(rgb) + [1.0], metallicFactor=0.0,
+                                                roughnessFactor=rough)
+
+        def add(name, tm, material):
+            mesh = pr.Mesh.from_trimesh(tm, material=material, smooth=True)
+            self._nodes[name] = self.scene.add(mesh, name=name)
+
+        # Torso: a capsule widened across the shoulders, built along +y, about 0.42 m tall.
+        torso = trimesh.creation.capsule(height=0.30, radius=0.1, count=[16, 16])
+        torso.apply_transform(transform(np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]), [0, 0, 0]))  # z -> y
+        torso.apply_scale([1.55, 1.0, 0.95])
+        add("torso", torso, mat(BODY))
+        hips = trimesh.creation.capsule(height=0.06, radius=0.1, count=[16, 16])
+        hips.apply_transform(transform(np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]), [0, 0, 0]))
+        hips.apply_scale([1.45, 1.0, 0.95])
+        add("hips", hips, mat(JOINT_COLOR))
+        neck = trimesh.creation.capsule(height=0.07, radius=0.042, count=[12, 12])
+        add("neckpiece", neck, mat(SKIN))
+        head = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+        head.apply_scale([0.092, 0.112, 0.102])
+        add("head", head, mat(SKIN, 0.6))
+        nose = trimesh.creation.cone(radius=0.022, height=0.05, sections=12)  # along +z
+        add("nose", nose, mat(SKIN, 0.6))
+        for eye in ("eye_l", "eye_r"):
+            add(eye, trimesh.creation.icosphere(subdivisions=1, radius=0.014), mat((0.15, 0.17, 0.2), 0.4))
+        for name, a, b, r in _LIMBS:
+            cap = trimesh.creation.capsule(height=BONE_LENGTHS[b], radius=r, count=[12, 12])
+            add(name, cap, mat(BODY))
+        for j, r in _BALLS:
+            add("ball_" + j, trimesh.creation.icosphere(subdivisions=2, radius=r), mat(JOINT_COLOR))
+        for side in ("left", "right"):
+            hand = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+            hand.apply_scale([0.042, 0.026, 0.065])  # flat along +z (the forearm direction)
+            add(side + "_hand", hand, mat(SKIN, 0.6))
+
+        cam = pr.PerspectiveCamera(yfov=np.radians(YFOV), aspectRatio=self.width / self.height, znear=0.5, zfar=10.0)
+        self.scene.add(cam, pose=camera_pose())
+        key = pr.DirectionalLight(color=[1.0, 0.97, 0.92], intensity=2.4)
+        fill = pr.DirectionalLight(color=[0.85, 0.9, 1.0], intensity=0.9)
+        rim = pr.DirectionalLight(color=[1.0, 1.0, 1.0], intensity=0.8)
+        self.scene.add(key, pose=transform(_look_frame(np.array([-0.6, 0.9, 0.9])), [0, 0, 0]))
+        self.scene.add(fill, pose=transform(_look_frame(np.array([0.9, 0.2, 0.7])), [0, 0, 0]))
+        self.scene.add(rim, pose=transform(_look_frame(np.array([0.2, 0.6, -1.0])), [0, 0, 0]))
+
+    # -- per frame ---------------------------------------------------------------------
+
+    def _set(self, name: str, matrix: np.ndarray) -> None:
+        self.scene.set_pose(self._nodes[name], matrix)
+
+    def pose(self, positions: np.ndarray) -> None:
+        """Move the nodes to joint ``positions`` (10, 3) in metres."""
+        p = np.asarray(positions, dtype=np.float64)
+        spine, neck, nose, top = p[J["spine"]], p[J["neck"]], p[J["nose"]], p[J["head_top"]]
+        ls, rs = p[J["left_shoulder"]], p[J["right_shoulder"]]
+        # Torso frame: y along the spine, x across the shoulders (to the character's left).
+        across = ls - rs
+        up = neck - spine
+        fwd = np.cross(across, up)
+        torso = frame_from(up, fwd)
+        self._set("torso", transform(torso, spine + 0.48 * up))
+        self._set("hips", transform(torso, spine - 0.02 * up / max(np.linalg.norm(up), 1e-9)))
+        # Head frame: y from the neck to the head top, z towards the nose.
+        head_up = top - neck
+        head = frame_from(head_up, nose - neck)
+        hu = head[:, 1]
+        hz = head[:, 2]
+        center = top - 0.105 * hu - 0.01 * hz
+        self._set("head", transform(head, center))
+        neck_dir = center - neck
+        self._set("neckpiece", transform(align_z(neck_dir), neck + 0.45 * neck_dir))
+        self._set("nose", transform(head, center + 0.092 * hz - 0.012 * hu))
+        for eye, sx in (("eye_l", 1.0), ("eye_r", -1.0)):
+            pos = center + head @ np.array([0.036 * sx, 0.02, 0.084])
+            self._set(eye, transform(head, pos))
+        for name, a, b, _ in _LIMBS:
+            pa, pb = p[J[a]], p[J[b]]
+            self._set(name, transform(align_z(pb - pa), 0.5 * (pa + pb)))
+        for j, _ in _BALLS:
+            self._set("ball_" + j, transform(np.eye(3), p[J[j]]))
+        for side in ("left", "right"):
+            elbow, wrist = p[J[side + "_elbow"]], p[J[side + "_wrist"]]
+            d = wrist - elbow
+            d = d / max(np.linalg.norm(d), 1e-9)
+            self._set(side + "_hand", transform(align_z(d), wrist + 0.05 * d))
+
+    def render(self, positions: np.ndarray) -> np.ndarray:
+        self.pose(positions)
+        color, _ = self.renderer.render(self.scene)
+        return np.ascontiguousarray(color[:, :, :3])
+
+    def close(self) -> None:
+        try:
+            self.renderer.delete()
+        except Exception:
+            pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1,0 +1,168 @@
+"""Overlays drawn with Pillow on every frame: spoken word, control timeline, playhead, time.
+
+Layout (``s = min(width, height) / 320``): the current word centred at the top; at the
+bottom a thin timeline over the whole utterance with two lanes, pose controls in green
+(upper lane) and style controls in red (lower lane) as in SGToolkit's Fig. 3, pauses in
+grey, a dark playhead at the current frame, and the time in seconds above the lanes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+from model.skeleton import FPS
+
+POSE_GREEN = (30, 168, 72)
+STYLE_RED = (216, 44, 44)
+PAUSE_GREY = (150, 156, 166)
+TRACK = (206, 211, 218)
+INK = (28, 32, 40)
+SOFT_INK = (80, 88, 100)
+WHITE = (255, 255, 255)
+#: Colours every frame's palette must hold exactly.
+FIXED_COLORS = (POSE_GREEN, STYLE_RED, PAUSE_GREY, TRACK, INK, SOFT_INK, WHITE)
+
+_FONT_DIRS = ("/usr/share/fonts/truetype/dejavu", "/usr/share/fonts/dejavu", "/usr/share/fonts/TTF")
+
+
+@lru_cache(maxsize=32)
+def font(size: int, bold: bool = False):
+    """DejaVu Sans when installed, else Pillow's built-in scalable font."""
+    from pathlib import Path
+
+    from PIL import ImageFont
+
+    name = "DejaVuSans-Bold.ttf" if bold else "DejaVuSans.ttf"
+    for d in _FONT_DIRS:
+        p = Path(d) / name
+        if p.exists():
+            return ImageFont.truetype(str(p), size)
+    return ImageFont.load_default(size=size)
+
+
+def scale(width: int, height: int) -> float:
+    return min(width, height) / 320.0
+
+
+@dataclass(frozen=True)
+class Timeline:
+    """Where the timeline of a ``width`` x ``height`` frame lies, for ``n_frames`` frames."""
+
+    left: int
+    right: int
+    pose_top: int
+    pose_bottom: int
+    style_top: int
+    style_bottom: int
+    n_frames: int
+
+    def x(self, frame: float) -> float:
+        return self.left + (self.right - self.left) * frame / max(self.n_frames, 1)
+
+    @property
+    def top(self) -> int:
+        return self.pose_top
+
+
+def timeline_geometry(width: int, height: int, n_frames: int) -> Timeline:
+    s = scale(width, height)
+    margin = max(4, round(12 * s))
+    lane = max(3, round(5 * s))
+    gap = max(1, round(2 * s))
+    bottom = height - max(3, round(9 * s))
+    return Timeline(left=margin, right=width - margin,
+                    pose_top=bottom - 2 * lane - gap, pose_bottom=bottom - lane - gap,
+                    style_top=bottom - lane, style_bottom=bottom, n_frames=n_frames)
+
+
+def word_at(words, seconds: float) -> str | None:
+    """The word being spoken at ``seconds`` (start <= t < end), or None."""
+    for w in words or ():
+        try:
+            if float(w["start"]) <= seconds < float(w["end"]):
+                return str(w["word"])
+        except (KeyError, TypeError, ValueError):
+            continue
+    return None
+
+
+def _span(c) -> tuple[int, int] | None:
+    try:
+        a, b = int(c["start_frame"]), int(c["end_frame"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    return (a, b) if b > a else None
+
+
+def draw_timeline(draw, width: int, height: int, frame: int, n_frames: int, controls, *, legend=True) -> None:
+    g = timeline_geometry(width, height, n_frames)
+    s = scale(width, height)
+    draw.rectangle([g.left, g.pose_top, g.right - 1, g.style_bottom - 1], fill=TRACK)
+    lanes = {"pose": (g.pose_top, g.pose_bottom, POSE_GREEN), "style": (g.style_top, g.style_bottom, STYLE_RED),
+             "pause": (g.pose_top, g.style_bottom, PAUSE_GREY)}
+    for kind in ("pause", "pose", "style"):  # later kinds paint over earlier ones
+        top, bottom, color = lanes[kind]
+        for c in controls or ():
+            if not isinstance(c, dict) or c.get("kind") != kind:
+                continue
+            span = _span(c)
+            if span is None:
+                continue
+            x0 = round(g.x(max(0, span[0])))
+            x1 = max(x0 + 1, round(g.x(min(n_frames, span[1]))))
+            draw.rectangle([x0, top, x1 - 1, bottom - 1], fill=color)
+    # Playhead.
+    x = round(g.x(frame + 0.5))
+    w = max(1, round(2 * s))
+    reach = max(2, round(4 * s))
+    draw.rectangle([x - w // 2, g.pose_top - reach, x - w // 2 + w - 1, g.style_bottom - 1 + min(reach, 2)], fill=INK)
+    # Time, and a legend when there is room.
+    small = font(max(8, round(12 * s)))
+    t = frame / FPS
+    text = f"{t:.2f} s"
+    ty = g.pose_top - reach - max(1, round(2 * s))
+    draw.text((g.right, ty), text, font=small, fill=INK, anchor="rb")
+    if legend and s >= 0.7:
+        draw.text((g.left, ty), "pose", font=small, fill=POSE_GREEN, anchor="lb")
+        lw = draw.textlength("pose ", font=small)
+        draw.text((g.left + lw, ty), "style", font=small, fill=STYLE_RED, anchor="lb")
+
+
+def draw_word(draw, width: int, height: int, word: str | None) -> None:
+    if not word:
+        return
+    s = scale(width, height)
+    f = font(max(9, round(22 * s)), bold=True)
+    pad = max(2, round(6 * s))
+    top = max(2, round(8 * s))
+    cx = width / 2
+    box = draw.textbbox((cx, top + pad), word, font=f, anchor="mt")
+    draw.rounded_rectangle([box[0] - pad, top, box[2] + pad, box[3] + pad], radius=pad, fill=WHITE)
+    draw.text((cx, top + pad), word, font=f, fill=INK, anchor="mt")
+
+
+def draw_label(draw, width: int, height: int, label: str) -> None:
+    s = scale(width, height)
+    f = font(max(8, round(12 * s)), bold=True)
+    pad = max(1, round(4 * s))
+    y = max(1, round(4 * s))
+    box = draw.textbbox((pad * 2, y + pad), label, font=f, anchor="lt")
+    draw.rectangle([box[0] - pad, y, box[2] + pad, box[3] + pad], fill=INK)
+    draw.text((pad * 2, y + pad), label, font=f, fill=WHITE, anchor="lt")
+
+
+def decorate(image, frame: int, clip, *, label: str | None = None, word: bool = True, legend: bool = True):
+    """Draw all overlays for ``frame`` of ``clip`` on PIL ``image`` (in place); returns it."""
+    from PIL import ImageDraw
+
+    d = ImageDraw.Draw(image)
+    w, h = image.size
+    n = clip.n_frames
+    f = min(frame, n - 1)
+    if word:
+        draw_word(d, w, h, word_at(clip.words, (f + 0.5) / FPS))
+    draw_timeline(d, w, h, f, n, clip.controls, legend=legend)
+    if label:
+        draw_label(d, w, h, label)
+    return image

@@ -1,0 +1,130 @@
+"""The neural engine: a tiny model trained here on synthetic clips, then checked end to end."""
+
+import io
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+sys.path.insert(0, str(Path(__file__).parent))
+from synthetic import synthetic_clips  # noqa: E402
+
+from model import neural, postprocess  # noqa: E402
+from model.controls import ControlArrays  # noqa: E402
+from model.generate import EngineInputs  # noqa: E402
+from model.skeleton import REST_POSE  # noqa: E402
+from model.style import raw_style  # noqa: E402
+from model.train import TrainConfig, train  # noqa: E402
+from model.weights import FORMAT, WeightsError, load_weights  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def weights(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    clips = synthetic_clips(20, frames=150, seed=0)
+    cfg = TrainConfig(epochs=8, steps_per_epoch=50, batch=16, lr=2e-3, beta=0.2, gamma=5.0,
+                      net={"hidden": 32, "word_dim": 8, "layers": 2, "gru": False})
+    train(clips[:16], clips[16:], out, cfg, resume=False, log=lambda s: None)
+    return out / "generator.pt"
+
+
+def words_every(n_frames, every=6):
+    """A word every ``every`` frames, so the word features are not empty."""
+    return [(f"w{i}", i / 15, (i + every - 1) / 15) for i in range(0, n_frames, every)]
+
+
+def inputs_for(n_frames, arrays=None):
+    arrays = arrays or ControlArrays.empty(n_frames)
+    return EngineInputs(arrays, words_every(n_frames), None, 0.0)
+
+
+def gen(weights, inputs, seed=0, **opts):
+    return neural.generate(inputs, seed=seed, options=neural.Options(weights=str(weights), **opts))
+
+
+def test_shapes_units_and_determinism(weights):
+    inp = inputs_for(100)
+    a = gen(weights, inp, seed=3)
+    b = gen(weights, inp, seed=3)
+    assert a.shape == (100, 27) and a.dtype == np.float32
+    assert np.allclose(np.linalg.norm(a.reshape(100, 9, 3), axis=-1), 1, atol=1e-4)
+    assert np.array_equal(a, b)
+
+
+def test_a_different_seed_gives_a_different_take(weights):
+    inp = inputs_for(100)
+    a = gen(weights, inp, seed=1, smoothing="none")
+    b = gen(weights, inp, seed=2, smoothing="none")
+    assert np.abs(a - b).mean() > 1e-4
+
+
+def test_pose_controls_are_followed(weights):
+    # As in SGToolkit Eq. 8: 5 frames of held-out reference motion as the control, in the middle
+    # of a window; pick a window whose middle is mid-gesture (far from the mean pose).
+    ref = synthetic_clips(1, frames=400, seed=9)[0]["poses"]
+    far = np.abs(ref - REST_POSE).mean(axis=1)
+    s = int(np.argmax([far[i + 28 : i + 33].mean() for i in range(len(ref) - 60)]))
+    clip = ref[s : s + 60]
+    arrays = ControlArrays.empty(60)
+    arrays.set_pose(28, clip[28:33])
+    inp = inputs_for(60, arrays)
+    free = gen(weights, inputs_for(60), blend=False, smoothing="none")
+    raw = gen(weights, inp, blend=False, smoothing="none")
+    pcs_mean_pose = np.abs(REST_POSE - clip[28:33]).mean()
+    pcs_raw = np.abs(raw[28:33] - clip[28:33]).mean()
+    assert pcs_raw < 0.6 * pcs_mean_pose  # the network itself moves towards the requested poses
+    assert pcs_raw < np.abs(free[28:33] - clip[28:33]).mean()
+    blended = gen(weights, inp, blend=True)
+    assert np.abs(blended[28:33] - clip[28:33]).max() < 1e-5  # exact with the blend
+    assert np.abs(np.diff(blended, axis=0)).max() < 0.5  # and no jump into or out of it
+
+
+def test_style_controls_move_the_statistics(weights):
+    def speed_with(value):
+        arrays = ControlArrays.empty(120)
+        arrays.set_style(0, 120, {"speed": value})
+        return raw_style(gen(weights, inputs_for(120, arrays), smoothing="none"))[:, 0].mean()
+
+    assert speed_with(2.0) > speed_with(-2.0)
+
+
+def test_long_speech_joins_without_jumps(weights):
+    n = 20 * neural.HOP + 7
+    out = gen(weights, inputs_for(n), smoothing="none")
+    steps = np.abs(np.diff(out, axis=0)).max(axis=1)
+    joins = np.arange(neural.HOP, n - 1, neural.HOP) - 1  # steps from the last frame before a window
+    inside = np.setdiff1d(np.arange(len(steps)), joins)
+    assert steps[joins].max() <= steps[inside].max()  # no step at a join is bigger than anywhere else
+    assert steps[joins].mean() <= 2 * steps[inside].mean()
+
+
+def test_bad_weights_are_refused(tmp_path, weights):
+    with pytest.raises(WeightsError, match="not found"):
+        load_weights(tmp_path / "nope.pt")
+    bad = tmp_path / "corrupt.pt"
+    bad.write_bytes(b"\x00garbage" * 100)
+    with pytest.raises(WeightsError, match="corrupt"):
+        load_weights(bad)
+    blob = torch.load(str(weights), weights_only=True)
+    for change, pattern in [({"version": 99}, "version 99"), ({"format": "other"}, "not an sgt"),
+                            ({"layout": {**blob["layout"], "fps": 30}}, "fps")]:
+        p = tmp_path / "changed.pt"
+        buf = io.BytesIO()
+        torch.save({**blob, **change}, buf)
+        p.write_bytes(buf.getvalue())
+        with pytest.raises(WeightsError, match=pattern):
+            load_weights(p)
+    assert blob["format"] == FORMAT
+
+
+def test_postprocessing_filters_smooth_and_keep_units():
+    rng = np.random.default_rng(0)
+    clip = synthetic_clips(1, frames=80, seed=1)[0]["poses"]
+    noisy = clip + rng.normal(0, 0.05, clip.shape).astype(np.float32)
+    for f in (postprocess.one_euro, postprocess.moving_average):
+        out = f(noisy)
+        assert np.abs(np.diff(out, 2, axis=0)).mean() < np.abs(np.diff(noisy, 2, axis=0)).mean()
+        assert np.allclose(np.linalg.norm(out.reshape(80, 9, 3), axis=-1), 1, atol=1e-5)
