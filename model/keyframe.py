@@ -2,7 +2,9 @@
 
 Cubic-spline interpolation through the requested poses (every frame whose pose mask is set),
 with the mean pose added as a key at the first and last frames when they are not controlled,
-so nothing is extrapolated. Style controls are ignored, as in the paper's MANUAL condition.
+so nothing is extrapolated. The spline is the shape-preserving cubic Hermite kind (PCHIP): a
+plain C2 spline through dense keys overshoots between distant keys and swings the arms
+behind the body. Style controls are ignored, as in the paper's MANUAL condition.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ def generate(inputs, *, mean_pose: np.ndarray | None = None, seed: int = 0) -> n
 
     ``inputs`` is an :class:`~model.generate.EngineInputs` or a bare :class:`ControlArrays`.
     """
-    from scipy.interpolate import CubicSpline
+    from scipy.interpolate import PchipInterpolator
 
     arrays = inputs if isinstance(inputs, ControlArrays) else inputs.arrays
     mean = REST_POSE if mean_pose is None else np.asarray(mean_pose, np.float32)
@@ -35,7 +37,7 @@ def generate(inputs, *, mean_pose: np.ndarray | None = None, seed: int = 0) -> n
         values = np.concatenate([values, mean[None]])
     if len(keys) == 1:
         return np.repeat(values, t_count, axis=0).astype(np.float32)
-    spline = CubicSpline(keys, values, axis=0, bc_type="clamped")
+    spline = PchipInterpolator(keys, values, axis=0)
     out = normalize_pose(spline(np.arange(t_count)))
     out[keys] = normalize_pose(values)  # exact on the keys
     return out.astype(np.float32)
