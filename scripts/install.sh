@@ -8,10 +8,10 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 PY="${PYTHON:-python3}"
 
-echo "==> system packages (espeak-ng for speech, tmux for the terminal tests)"
+echo "==> system packages (espeak-ng: speech; EGL/OSMesa: offscreen rendering; fortunes: training sentences; tmux: terminal tests)"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-    espeak-ng libespeak-ng1 tmux >/dev/null
+    espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min >/dev/null
 
 echo "==> PyTorch (CPU build)"
 "$PY" -m pip install -q torch==2.13.0
