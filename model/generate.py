@@ -25,6 +25,7 @@ from model.controls import ControlArrays
 ENGINES = {
     "neural": "model.neural",  # the controllable generator (shipped weights)
     "keyframe": "model.keyframe",  # SGToolkit's MANUAL condition: splines through the pose controls
+    "rules": "model.teacher",  # the rule-based teacher of the procedural corpus
 }
 DEFAULT_ENGINE = "neural"
 

@@ -1,10 +1,12 @@
 """Fit the style normalisation statistics (model/style_stats.json).
 
-    python scripts/fit_style_stats.py            # from the motion library (default)
+    python scripts/fit_style_stats.py --corpus data/corpus   # the training split (shipped)
+    python scripts/fit_style_stats.py                         # the motion library instead
 
-Until the training corpus exists, the reference motion is the built-in motion library: every
-gesture at 1x, 2x and 3x, plain and mirrored, strung together with rests in between, in a
-fixed order. The statistics are means and standard deviations of the raw Eq. 4-6 values.
+As in SGToolkit, style values are normalised with the mean and standard deviation of the raw
+Eq. 4-6 statistics on the training data: the train split of the procedural corpus
+(``sgt corpus``). Without a corpus, the reference is the built-in motion library: every
+gesture at 1x, 2x and 3x, plain and mirrored, strung together with rests in between.
 """
 
 from __future__ import annotations
@@ -38,8 +40,17 @@ def library_reference() -> list[np.ndarray]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("-o", "--output", default=str(STATS_PATH))
+    ap.add_argument("--corpus", help="fit on the train split of this corpus")
     args = ap.parse_args()
-    stats = fit_stats(library_reference(), source="built-in motion library (scripts/fit_style_stats.py)")
+    if args.corpus:
+        from model.corpus import load_corpus, load_manifest
+
+        manifest = load_manifest(args.corpus)
+        motions = [c["poses"] for c in load_corpus(args.corpus, "train")]
+        source = f"train split of the procedural corpus (seed {manifest['seed']}, {manifest['total_hours']:.2f} h; scripts/fit_style_stats.py --corpus)"
+        stats = fit_stats(motions, source=source)
+    else:
+        stats = fit_stats(library_reference(), source="built-in motion library (scripts/fit_style_stats.py)")
     from model.controls import STYLE_NAMES
     from model.fileio import atomic_write_text
 

@@ -1,0 +1,524 @@
+"""The procedural training corpus: TTS speech + motion from the rule-based teacher.
+
+No speech-gesture dataset can be downloaded, so the generator learns from synthetic clips:
+
+- text: English sentences from Debian's fortunes files (``apt-get install fortunes
+  fortunes-min``), cleaned (attributions, tabs, code-like and non-speech lines dropped) and
+  cut into 3-25-word utterances, de-duplicated;
+- speech: :func:`dsl.speech.synthesize` (espeak-ng) with several English voices and variants,
+  rates 120-220 and pitches 30-70, sometimes with a pause at a comma;
+- motion: :func:`model.teacher.teach` with a random per-clip style (speed, space, handedness)
+  and, for half of the clips, mirrored left/right (the stored style's handedness is negated);
+- audio augmentation (so the model behaves on real recordings): a light tempo change
+  (``librosa.effects.time_stretch``, word times rescaled; motion follows the new timing),
+  then on 80 % of the clips pitch shift, random gain, a room-like reverb, a band limit and
+  white or pink noise at 15-40 dB SNR. Every clip stores both ``audio`` (augmented features)
+  and ``audio_clean`` (the features of the tempo-adjusted speech without the rest), so val/test
+  can be scored on clean and on augmented input.
+
+Layout of a corpus folder::
+
+    manifest.json        seed, totals, shards, clip index with split and meta (written last)
+    shard_0000.npz ...   concatenated per-frame arrays of its clips + offsets + meta JSON
+
+Per clip (see :func:`load_corpus`): ``audio`` / ``audio_clean`` (T, AUDIO_DIM), ``word_ids``
+(T,), ``onsets`` (T,), ``poses`` (T, 27), ``meta`` (dict). Shards are independent and fixed
+by (seed, shard index), so the same seed gives the same corpus, interrupted runs resume by
+skipping finished shards, and ``--jobs`` builds shards in parallel processes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import math
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from model.fileio import atomic_write, atomic_write_text
+from model.skeleton import FPS, frame_count, mirror_pose
+
+FORMAT_VERSION = 1
+FORTUNE_DIR = Path("/usr/share/games/fortunes")
+#: Mean clip length guess (seconds) used to size shards.
+_CLIP_SECONDS = 4.5
+SPLITS = ("train", "val", "test")
+BASE_VOICES = ("en-us", "en-gb", "en-gb-scotland", "en-gb-x-rp", "en-gb-x-gbclan", "en-gb-x-gbcwmd",
+               "en-us-nyc", "en-029")
+VARIANTS = ("", "", "+f1", "+f2", "+f3", "+f4", "+f5", "+m1", "+m2", "+m3", "+m4", "+m5", "+m6", "+m7", "+klatt")
+
+
+class CorpusError(Exception):
+    """A user-facing corpus problem (missing fortunes, bad folder...)."""
+
+
+# -- sentences ------------------------------------------------------------------------------
+
+_BAD_CHARS = re.compile(r"[{}<>=/\\|_@#$%^&*~`\[\]+]")
+_ALLOWED = re.compile(r"[^A-Za-z0-9 .,;:!?'\"()-]")
+_SENT_SPLIT = re.compile(r"(?<=[.!?])\s+(?=[A-Z\"'(])")
+
+
+def _speech_lines(fortune: str) -> str | None:
+    lines = []
+    for raw in fortune.splitlines():
+        line = raw.rstrip()
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("--") or re.match(r"^[-\u2014]{1,2}\s*[A-Z]", s) and len(lines) > 0 and raw.startswith(("\t", "   ")):
+            break  # attribution: the rest is who said it
+        if raw.startswith("\t\t") or raw.startswith("        "):
+            continue  # indented (poems' attributions, code, tables)
+        letters = sum(c.isalpha() for c in s)
+        if letters < 0.6 * len(s):
+            return None  # ascii art, numbers, code
+        lines.append(s)
+    if not lines:
+        return None
+    text = " ".join(lines)
+    if _BAD_CHARS.search(text):
+        return None
+    text = re.sub(r"^\s*[QA]:\s*", "", text)
+    text = re.sub(r"\s[QA]:\s", " ", text)
+    text = _ALLOWED.sub(" ", text)
+    return re.sub(r"\s+", " ", text).strip()
+
+
+def _chunks(sentence: str, word_re) -> list[str]:
+    words = list(word_re.finditer(sentence))
+    if len(words) < 3:
+        return []
+    if len(words) <= 25:
+        return [sentence]
+    # too long: cut at commas/semicolons, else every ~15 words
+    parts = [p.strip() for p in re.split(r"(?<=[,;:])\s+", sentence) if p.strip()]
+    out, cur = [], ""
+    for p in parts:
+        cand = (cur + " " + p).strip()
+        if len(list(word_re.finditer(cand))) <= 25:
+            cur = cand
+        else:
+            if cur:
+                out.append(cur)
+            cur = p
+    if cur:
+        out.append(cur)
+    final = []
+    for c in out:
+        ws = list(word_re.finditer(c))
+        while len(ws) > 25:
+            cut = ws[15].start()
+            final.append(c[:cut].strip())
+            c = c[cut:]
+            ws = list(word_re.finditer(c))
+        final.append(c.strip())
+    return [c for c in final if 3 <= len(list(word_re.finditer(c))) <= 25]
+
+
+_SENTENCES: dict[tuple, list[str]] = {}
+
+
+def load_sentences(fortune_dir: Path | str = FORTUNE_DIR) -> list[str]:
+    """Sorted, de-duplicated 3-25-word utterances from the fortunes files (cached per folder state)."""
+    d = Path(fortune_dir)
+    state = tuple(sorted((p.name, p.stat().st_mtime_ns, p.stat().st_size) for p in d.glob("*") if p.is_file())) \
+        if d.is_dir() else ()
+    key = (str(d.resolve()), state)
+    if key not in _SENTENCES:
+        _SENTENCES.clear()
+        _SENTENCES[key] = _load_sentences(d)
+    return list(_SENTENCES[key])
+
+
+def _load_sentences(fortune_dir: Path) -> list[str]:
+    from dsl.parser import WORD_RE
+
+    d = Path(fortune_dir)
+    files = sorted(p for p in d.glob("*") if p.is_file() and p.suffix not in (".dat", ".u8") and not p.is_symlink()) \
+        if d.is_dir() else []
+    if not files:
+        raise CorpusError(f"no fortunes files in {d}: install them with `apt-get install fortunes fortunes-min`")
+    seen, out = set(), []
+    for f in files:
+        raw = f.read_bytes().decode("utf-8", errors="replace")
+        for fortune in re.split(r"^%\s*$", raw, flags=re.M):
+            text = _speech_lines(fortune)
+            if not text:
+                continue
+            for sent in _SENT_SPLIT.split(text):
+                for chunk in _chunks(sent.strip(" -\"'"), WORD_RE):
+                    chunk = re.sub(r"^[A-Z][A-Za-z]*:\s+", "", chunk.strip(" -"))
+                    key = re.sub(r"[^a-z0-9 ]", "", chunk.lower())
+                    key = re.sub(r"\s+", " ", key).strip()
+                    if key and key not in seen and "\ufffd" not in chunk:
+                        seen.add(key)
+                        out.append(chunk)
+    if not out:
+        raise CorpusError(f"no usable sentences in the fortunes files of {d}")
+    return sorted(out)
+
+
+def available_voices() -> list[str]:
+    from dsl.speech import list_voices
+
+    have = set(list_voices())
+    return [v for v in BASE_VOICES if v in have] or ["en-us"]
+
+
+# -- audio augmentation ---------------------------------------------------------------------
+
+
+def _pink(n: int, rng) -> np.ndarray:
+    m = 1 << max(1, int(n - 1).bit_length())  # a power of two: fast FFT
+    spec = np.fft.rfft(rng.standard_normal(m))
+    f = np.arange(len(spec), dtype=np.float64)
+    f[0] = 1.0
+    y = np.fft.irfft(spec / np.sqrt(f), m)[:n]
+    return (y / (np.std(y) + 1e-12)).astype(np.float32)
+
+
+def augment(y: np.ndarray, sr: int, rng) -> tuple[np.ndarray, dict]:
+    """Pitch shift, gain, reverb, band limit and noise (not tempo: see :func:`_tempo`)."""
+    import librosa
+    from scipy.signal import butter, fftconvolve, sosfilt
+
+    info: dict = {}
+    y = np.asarray(y, np.float32)
+    if rng.random() < 0.5:
+        steps = float(rng.uniform(-1.5, 1.5))
+        y = librosa.effects.pitch_shift(y, sr=sr, n_steps=steps).astype(np.float32)
+        info["pitch_shift"] = round(steps, 3)
+    if rng.random() < 0.3:
+        rt60 = float(rng.uniform(0.15, 0.5))
+        wet = float(rng.uniform(0.08, 0.3))
+        n_ir = int(rt60 * sr)
+        t = np.arange(n_ir) / sr
+        ir = rng.standard_normal(n_ir) * np.exp(-6.9 * t / rt60)
+        ir[0] = 0.0
+        ir /= np.sqrt((ir ** 2).sum()) + 1e-9
+        y = ((1 - wet) * y + wet * fftconvolve(y, ir)[: len(y)]).astype(np.float32)
+        info["reverb"] = {"rt60": round(rt60, 3), "wet": round(wet, 3)}
+    if rng.random() < 0.25:
+        lo, hi = float(rng.uniform(80, 350)), float(rng.uniform(3200, 7000))
+        sos = butter(4, [lo, min(hi, 0.45 * sr)], btype="bandpass", fs=sr, output="sos")
+        y = sosfilt(sos, y).astype(np.float32)
+        info["band"] = [round(lo), round(hi)]
+    if rng.random() < 0.85:
+        snr = float(rng.uniform(15, 40))
+        kind = "pink" if rng.random() < 0.5 else "white"
+        noise = _pink(len(y), rng) if kind == "pink" else rng.standard_normal(len(y)).astype(np.float32)
+        p_sig = float(np.mean(y ** 2)) + 1e-12
+        noise *= math.sqrt(p_sig / (10 ** (snr / 10)) / (float(np.mean(noise ** 2)) + 1e-12))
+        y = y + noise
+        info["noise"] = {"kind": kind, "snr_db": round(snr, 1)}
+    gain = float(rng.uniform(0.15, 0.95))
+    y = (y * gain / (np.max(np.abs(y)) + 1e-9)).astype(np.float32)
+    info["peak"] = round(gain, 3)
+    return y, info
+
+
+def _tempo(y: np.ndarray, rate: float) -> np.ndarray:
+    import librosa
+
+    return librosa.effects.time_stretch(np.asarray(y, np.float32), rate=rate).astype(np.float32)
+
+
+# -- one clip -------------------------------------------------------------------------------
+
+
+def _clip_rng(seed: int, index: int, stream: int) -> np.random.Generator:
+    return np.random.default_rng([int(seed), int(index), int(stream)])
+
+
+def clip_split(seed: int, index: int) -> str:
+    u = _clip_rng(seed, index, 3).random()
+    return "train" if u < 0.9 else ("val" if u < 0.95 else "test")
+
+
+def _draw_style(rng) -> dict[str, float]:
+    out = {}
+    for k in ("speed", "space", "handedness"):
+        v = rng.uniform(-3, 3) if rng.random() < 0.5 else rng.normal(0, 1.0)
+        out[k] = round(float(np.clip(v, -3, 3)), 3)
+    return out
+
+
+def make_clip(text: str, seed: int, index: int, voices: list[str], cache_dir: Path) -> dict:
+    """One corpus clip (arrays + meta), deterministic in (text, seed, index)."""
+    from dsl.parser import WORD_RE
+    from dsl.speech import synthesize
+    from model.features import SAMPLE_RATE, audio_features, load_audio, word_features
+    from model.teacher import teach
+
+    rng = _clip_rng(seed, index, 0)
+    spans = [(m.start(), m.end()) for m in WORD_RE.finditer(text)]
+    voice = voices[int(rng.integers(len(voices)))] + VARIANTS[int(rng.integers(len(VARIANTS)))]
+    rate = int(rng.integers(120, 221))
+    pitch = int(rng.integers(30, 71))
+    pauses = []
+    commas = [m.end() for m in re.finditer(r"[,;:]", text)]
+    if commas and rng.random() < 0.35:
+        pauses = [(int(commas[int(rng.integers(len(commas)))]), round(float(rng.uniform(0.15, 0.8)), 2))]
+    speech = synthesize(text, spans, pauses, voice=voice, rate=rate, pitch=pitch, cache_dir=cache_dir)
+    y = load_audio(speech.audio_path, SAMPLE_RATE)
+    words = [(w.text, w.start, w.end) for w in speech.words]
+
+    arng = _clip_rng(seed, index, 2)
+    tempo = 1.0
+    if arng.random() < 0.6:
+        tempo = round(float(arng.uniform(0.9, 1.1)), 3)
+        y = _tempo(y, tempo)
+        words = [(t, a / tempo, b / tempo) for t, a, b in words]
+    clean = y
+    augmented = arng.random() < 0.8
+    aug_info: dict = {"tempo": tempo}
+    if augmented:
+        y, info = augment(clean, SAMPLE_RATE, arng)
+        aug_info.update(info)
+    aug_info["augmented"] = augmented
+
+    lead_frames = int(rng.integers(0, int(0.6 * FPS) + 1))
+    tail = float(rng.uniform(0.3, 1.0))
+    lead = lead_frames / FPS
+    n = frame_count(lead + len(y) / SAMPLE_RATE + tail)
+    mwords = [{"word": t, "start": round(a + lead, 4), "end": round(b + lead, 4)} for t, a, b in words]
+
+    style = _draw_style(rng)
+    mirror = bool(rng.random() < 0.5)
+    poses = teach(mwords, n, audio=clean, lead_in=lead, style=style, rng=_clip_rng(seed, index, 1))
+    if mirror:
+        poses = mirror_pose(poses)
+    eff_style = dict(style)
+    if mirror:
+        eff_style["handedness"] = -eff_style["handedness"]
+    ids, onsets = word_features(mwords, n)
+    return {
+        "audio": audio_features(y, n, lead_frames).astype(np.float16),
+        "audio_clean": audio_features(clean, n, lead_frames).astype(np.float16),
+        "word_ids": ids.astype(np.int32),
+        "onsets": onsets.astype(np.float32),
+        "poses": np.asarray(poses, np.float32),
+        "meta": {
+            "index": index, "text": text, "voice": voice, "rate": rate, "pitch": pitch,
+            "pauses": [list(p) for p in pauses], "lead_in": round(lead, 4), "n_frames": n,
+            "style": eff_style, "teacher_style": style, "mirror": mirror,
+            "augmentation": aug_info, "words": mwords, "split": clip_split(seed, index),
+        },
+    }
+
+
+# -- shards ---------------------------------------------------------------------------------
+
+
+def _config(seed: int, clips_per_shard: int, n_sentences: int, sentences_hash: str) -> dict:
+    return {"version": FORMAT_VERSION, "seed": int(seed), "clips_per_shard": int(clips_per_shard),
+            "sentences": n_sentences, "sentences_hash": sentences_hash}
+
+
+def shard_path(out: Path, k: int) -> Path:
+    return Path(out) / f"shard_{k:04d}.npz"
+
+
+def _order(seed: int, n: int) -> np.ndarray:
+    return np.random.default_rng([int(seed), 7]).permutation(n)
+
+
+def build_shard(out: str, k: int, config: dict, sentences: list[str], voices: list[str]) -> dict:
+    """Make shard ``k`` and write it atomically; returns its summary."""
+    cps = config["clips_per_shard"]
+    order = _order(config["seed"], len(sentences))
+    clips = []
+    with tempfile.TemporaryDirectory(prefix="sgt-corpus-") as tmp:
+        for j in range(cps):
+            index = k * cps + j
+            text = sentences[int(order[index % len(order)])]
+            clips.append(make_clip(text, config["seed"], index, voices, Path(tmp)))
+    offsets = np.cumsum([0] + [len(c["poses"]) for c in clips]).astype(np.int64)
+    arrays = {key: np.concatenate([c[key] for c in clips]) for key in ("audio", "audio_clean", "word_ids", "onsets", "poses")}
+    metas = [c["meta"] for c in clips]
+    buf = io.BytesIO()
+    np.savez(buf, offsets=offsets, meta=np.array(json.dumps(metas)), config=np.array(json.dumps(config, sort_keys=True)),
+             **arrays)
+    atomic_write(shard_path(Path(out), k), buf.getvalue())
+    return {"k": k, "frames": int(offsets[-1]), "metas": metas}
+
+
+def _read_shard_summary(path: Path, config: dict) -> dict | None:
+    """The summary of a finished shard built with ``config``, else None."""
+    try:
+        with np.load(path) as z:
+            if json.loads(str(z["config"])) != json.loads(json.dumps(config, sort_keys=True)):
+                return None
+            offsets = z["offsets"]
+            metas = json.loads(str(z["meta"]))
+    except Exception:
+        return None
+    return {"frames": int(offsets[-1]), "metas": metas}
+
+
+def _run_shard(args):
+    return build_shard(*args)
+
+
+def build_corpus(out, *, hours: float = 2.0, seed: int = 0, jobs: int = 1, clips_per_shard: int | None = None,
+                 fortune_dir: Path | str = FORTUNE_DIR, progress=None, log=None) -> dict:
+    """Build (or resume) a corpus of at least ``hours`` of motion in ``out``; returns the manifest."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise CorpusError(f"{out} exists and is not a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    if hours <= 0:
+        raise CorpusError("--hours must be positive")
+    sentences = load_sentences(fortune_dir)
+    voices = available_voices()
+    if clips_per_shard is None:
+        clips_per_shard = int(min(128, max(8, round(hours * 3600 / _CLIP_SECONDS / 16))))
+    shash = hashlib.sha256("\n".join(sentences).encode()).hexdigest()[:16]
+    config = _config(seed, clips_per_shard, len(sentences), shash)
+    target = int(math.ceil(hours * 3600 * FPS))
+    done: dict[int, dict] = {}
+    reused = 0
+
+    def prefix() -> tuple[int, int | None]:
+        total = 0
+        k = 0
+        while k in done:
+            total += done[k]["frames"]
+            if total >= target:
+                return total, k
+            k += 1
+        return total, None
+
+    def report(what=""):
+        if progress:
+            total = sum(d["frames"] for d in done.values())
+            progress(min(total, target), target, what)
+
+    next_k = 0
+    pool = None
+    pending: dict = {}
+    try:
+        while prefix()[1] is None:
+            while len(pending) < max(1, jobs):
+                known = sum(d["frames"] for d in done.values())
+                avg = known / len(done) if done else None
+                if pending and avg is not None and known + len(pending) * avg >= target:
+                    break  # enough is being built
+                k = next_k
+                next_k += 1
+                summ = _read_shard_summary(shard_path(out, k), config)
+                if summ is not None:
+                    done[k] = summ
+                    reused += 1
+                    report(f"shard {k} (kept)")
+                    if prefix()[1] is not None:
+                        break
+                    continue
+                task = (str(out), k, config, sentences, voices)
+                if jobs <= 1:
+                    done[k] = build_shard(*task)
+                    report(f"shard {k}")
+                    break
+                if pool is None:
+                    import multiprocessing as mp
+                    from concurrent.futures import ProcessPoolExecutor
+
+                    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
+                pending[pool.submit(_run_shard, task)] = k
+            if pending and prefix()[1] is None:
+                from concurrent.futures import FIRST_COMPLETED, wait
+
+                finished, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    k = pending.pop(fut)
+                    done[k] = fut.result()
+                    report(f"shard {k}")
+    finally:
+        if pool is not None:
+            for fut in pending:
+                fut.cancel()
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    total, last = prefix()
+    clips, shards = [], []
+    for k in range(last + 1):
+        metas = done[k]["metas"]
+        offset = 0
+        for j, m in enumerate(metas):
+            clips.append({"id": f"{k:04d}_{j:03d}", "shard": shard_path(out, k).name, "position": j,
+                          "frame_offset": offset, **m})
+            offset += m["n_frames"]
+        shards.append({"file": shard_path(out, k).name, "clips": len(metas), "frames": done[k]["frames"]})
+    from model.features import AUDIO_DIM
+
+    manifest = {
+        "format": "sgt-corpus", "version": FORMAT_VERSION, "seed": int(seed), "hours_requested": hours,
+        "fps": FPS, "audio_dim": AUDIO_DIM, "clips_per_shard": clips_per_shard,
+        "total_frames": int(total), "total_hours": round(total / FPS / 3600, 4),
+        "sentences": len(sentences), "voices": voices,
+        "split_counts": {s: sum(c["split"] == s for c in clips) for s in SPLITS},
+        "config": config, "shards": shards, "clips": clips,
+        "audio_note": "audio: features of the augmented speech; audio_clean: the same speech (same tempo) unaugmented",
+    }
+    atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1, ensure_ascii=False) + "\n")
+    if log:
+        log(f"{len(clips)} clips, {total} frames ({total / FPS / 3600:.2f} h) in {len(shards)} shards"
+            f" ({reused} kept from an earlier run) -> {out}")
+    return manifest
+
+
+# -- loading --------------------------------------------------------------------------------
+
+
+def load_manifest(path) -> dict:
+    p = Path(path)
+    mp = p / "manifest.json" if p.is_dir() else p
+    try:
+        m = json.loads(mp.read_text())
+    except FileNotFoundError:
+        raise CorpusError(f"no corpus manifest at {mp} (build one with `sgt corpus -o {p}`)") from None
+    if m.get("format") != "sgt-corpus":
+        raise CorpusError(f"{mp} is not an sgt corpus manifest")
+    return m
+
+
+def load_corpus(path, split: str | None = "train", *, dtype=np.float32) -> list[dict]:
+    """Clips of ``split`` ("train", "val", "test", or None for all) as dicts of arrays + ``meta``.
+
+    Keys: ``audio``, ``audio_clean`` (T, AUDIO_DIM), ``word_ids`` (T,) int64, ``onsets`` (T,),
+    ``poses`` (T, 27), ``meta`` (text, voice, style, words, ...), ``id``, ``split``.
+    """
+    if split is not None and split not in SPLITS:
+        raise CorpusError(f"unknown split {split!r}: choose one of {', '.join(SPLITS)}")
+    root = Path(path)
+    m = load_manifest(root)
+    root = root if root.is_dir() else root.parent
+    want: dict[str, list[dict]] = {}
+    for c in m["clips"]:
+        if split is None or c["split"] == split:
+            want.setdefault(c["shard"], []).append(c)
+    out = []
+    for shard in m["shards"]:
+        entries = want.get(shard["file"])
+        if not entries:
+            continue
+        with np.load(root / shard["file"]) as z:
+            offsets = z["offsets"]
+            arrays = {k: z[k] for k in ("audio", "audio_clean", "word_ids", "onsets", "poses")}
+        for c in entries:
+            a, b = int(offsets[c["position"]]), int(offsets[c["position"] + 1])
+            out.append({
+                "id": c["id"], "split": c["split"],
+                "audio": arrays["audio"][a:b].astype(dtype),
+                "audio_clean": arrays["audio_clean"][a:b].astype(dtype),
+                "word_ids": arrays["word_ids"][a:b].astype(np.int64),
+                "onsets": arrays["onsets"][a:b].astype(dtype),
+                "poses": arrays["poses"][a:b].astype(np.float32),
+                "meta": {k: v for k, v in c.items() if k not in ("shard", "position", "frame_offset")},
+            })
+    return out

@@ -1,0 +1,131 @@
+"""The procedural corpus: sentences, reproducibility, shapes, splits, resuming."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from model.corpus import FORTUNE_DIR, CorpusError, build_corpus, load_corpus, load_manifest, load_sentences
+from model.features import AUDIO_DIM
+
+FORTUNES = """\
+Look over there, the big red house is where I grew up.
+%
+Never put off till tomorrow what you can do the day after tomorrow.
+\t\t-- Mark Twain
+%
+    +--------+
+    | ascii  |
+    +--------+
+%
+Hello and welcome to the show. Maybe we will think of something small today!
+%
+Q: How many programmers does it take to change a light bulb?
+A: None, that is a hardware problem.
+%
+Ok
+%
+"""
+HOURS_TWO_SHARDS = 150 / 15 / 3600  # 150 frames: more than one shard of two clips
+
+
+@pytest.fixture()
+def fortunes(tmp_path):
+    d = tmp_path / "fortunes"
+    d.mkdir()
+    (d / "tiny").write_text(FORTUNES)
+    (d / "tiny.dat").write_bytes(b"\x00\x01binary")
+    return d
+
+
+def test_sentences_cleaned(fortunes):
+    s = load_sentences(fortunes)
+    assert "Look over there, the big red house is where I grew up." in s
+    assert not any("Twain" in x or "ascii" in x or "--" in x for x in s)
+    assert not any(x.startswith(("Q:", "A:")) for x in s)
+    assert "Ok" not in s  # under 3 words
+    assert len(s) == len(set(s)) and s == sorted(s)
+
+
+def test_missing_fortunes_is_a_clear_error(tmp_path):
+    with pytest.raises(CorpusError, match="apt-get install fortunes"):
+        load_sentences(tmp_path / "nothing")
+
+
+@pytest.mark.skipif(not FORTUNE_DIR.is_dir(), reason="fortunes not installed")
+def test_real_fortunes():
+    from dsl.parser import WORD_RE
+
+    s = load_sentences()
+    assert len(s) > 1000
+    for x in s[:: max(1, len(s) // 300)]:
+        assert 3 <= len(WORD_RE.findall(x)) <= 25, x
+
+
+def build(out, fortunes, hours=HOURS_TWO_SHARDS):
+    return build_corpus(out, hours=hours, seed=5, clips_per_shard=2, fortune_dir=fortunes)
+
+
+def test_tiny_corpus_reproducible_shapes_splits_resume(tmp_path, fortunes):
+    a, b = tmp_path / "a", tmp_path / "b"
+    ma = build(a, fortunes)
+    mb = build(b, fortunes)
+    assert ma["total_frames"] >= 150 and len(ma["shards"]) >= 2
+    assert ma["clips"] == mb["clips"] and ma["total_frames"] == mb["total_frames"]
+
+    ca, cb = load_corpus(a, None), load_corpus(b, None)
+    assert len(ca) == len(ma["clips"]) == 2 * len(ma["shards"])
+    for x, y in zip(ca, cb):
+        for key in ("audio", "audio_clean", "word_ids", "onsets", "poses"):
+            assert np.array_equal(x[key], y[key]), key
+        T = len(x["poses"])
+        assert T == x["meta"]["n_frames"]
+        assert x["audio"].shape == (T, AUDIO_DIM) and x["audio_clean"].shape == (T, AUDIO_DIM)
+        assert x["word_ids"].shape == (T,) and x["onsets"].shape == (T,) and x["poses"].shape == (T, 27)
+        assert np.isfinite(x["audio"]).all() and np.isfinite(x["poses"]).all()
+        assert np.allclose(np.linalg.norm(x["poses"].reshape(T, 9, 3), axis=-1), 1, atol=1e-4)
+        assert x["onsets"].sum() == len(x["meta"]["words"]) > 0
+        assert (x["word_ids"] > 0).any()
+        m = x["meta"]
+        assert {"text", "voice", "rate", "pitch", "style", "mirror", "augmentation", "words"} <= set(m)
+        assert 120 <= m["rate"] <= 220 and 30 <= m["pitch"] <= 70
+
+    # splits: disjoint and covering
+    ids = {s: {c["id"] for c in load_corpus(a, s)} for s in ("train", "val", "test")}
+    assert sum(len(v) for v in ids.values()) == len(ca)
+    assert not (ids["train"] & ids["val"]) and not (ids["train"] & ids["test"]) and not (ids["val"] & ids["test"])
+    assert sum(ma["split_counts"].values()) == len(ca)
+
+    # resume: finished shards are kept, a missing one is rebuilt identically
+    shard0, shard1 = a / ma["shards"][0]["file"], a / ma["shards"][1]["file"]
+    stamp = shard0.stat().st_mtime_ns
+    before = shard1.read_bytes()
+    shard1.unlink()
+    (a / "manifest.json").unlink()
+    mc = build(a, fortunes)
+    assert shard0.stat().st_mtime_ns == stamp
+    assert shard1.read_bytes() == before
+    assert mc["clips"] == ma["clips"]
+    assert load_manifest(a)["total_frames"] == ma["total_frames"]
+
+
+def test_different_seed_differs(tmp_path, fortunes):
+    m1 = build_corpus(tmp_path / "s1", hours=1e-4, seed=1, clips_per_shard=2, fortune_dir=fortunes)
+    m2 = build_corpus(tmp_path / "s2", hours=1e-4, seed=2, clips_per_shard=2, fortune_dir=fortunes)
+    key = lambda m: [(c["text"], c["voice"], c["rate"]) for c in m["clips"]]
+    assert key(m1) != key(m2)
+
+
+def test_cli(tmp_path, fortunes, monkeypatch, capsys):
+    import model.corpus as corpus
+    from sgt_tui.cli import main
+
+    monkeypatch.setattr(corpus, "FORTUNE_DIR", fortunes)
+    monkeypatch.setattr(corpus.build_corpus, "__kwdefaults__", {**corpus.build_corpus.__kwdefaults__, "fortune_dir": fortunes})
+    rc = main(["corpus", "-o", str(tmp_path / "c"), "--hours", "0.0001", "--seed", "1", "--clips-per-shard", "2"])
+    assert rc == 0
+    assert "clips" in capsys.readouterr().out
+    assert json.loads((tmp_path / "c" / "manifest.json").read_text())["seed"] == 1
+    assert main(["corpus", "-o", str(tmp_path / "d"), "--hours", "0"]) == 2

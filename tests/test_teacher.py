@@ -1,0 +1,150 @@
+"""The rule-based teacher and the ``rules`` engine."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from model.controls import ControlArrays
+from model.generate import EngineInputs, engine_function
+from model.skeleton import BONE_INDEX, N_BONES, REST_POSE, mirror_pose
+from model.style import raw_style
+from model.teacher import MAX_STEP_DEG, generate, teach
+
+SENTENCE = [("so", 0.3, 0.45), ("we", 0.45, 0.6), ("went", 0.6, 0.9), ("to", 0.9, 1.0), ("the", 1.0, 1.1),
+            ("market", 1.1, 1.6), ("and", 1.7, 1.8), ("bought", 1.8, 2.1), ("fresh", 2.1, 2.4),
+            ("bread", 2.4, 2.8), ("for", 2.9, 3.0), ("dinner", 3.0, 3.5), ("tonight", 3.6, 4.1)]
+N = 75
+
+
+def steps_deg(p):
+    d = np.asarray(p, np.float64).reshape(len(p), N_BONES, 3)
+    return np.degrees(np.arccos(np.clip((d[1:] * d[:-1]).sum(-1), -1, 1)))
+
+
+def test_shape_units_smooth():
+    p = teach(SENTENCE, N, rng=np.random.default_rng(0))
+    assert p.shape == (N, 27) and p.dtype == np.float32
+    assert np.allclose(np.linalg.norm(p.reshape(N, 9, 3), axis=-1), 1, atol=1e-5)
+    assert steps_deg(p).max() < 25.0
+    assert steps_deg(p).max() <= MAX_STEP_DEG + 0.01
+    # it moves: not the rest pose frozen
+    assert np.abs(p - REST_POSE).max() > 0.2
+
+
+def test_deterministic_and_seed_dependent():
+    a = teach(SENTENCE, N, rng=np.random.default_rng(3))
+    b = teach(SENTENCE, N, rng=np.random.default_rng(3))
+    c = teach(SENTENCE, N, rng=np.random.default_rng(4))
+    assert np.array_equal(a, b)
+    assert np.abs(a - c).max() > 0.05
+
+
+def test_empty_and_tiny():
+    assert teach([], 1, rng=np.random.default_rng(0)).shape == (1, 27)
+    p = teach([], 30, rng=np.random.default_rng(0))
+    assert np.isfinite(p).all() and steps_deg(p).max() < 25
+
+
+def test_with_audio():
+    from model.features import SAMPLE_RATE
+
+    rng = np.random.default_rng(0)
+    y = np.zeros(int(3 * SAMPLE_RATE), np.float32)
+    for t in (0.5, 1.2, 2.0):  # three loud syllables
+        a = int(t * SAMPLE_RATE)
+        y[a:a + 2000] = rng.normal(0, 0.3, 2000)
+    words = [("alpha", 0.4, 0.9), ("beta", 1.1, 1.6), ("gamma", 1.9, 2.5)]
+    p = teach(words, 60, audio=y, lead_in=0.2, rng=np.random.default_rng(1))
+    assert p.shape == (60, 27) and np.isfinite(p).all() and steps_deg(p).max() < 25
+
+
+def upper_arm_height(p):
+    d = p.reshape(len(p), N_BONES, 3)
+    return np.maximum(d[:, BONE_INDEX["left_elbow"], 1], d[:, BONE_INDEX["right_elbow"], 1])
+
+
+def test_deictic_word_makes_a_pointing_arm():
+    words = [("look", 0.5, 0.8), ("over", 0.8, 1.0), ("there", 1.0, 1.4), ("please", 1.5, 2.0)]
+    onset = 15
+    for seed in range(5):
+        p = teach(words, 45, rng=np.random.default_rng(seed), trigger_prob=1.0)
+        h = upper_arm_height(p)
+        # an arm is raised (upper arm near horizontal) around the word, not before the speech
+        assert h[onset - 3:onset + 6].max() > -0.6, seed
+        assert h[:3].max() < -0.8, seed
+        plain = teach([("look", 0.5, 0.8), ("over", 0.8, 1.0), ("the", 1.0, 1.4), ("hill", 1.5, 2.0)], 45,
+                      rng=np.random.default_rng(seed), trigger_prob=1.0)
+        assert upper_arm_height(plain).max() < -0.6, seed
+
+
+def test_trigger_probability_zero_gives_no_library_gesture():
+    words = [("look", 0.5, 0.8), ("over", 0.8, 1.0), ("there", 1.0, 1.4)]
+    p = teach(words, 45, rng=np.random.default_rng(0), trigger_prob=0.0)
+    assert upper_arm_height(p).max() < -0.6
+
+
+def mean_raw(style, seeds=range(6)):
+    return np.mean([raw_style(teach(SENTENCE, N, style=style, rng=np.random.default_rng(s))).mean(0) for s in seeds], 0)
+
+
+@pytest.mark.parametrize("k,name", [(0, "speed"), (1, "space"), (2, "handedness")])
+def test_style_moves_statistics(k, name):
+    lo, hi = mean_raw({name: -2.0}), mean_raw({name: 2.0})
+    assert hi[k] > lo[k] + 0.1 * abs(lo[k]) + 1e-3, (name, lo, hi)
+
+
+def test_handedness_sign_and_mirror():
+    for seed in range(3):
+        p = teach(SENTENCE, N, style={"handedness": 2.5}, rng=np.random.default_rng(seed))
+        h = raw_style(p)[:, 2].mean()
+        hm = raw_style(mirror_pose(p))[:, 2].mean()
+        assert h > 0 and hm < 0
+        assert np.isclose(h, -hm, atol=1e-6)
+        r = teach(SENTENCE, N, style={"handedness": -2.5}, rng=np.random.default_rng(seed))
+        assert raw_style(r)[:, 2].mean() < 0
+
+
+def test_per_frame_style_arrays():
+    speed = np.full(N, -3.0)
+    speed[N // 2:] = 3.0
+    p = teach(SENTENCE, N, style={"speed": speed}, rng=np.random.default_rng(0))
+    assert p.shape == (N, 27) and steps_deg(p).max() < 25
+
+
+# -- the rules engine ----------------------------------------------------------------------------
+
+
+def raised_pose():
+    d = REST_POSE.reshape(9, 3).copy()
+    d[BONE_INDEX["right_elbow"]] = [-1.0, 0.0, 0.0]
+    d[BONE_INDEX["right_wrist"]] = [0.0, 1.0, 0.0]
+    d[BONE_INDEX["left_elbow"]] = [0.3, -0.2, 0.93]
+    d[BONE_INDEX["left_wrist"]] = [0.0, 0.2, 0.98]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return d.reshape(27).astype(np.float32)
+
+
+def test_rules_engine_registered_and_follows_pose_controls():
+    arrays = ControlArrays.empty(N)
+    target = raised_pose()
+    arrays.set_pose(30, np.repeat(target[None], 8, axis=0))
+    arrays.set_pose(60, target[None])
+    inputs = EngineInputs(arrays, SENTENCE)
+    fn = engine_function("rules")
+    out = fn(inputs, seed=0)
+    assert out.shape == (N, 27)
+    assert np.allclose(out[30:38], target, atol=1e-6)
+    assert np.allclose(out[60], target, atol=1e-6)
+    assert steps_deg(out).max() < 25.0  # smooth into and out of the controlled spans
+    assert np.array_equal(out, generate(inputs, seed=0))
+    assert np.abs(out[10] - target).max() > 0.3  # far from the spans the teacher moves freely
+
+
+def test_rules_engine_style_controls():
+    fast, slow = ControlArrays.empty(N), ControlArrays.empty(N)
+    fast.set_style(0, N, {"speed": 3.0})
+    slow.set_style(0, N, {"speed": -3.0})
+    f = np.mean([raw_style(generate(EngineInputs(fast, SENTENCE), seed=s))[:, 0].mean() for s in range(4)])
+    s_ = np.mean([raw_style(generate(EngineInputs(slow, SENTENCE), seed=s))[:, 0].mean() for s in range(4)])
+    assert f > s_
