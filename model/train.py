@@ -23,7 +23,10 @@ import numpy as np
 
 from model.fileio import atomic_write
 
-WINDOW = 60
+#: Training window in frames. Shorter than the inference window (model.neural.WINDOW = 60) so
+#: that 96% of the corpus frames are usable (its clips are 20-206 frames, median 69); the
+#: network is length-agnostic.
+WINDOW = 40
 
 
 @dataclass
@@ -63,18 +66,20 @@ class Windows:
         lengths = np.array([len(c["poses"]) - window + 1 for c in self.clips], np.float64)
         self.p = lengths / lengths.sum()
 
-    def sample(self, rng: np.random.Generator, batch: int) -> dict[str, np.ndarray]:
+    def sample(self, rng: np.random.Generator, batch: int, clean_fraction: float = 0.3) -> dict[str, np.ndarray]:
+        """A batch of windows; ``clean_fraction`` of them use the un-augmented audio when the clip has it."""
         picks = rng.choice(len(self.clips), size=batch, p=self.p)
         out = {k: [] for k in self.KEYS}
         for i in picks:
             c = self.clips[i]
             s = int(rng.integers(0, len(c["poses"]) - self.window + 1))
             for k in self.KEYS:
-                out[k].append(np.asarray(c[k][s : s + self.window]))
+                src = c["audio_clean"] if k == "audio" and "audio_clean" in c and rng.random() < clean_fraction else c[k]
+                out[k].append(np.asarray(src[s : s + self.window]))
         return {k: np.stack(v) for k, v in out.items()}
 
     def fixed(self, count: int, seed: int = 1234) -> dict[str, np.ndarray]:
-        return self.sample(np.random.default_rng(seed), count)
+        return self.sample(np.random.default_rng(seed), count, clean_fraction=0.0)
 
 
 def simulate_controls(poses: np.ndarray, ref_style: np.ndarray, rng: np.random.Generator, cfg: TrainConfig):

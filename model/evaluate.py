@@ -1,0 +1,106 @@
+"""Evaluation on a held-out split of the corpus: the SGToolkit Table 1 conditions and more.
+
+Every held-out clip is one evaluation window (the corpus clips are single utterances of
+1.3-14 s). Conditions, all against the clip's reference motion:
+
+- ``model``: the generator with no controls (fully automatic);
+- ``model + pose``: a 5-frame pose control copied from the reference in the middle of the clip
+  (SGToolkit Eq. 8), raw network output (``no blend``) and with the exact blend;
+- ``model + style``: style controls computed from the reference over the whole clip (Eq. 9);
+- ``mean pose``: the static mean pose of the training split (PCS/SCS against the same
+  controls, to show their range, as the paper's asterisked entries);
+- ``rules``: the rule teacher with another random seed (same words, style and side);
+- ``keyframe``: the MANUAL baseline through the same 5-frame pose control.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from model.controls import ControlArrays
+from model.skeleton import normalize_pose
+from model.style import style as style_of
+
+PCS_LENGTH = 5
+
+
+def pose_controls(ref: np.ndarray) -> ControlArrays:
+    a = ControlArrays.empty(len(ref))
+    mid = len(ref) // 2
+    a.set_pose(mid - PCS_LENGTH // 2, ref[mid - PCS_LENGTH // 2 : mid - PCS_LENGTH // 2 + PCS_LENGTH])
+    return a
+
+
+def style_controls(ref: np.ndarray) -> ControlArrays:
+    a = ControlArrays.empty(len(ref))
+    a.style[:] = style_of(ref)
+    a.style_mask[:] = 1.0
+    return a
+
+
+def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
+    from model import neural, postprocess
+
+    raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
+    if smoothing == "one_euro":
+        raw = postprocess.one_euro(raw)
+    if blend:
+        raw = postprocess.blend_pose_controls(raw, arrays.pose, arrays.pose_mask)
+    return raw
+
+
+def _rules(clip, seed):
+    from model.skeleton import mirror_pose
+    from model.teacher import teach
+
+    meta = clip["meta"]
+    poses = teach(meta["words"], len(clip["poses"]), style=meta.get("teacher_style") or meta.get("style"),
+                  lead_in=meta.get("lead_in", 0.0), rng=np.random.default_rng(10_000 + seed))
+    return mirror_pose(poses) if meta.get("mirror") else poses
+
+
+def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
+                    progress=None, limit: int | None = None) -> list[dict]:
+    """Table rows (see :func:`model.metrics.report`) for every condition on ``split``."""
+    from model import keyframe, metrics
+    from model.corpus import load_corpus
+    from model.weights import load_weights
+
+    clips = load_corpus(corpus, split)
+    if limit:
+        clips = clips[:limit]
+    model, _ = load_weights(weights)
+    train_poses = np.concatenate([c["poses"] for c in load_corpus(corpus, "train")])
+    mean_pose = normalize_pose(train_poses.mean(axis=0))
+    refs = [c["poses"] for c in clips]
+    out = {k: [] for k in ("free", "pose_raw", "pose", "style", "mean", "rules", "keyframe")}
+    pcs_ctl, sty_ctl = [], []
+    for i, (clip, ref) in enumerate(zip(clips, refs)):
+        if progress:
+            progress(i, len(clips), "")
+        pc, sc = pose_controls(ref), style_controls(ref)
+        pcs_ctl.append(pc)
+        sty_ctl.append(sc)
+        empty = ControlArrays.empty(len(ref))
+        out["free"].append(_neural(model, clip, empty, seed + i))
+        out["pose_raw"].append(_neural(model, clip, pc, seed + i, blend=False, smoothing="none"))
+        out["pose"].append(_neural(model, clip, pc, seed + i))
+        out["style"].append(_neural(model, clip, sc, seed + i))
+        out["mean"].append(np.repeat(mean_pose[None], len(ref), axis=0))
+        out["rules"].append(_rules(clip, seed + i))
+        out["keyframe"].append(keyframe.generate(pc, mean_pose=mean_pose))
+    if progress:
+        progress(len(clips), len(clips), "")
+    both = [{**p.as_dict(), "style": s.style, "style_mask": s.style_mask} for p, s in zip(pcs_ctl, sty_ctl)]
+    conditions = {
+        "model": (refs, out["free"]),
+        "model+pose raw": (refs, out["pose_raw"], pcs_ctl),
+        "model+pose": (refs, out["pose"], pcs_ctl),
+        "model+style": (refs, out["style"], sty_ctl),
+        "mean pose": (refs, out["mean"], both),
+        "rules": (refs, out["rules"]),
+        "keyframe": (refs, out["keyframe"], pcs_ctl),
+    }
+    return metrics.report(conditions, extractor=extractor)
