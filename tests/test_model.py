@@ -36,9 +36,9 @@ def words_every(n_frames, every=6):
     return [(f"w{i}", i / 15, (i + every - 1) / 15) for i in range(0, n_frames, every)]
 
 
-def inputs_for(n_frames, arrays=None):
+def inputs_for(n_frames, arrays=None, every=6):
     arrays = arrays or ControlArrays.empty(n_frames)
-    return EngineInputs(arrays, words_every(n_frames), None, 0.0)
+    return EngineInputs(arrays, words_every(n_frames, every), None, 0.0)
 
 
 def gen(weights, inputs, seed=0, **opts):
@@ -91,14 +91,30 @@ def test_style_controls_move_the_statistics(weights):
     assert speed_with(2.0) > speed_with(-2.0)
 
 
-def test_long_speech_joins_without_jumps(weights):
-    n = 20 * neural.HOP + 7
-    out = gen(weights, inputs_for(n), smoothing="none")
-    steps = np.abs(np.diff(out, axis=0)).max(axis=1)
-    joins = np.arange(neural.HOP, n - 1, neural.HOP) - 1  # steps from the last frame before a window
-    inside = np.setdiff1d(np.arange(len(steps)), joins)
-    assert steps[joins].max() <= steps[inside].max()  # no step at a join is bigger than anywhere else
-    assert steps[joins].mean() <= 2 * steps[inside].mean()
+def hop_phase_profile(weights, windows=30, seeds=4):
+    """Mean frame-to-frame step at each phase of the hop, over many windows and takes.
+
+    A join artifact repeats every HOP frames, so it shows up as a peak of this profile; the
+    motion itself has no reason to prefer a phase.
+    """
+    n = windows * neural.HOP + 7
+    inp = inputs_for(n, every=7)  # words on a period prime to the hop, so they fill every phase
+    steps = np.stack([np.abs(np.diff(gen(weights, inp, seed=s, smoothing="none"), axis=0)).max(axis=1)
+                      for s in range(seeds)])
+    idx = np.arange(neural.HOP, steps.shape[1])  # after the first window's own frames
+    return np.array([steps[:, idx[idx % neural.HOP == k]].mean() for k in range(neural.HOP)])
+
+
+def test_long_speech_joins_without_jumps(weights, monkeypatch):
+    profile = hop_phase_profile(weights)
+    # Measured on this tiny model: 1.15-1.2 with seeds + cross-fade; 1.75-2.0 when windows are
+    # simply concatenated; 1.4 with an earlier design (seed the whole overlap, linear fade).
+    assert profile.max() / np.median(profile) < 1.3
+    # The check can fail: with no seeding and no cross-fade the joins show.
+    monkeypatch.setattr(neural, "SEED", 0)
+    monkeypatch.setattr(neural, "_fade_weights", lambda overlap: np.ones(overlap, np.float32))
+    naive = hop_phase_profile(weights)
+    assert naive.max() / np.median(naive) > profile.max() / np.median(profile)
 
 
 def test_bad_weights_are_refused(tmp_path, weights):
