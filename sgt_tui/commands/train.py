@@ -14,14 +14,21 @@ model/weights/generator.pt to ship them)."""
 
 
 def register(sub) -> None:
+    from model.train_config import TrainConfig
+
     p = sub.add_parser("train", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
     p.add_argument("-o", "--out", default="runs/default", help="output folder (default runs/default)")
-    p.add_argument("--epochs", type=int, default=30)
-    p.add_argument("--steps", type=int, default=120, help="steps per epoch")
-    p.add_argument("--batch", type=int, default=48)
+    p.add_argument("--epochs", type=int, default=TrainConfig.epochs, help=f"epochs (default {TrainConfig.epochs})")
+    p.add_argument("--steps", type=int, default=TrainConfig.steps_per_epoch, help=f"steps per epoch (default {TrainConfig.steps_per_epoch})")
+    p.add_argument("--batch", type=int, default=TrainConfig.batch, help=f"windows per step (default {TrainConfig.batch})")
+    p.add_argument("--threads", type=int, default=TrainConfig.threads, help=f"CPU threads (default {TrainConfig.threads})")
     p.add_argument("--minutes", type=float, help="stop after this much time (at the end of an epoch)")
     p.add_argument("--no-gan", action="store_true", help="switch the adversarial term off")
+    p.add_argument("--ctrl-weight", type=float, default=TrainConfig.ctrl,
+                   help=f"weight of the L1 term on pose-controlled frames, 0 = off (default {TrainConfig.ctrl:g})")
+    p.add_argument("--vel-weight", type=float, default=TrainConfig.vel,
+                   help=f"weight of the L1 velocity term, 0 = off (default {TrainConfig.vel:g})")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--fresh", action="store_true", help="ignore an existing checkpoint")
     p.add_argument("--hidden", type=int, default=128, help="network width")
@@ -47,6 +54,7 @@ def run(args) -> int:
         return 1
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
+                      threads=args.threads, ctrl=args.ctrl_weight, vel=args.vel_weight,
                       net={"hidden": args.hidden, "gru": not args.no_gru})
     train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
           log=lambda s: print(s, file=sys.stderr))

@@ -1,0 +1,33 @@
+"""Training settings (no numpy or torch import, so ``sgt train --help`` stays fast)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+#: Training window in frames. Shorter than the inference window (model.neural.WINDOW = 60) so
+#: that 96% of the corpus frames are usable (its clips are 20-206 frames, median 69); the
+#: network is length-agnostic.
+WINDOW = 40
+
+
+@dataclass
+class TrainConfig:
+    epochs: int = 300
+    steps_per_epoch: int = 60
+    batch: int = 48
+    lr: float = 5e-4
+    window: int = WINDOW
+    alpha: float = 500.0  # Huber pose term
+    beta: float = 5.0  # adversarial term; 0 switches it off
+    gamma: float = 5.0  # style-consistency term
+    huber_delta: float = 0.05
+    ctrl: float = 50.0  # L1 on pose-controlled frames; 0 switches it off
+    vel: float = 50.0  # L1 on velocities; 0 switches it off
+    p_drop_all: float = 0.25
+    p_pose: float = 0.5
+    p_seed: float = 0.5
+    p_style: float = 0.5
+    seed: int = 0
+    threads: int = 2
+    minutes: float | None = None  # stop after this much wall time (finishing the epoch)
+    net: dict = field(default_factory=dict)
