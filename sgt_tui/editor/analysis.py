@@ -1,0 +1,231 @@
+"""Live diagnostics and estimated plans for the editor, re-analysing only what changed.
+
+The analyser and compiler of :mod:`dsl` see a whole file; on a 500-line script that takes
+longer than a keystroke should. This module cuts the script into *chunks*, each analysed by
+the real front end (:func:`dsl.compiler.compile_file` with estimated timing) and cached by its
+text:
+
+- chunk 0: the header and the first utterance, analysed as they are;
+- chunk k: the lines after utterance k-1 up to the end of utterance k (directives such as
+  ``@audio`` belong to the utterance they precede), analysed as *header + one stand-in
+  utterance + the chunk*, so that header settings, presets, ``@library`` gestures and the
+  "must be in the header" rule apply exactly as in the whole file;
+- the tail: lines after the last utterance (a dangling ``@audio``, say), analysed the same way.
+
+Diagnostics of the stand-in and the repeated header are dropped; the rest are moved to their
+real lines. A keystroke inside one utterance re-analyses one chunk. The result equals the
+whole-file analysis (a test compares them), with one deliberate difference: timing-dependent
+warnings (overlapping pose controls) and the estimated plan of an utterance are available even
+when *another* utterance has errors, so the timeline keeps working while the user types.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import re
+from bisect import bisect_right
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from dsl.diagnostics import ERROR, WARNING, Diagnostic, sort_key
+from dsl.lines import split_statements
+
+STAND_IN = "x"  # the stand-in utterance put before a chunk (its diagnostics are dropped)
+
+
+@dataclass
+class UtteranceInfo:
+    """One utterance of the script as the editor sees it (lines are 1-based, real)."""
+
+    index: int
+    line: int  # first line of the statement
+    last_line: int
+    chunk_line: int  # first line of its chunk (directives before it belong to it)
+    speaker: str | None
+    key: str  # identifies its text and header: generated motion for the same key is current
+    utterance: object | None = None  # dsl.script.Utterance, positions moved by line_shift
+    plan: object | None = None  # dsl.plan.UtterancePlan with estimated timing, or None on errors
+    line_shift: int = 0  # add to the line numbers inside ``utterance`` and ``plan``
+    errors: int = 0
+
+    def word_spans(self) -> list[tuple[int, int, int]]:
+        """(row, start col, end col), 0-based, of each spoken word in the file."""
+        if self.utterance is None:
+            return []
+        return [(w.where.line + self.line_shift - 1, w.where.col - 1, w.where.col - 1 + w.where.length)
+                for w in self.utterance.words]
+
+
+@dataclass
+class Analysis:
+    diagnostics: list[Diagnostic]
+    utterances: list[UtteranceInfo]
+    header: object | None = None  # dsl.script.Header
+    library: object | None = None  # library.Library
+    by_line: dict[int, list[Diagnostic]] = field(default_factory=dict)
+
+    @property
+    def errors(self) -> int:
+        return sum(d.severity == ERROR for d in self.diagnostics)
+
+    @property
+    def warnings(self) -> int:
+        return sum(d.severity == WARNING for d in self.diagnostics)
+
+    def utterance_at(self, line: int) -> UtteranceInfo | None:
+        """The utterance a (1-based) line belongs to: its own statement or chunk, else the first."""
+        if not self.utterances:
+            return None
+        starts = [u.chunk_line if u.index else 1 for u in self.utterances]
+        i = max(0, bisect_right(starts, line) - 1)
+        return self.utterances[i]
+
+    def at(self, line: int, col: int | None = None) -> list[Diagnostic]:
+        """Diagnostics on a line (1-based), those covering column ``col`` (1-based) first."""
+        found = self.by_line.get(line, [])
+        if col is None:
+            return list(found)
+        inside = [d for d in found if d.col <= col < d.col + max(1, d.length)]
+        return inside + [d for d in found if d not in inside]
+
+
+@dataclass
+class _Chunk:
+    diagnostics: list[Diagnostic]  # at canonical lines
+    utterance: object | None
+    plan: object | None
+    header: object | None
+    canonical_start: int  # 1-based line of the chunk's first line in the analysed source
+    extra: list[Diagnostic] = field(default_factory=list)  # not about this script (library specs)
+
+
+_LINE_REF = re.compile(r"\(line (\d+), col ")
+
+
+def _moved(d: Diagnostic, shift: int) -> Diagnostic:
+    """A chunk's diagnostic at its real line (and the lines its message refers to)."""
+    if not shift:
+        return d
+
+    def fix(text):
+        return _LINE_REF.sub(lambda m: f"(line {int(m.group(1)) + shift}, col ", text) if text else text
+
+    return dataclasses.replace(d, line=d.line + shift, message=fix(d.message), hint=fix(d.hint))
+
+
+def _digest(*parts: str) -> str:
+    h = hashlib.sha1()
+    for p in parts:
+        h.update(p.encode("utf-8", "surrogatepass"))
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+class Analyser:
+    """Analyses successive versions of one script, reusing the chunks that did not change."""
+
+    def __init__(self, path: Path | str) -> None:
+        self.path = Path(path)
+        self._chunks: dict[tuple, _Chunk] = {}
+        self._headers: dict[str, object] = {}
+        self.chunks_analysed = 0  # how many chunks the last run had to analyse (for tests)
+
+    def run(self, text: str) -> Analysis:
+        from library import load_library
+
+        lines = text.split("\n")
+        statements, _ = split_statements(text)
+        utts = [s for s in statements if s.kind == "utterance"]
+        prefix_end = utts[0].line - 1 if utts else len(lines)
+        prefix = lines[:prefix_end]
+        prefix_text = "\n".join(prefix)
+        header = self._header(prefix_text)
+        lib = load_library(extra_dirs=header.library_dirs)
+        lib_key = _digest(*lib.names(), *(str(p) for p in lib.problems), *(str(f) for _, f in lib.folders))
+        header_key = _digest(*(s.text for s in statements if s.kind == "directive" and s.line <= prefix_end))
+
+        used: dict[tuple, _Chunk] = {}
+        self.chunks_analysed = 0
+
+        def chunk(kind: str, body: list[str]) -> _Chunk:
+            key = (kind, prefix_text if kind != "first" else "", "\n".join(body), lib_key)
+            hit = self._chunks.get(key) or used.get(key)
+            if hit is None:
+                hit = self._analyse(kind, prefix, body, lib)
+                self.chunks_analysed += 1
+            used[key] = hit
+            return hit
+
+        diags: list[Diagnostic] = []
+        infos: list[UtteranceInfo] = []
+        script_header = header
+        if not utts:
+            c = chunk("first", lines)
+            diags += c.diagnostics + c.extra
+            script_header = c.header or header
+        else:
+            prev_end = 0  # 0-based index of the first line after the previous utterance
+            pending: list[str] = []  # directives between the previous utterance and this one
+            owners = iter(statements)
+            for k, stmt in enumerate(utts):
+                for s in owners:
+                    if s is stmt:
+                        break
+                    if s.line > prefix_end:
+                        pending.append(s.text)
+                body = lines[: stmt.last_line] if k == 0 else lines[prev_end : stmt.last_line]
+                c = chunk("first" if k == 0 else "next", body)
+                real_start = 1 if k == 0 else prev_end + 1
+                shift = real_start - c.canonical_start
+                moved = [_moved(d, shift) for d in c.diagnostics]
+                diags += moved
+                if k == 0:
+                    diags += c.extra
+                    script_header = c.header or header
+                own, pending = pending + [stmt.text], []
+                infos.append(UtteranceInfo(
+                    index=k, line=stmt.line, last_line=stmt.last_line, chunk_line=real_start,
+                    speaker=stmt.speaker, key=_digest(header_key, *own), utterance=c.utterance,
+                    plan=c.plan, line_shift=shift, errors=sum(d.is_error for d in moved),
+                ))
+                prev_end = stmt.last_line
+            tail = lines[prev_end:]
+            if any(s.line > prev_end for s in statements):
+                c = chunk("tail", tail)
+                shift = prev_end + 1 - c.canonical_start
+                diags += [_moved(d, shift) for d in c.diagnostics]
+        self._chunks = used
+        diags.sort(key=sort_key)
+        by_line: dict[int, list[Diagnostic]] = {}
+        for d in diags:
+            if d.file == str(self.path):
+                by_line.setdefault(d.line, []).append(d)
+        return Analysis(diags, infos, script_header, lib, by_line)
+
+    def _header(self, prefix_text: str):
+        hit = self._headers.get(prefix_text)
+        if hit is None:
+            from dsl.parser import analyse
+
+            hit = analyse(prefix_text, str(self.path), gesture_names=None, base_dir=self.path.parent).header
+            self._headers = {prefix_text: hit}
+        return hit
+
+    def _analyse(self, kind: str, prefix: list[str], body: list[str], lib) -> _Chunk:
+        from dsl.compiler import compile_file
+
+        if kind == "first":
+            source_lines, start = body, 1
+        else:
+            source_lines, start = prefix + [STAND_IN] + body, len(prefix) + 2
+        result = compile_file(self.path, timing="estimate", library=lib, source="\n".join(source_lines))
+        mine = str(self.path)
+        own = [d for d in result.diagnostics if d.file == mine and (d.line >= start or kind == "first")]
+        extra = [d for d in result.diagnostics if d.file != mine]
+        script = result.script
+        utt = script.utterances[-1] if script.utterances and kind != "tail" else None
+        plan = None
+        if result.plan is not None and utt is not None:
+            plan = next((u for u in result.plan.utterances if u.index == utt.index), None)
+        return _Chunk(own, utt, plan, script.header, start, extra)

@@ -1,0 +1,164 @@
+"""Opening and saving scripts: UTF-8 checks, line ends kept, atomic saves, changes on disk.
+
+A script that does not exist opens as a new, empty document (created on the first save).
+Saving goes through :func:`model.fileio.atomic_write`, so a reader (or a crash) sees the old
+file or the new one, never half of either. The file's state on disk when it was read or last
+saved is remembered (:class:`DiskState`); a save refuses to overwrite a file that someone else
+changed since (:class:`ChangedOnDisk`) unless told to.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from dsl.lines import decode_source
+from model.fileio import atomic_write
+from sgt_tui.editor.document import Document
+
+BOM = b"\xef\xbb\xbf"
+
+
+class FileError(Exception):
+    """A script that cannot be opened or saved; the message is for the user."""
+
+
+class ChangedOnDisk(FileError):
+    """The file on disk is no longer what this editor read or saved."""
+
+
+@dataclass(frozen=True)
+class DiskState:
+    """What the file looked like on disk: None fields when it did not exist."""
+
+    mtime_ns: int | None
+    size: int | None
+    digest: str | None
+
+    @property
+    def exists(self) -> bool:
+        return self.digest is not None
+
+
+MISSING = DiskState(None, None, None)
+
+
+def disk_state(path: Path, previous: DiskState | None = None) -> DiskState:
+    """The file's state now; reuses ``previous``'s digest when mtime and size are unchanged."""
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        return MISSING
+    if previous is not None and previous.mtime_ns == st.st_mtime_ns and previous.size == st.st_size:
+        return previous
+    try:
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError:
+        return MISSING
+    return DiskState(st.st_mtime_ns, st.st_size, digest)
+
+
+def _newline_of(text: str) -> str:
+    if "\r\n" in text:
+        return "\r\n"
+    if "\n" in text:
+        return "\n"
+    if "\r" in text:
+        return "\r"
+    return "\n"
+
+
+def decode_script(data: bytes, path: Path) -> tuple[str, str, bool]:
+    """(text, newline, had BOM) of a script's bytes; raises FileError when not UTF-8."""
+    text, bad = decode_source(data)
+    if bad is not None:
+        start = len(BOM) if data.startswith(BOM) else 0
+        raw = data[start:]
+        line = raw[:bad].count(b"\n") + 1
+        col = bad - (raw.rfind(b"\n", 0, bad) + 1) + 1
+        raise FileError(f"{path} is not UTF-8 text (invalid byte 0x{raw[bad]:02x} at line {line}, column {col}); "
+                        "sgt scripts are UTF-8: convert it first, e.g. iconv -f latin1 -t utf-8")
+    return text, _newline_of(text), data.startswith(BOM)
+
+
+class ScriptFile:
+    """A document and the file it belongs to."""
+
+    def __init__(self, path: Path | str, document: Document, newline: str = "\n", bom: bool = False,
+                 disk: DiskState = MISSING) -> None:
+        self.path = Path(path)
+        self.document = document
+        self.newline = newline
+        self.bom = bom
+        self.disk = disk
+
+    @classmethod
+    def open(cls, path: Path | str) -> "ScriptFile":
+        """Read ``path``; a missing file gives a new empty document. Raises FileError."""
+        path = Path(path)
+        if path.is_dir():
+            raise FileError(f"{path} is a folder, not a script file")
+        if not path.exists():
+            if path.parent != Path("") and not path.parent.exists():
+                raise FileError(f"cannot create {path}: the folder {path.parent} does not exist")
+            return cls(path, Document(""))
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise FileError(f"cannot read {path}: {exc.strerror or exc}") from None
+        text, newline, bom = decode_script(data, path)
+        return cls(path, Document(text), newline, bom, disk_state(path))
+
+    @property
+    def is_new(self) -> bool:
+        return not self.disk.exists
+
+    def encoded(self, text: str | None = None) -> bytes:
+        text = self.document.text if text is None else text
+        data = text.replace("\n", self.newline).encode("utf-8")
+        return BOM + data if self.bom else data
+
+    def changed_on_disk(self) -> bool:
+        """True when the file on disk differs from what was read or last saved."""
+        now = disk_state(self.path, self.disk)
+        return now.digest != self.disk.digest
+
+    def read_disk_text(self) -> str:
+        """The file's current text on disk (for reloading); raises FileError."""
+        try:
+            data = self.path.read_bytes()
+        except OSError as exc:
+            raise FileError(f"cannot read {self.path}: {exc.strerror or exc}") from None
+        return decode_script(data, self.path)[0]
+
+    def reload(self) -> None:
+        """Replace the document's text with the file's (one undoable step)."""
+        text = self.read_disk_text()
+        self.document.set_text(text, label="reload from disk")
+        self.document.mark_saved()
+        self.disk = disk_state(self.path)
+
+    def save(self, *, force: bool = False) -> None:
+        """Write atomically. Raises ChangedOnDisk when someone else changed the file (unless
+        ``force``), FileError when it cannot be written."""
+        if not force and self.changed_on_disk():
+            now = disk_state(self.path)
+            what = "deleted" if not now.exists else "changed"
+            raise ChangedOnDisk(f"{self.path} was {what} on disk since it was opened or saved")
+        text = self.document.text
+        try:
+            atomic_write(self.path, self.encoded(text))
+        except OSError as exc:
+            raise FileError(f"cannot save {self.path}: {exc.strerror or exc}") from None
+        self.document.mark_saved(text)
+        self.document.break_typing()
+        self.disk = disk_state(self.path)
+
+
+def display_name(path: Path) -> str:
+    try:
+        return str(path.resolve().relative_to(Path(os.getcwd()).resolve()))
+    except ValueError:
+        return str(path)

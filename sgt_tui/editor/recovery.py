@@ -1,0 +1,108 @@
+"""Recovery files: unsaved work survives a crash or a dropped SSH connection.
+
+While a document has unsaved changes, the editor writes its text every few seconds to a
+recovery file in ``$SGT_RECOVERY_DIR`` (default ``~/.cache/sgt/editor/recovery``; see
+:func:`editor_cache_dir`), one file per script (named by a hash of its absolute path, so it
+never lands in the user's git working tree). Saving or closing cleanly removes it. When the
+editor opens a script whose recovery file holds text that differs from the file, it offers to
+restore it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from model.fileio import atomic_write
+
+FORMAT = "sgt-recovery"
+VERSION = 1
+#: Seconds between recovery writes while there are unsaved changes.
+INTERVAL = 3.0
+
+
+def editor_cache_dir() -> Path:
+    """Where the editor keeps its files: ``$SGT_EDITOR_CACHE``, else ``$XDG_CACHE_HOME/sgt/editor``
+    (``~/.cache/sgt/editor``)."""
+    env = os.environ.get("SGT_EDITOR_CACHE")
+    if env:
+        return Path(env).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME")
+    return (Path(base).expanduser() if base else Path.home() / ".cache") / "sgt" / "editor"
+
+
+def recovery_dir() -> Path:
+    """``$SGT_RECOVERY_DIR``, else ``recovery`` in :func:`editor_cache_dir`."""
+    env = os.environ.get("SGT_RECOVERY_DIR")
+    return Path(env).expanduser() if env else editor_cache_dir() / "recovery"
+
+
+@dataclass(frozen=True)
+class Recovered:
+    text: str
+    saved_at: float  # seconds since the epoch
+    path: str
+
+    def age(self, now: float | None = None) -> str:
+        s = max(0.0, (time.time() if now is None else now) - self.saved_at)
+        if s < 90:
+            return f"{s:.0f} s ago"
+        if s < 5400:
+            return f"{s / 60:.0f} min ago"
+        if s < 2 * 86400:
+            return f"{s / 3600:.0f} h ago"
+        return f"{s / 86400:.0f} days ago"
+
+
+class RecoveryFile:
+    """The recovery file of one script."""
+
+    def __init__(self, script: Path | str, directory: Path | None = None) -> None:
+        self.script = Path(script).resolve()
+        key = hashlib.sha256(str(self.script).encode("utf-8")).hexdigest()[:16]
+        self.path = (directory or recovery_dir()) / f"{self.script.name}.{key}.json"
+        self.written_version: int | None = None
+
+    def write(self, text: str, version: int | None = None) -> None:
+        blob = {"format": FORMAT, "version": VERSION, "path": str(self.script), "saved_at": time.time(), "text": text}
+        atomic_write(self.path, json.dumps(blob, ensure_ascii=False).encode("utf-8"))
+        self.written_version = version
+
+    def load(self) -> Recovered | None:
+        """The recovered text, or None when there is none (or it is unreadable)."""
+        try:
+            blob = json.loads(self.path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return None
+        if not isinstance(blob, dict) or blob.get("format") != FORMAT or not isinstance(blob.get("text"), str):
+            return None
+        return Recovered(blob["text"], float(blob.get("saved_at") or 0.0), str(blob.get("path", "")))
+
+    def discard(self) -> None:
+        self.written_version = None
+        try:
+            self.path.unlink()
+        except FileNotFoundError:
+            pass
+        except OSError:
+            pass
+
+    def update(self, text: str, version: int, modified: bool) -> bool:
+        """Write when the document changed since the last write; remove when nothing is unsaved.
+
+        Returns True when a file was written."""
+        if not modified:
+            if self.written_version is not None:
+                self.discard()
+            return False
+        if version == self.written_version:
+            return False
+        try:
+            self.write(text, version)
+        except OSError:
+            return False
+        return True

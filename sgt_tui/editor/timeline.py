@@ -1,0 +1,185 @@
+"""The timeline of one utterance, laid out in character cells.
+
+Rows, each starting with its lane name so nothing depends on colour::
+
+    time  0s        1s        2s      ▼ 3s
+    words Hello, and welcome ‥pause‥ to Riverside
+    pose  [wave=======]           [point_right x2]
+    style       <helpful speed:+0.5 space:+1~~~~~~~>
+
+Pose-control spans are ``[name ...]`` filled with ``=``, style spans ``<name ...>`` filled
+with ``~``, pauses ``‥pause‥`` in the words row. Overlapping spans go to extra rows. The
+playhead column is reported separately so the view can draw it (reverse video) on every row.
+Data comes from an estimated plan (:class:`dsl.plan.UtterancePlan`) or from a generated
+motion clip (:class:`model.motion_file.MotionClip`, which carries the real speech timing).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from model.skeleton import FPS
+
+LANE_WIDTH = 6  # "words " etc.
+
+
+@dataclass(frozen=True)
+class Span:
+    kind: str  # "pose", "style" or "pause"
+    name: str
+    start: int  # frame
+    end: int  # frame, exclusive
+    label: str
+
+
+@dataclass
+class TimelineData:
+    words: list[tuple[str, float, float]]
+    spans: list[Span]
+    n_frames: int
+    timing: str = "estimate"  # where the word times come from
+
+    @property
+    def duration(self) -> float:
+        return self.n_frames / FPS
+
+    def word_at(self, frame: int) -> int | None:
+        t = frame / FPS
+        for i, (_, a, b) in enumerate(self.words):
+            if a <= t < b:
+                return i
+        return None
+
+
+@dataclass
+class Row:
+    lane: str
+    text: str
+    marks: list[tuple[int, int, str]] = field(default_factory=list)  # (start, end, class) in text
+
+
+def _label(kind: str, name: str, options: dict) -> str:
+    if kind == "pose":
+        extra = []
+        if options.get("speed", 1) not in (1, None):
+            extra.append(f"x{options['speed']}")
+        if options.get("flip"):
+            extra.append("flip")
+        if options.get("hold"):
+            extra.append(f"hold={options['hold']:g}s")
+        return " ".join([name] + extra)
+    if kind == "style":
+        values = " ".join(f"{k}:{v:+g}" for k, v in sorted(options.items()) if isinstance(v, (int, float)))
+        return f"{name} {values}".strip() if values and values.split(":")[0] != name else (values or name)
+    if kind == "pause":
+        return f"pause {options.get('seconds', 0):g}s"
+    return name
+
+
+def from_plan(plan) -> TimelineData:
+    """From an :class:`~dsl.plan.UtterancePlan`."""
+    words = [(w.word, float(w.start), float(w.end)) for w in plan.words]
+    spans = [Span(c.kind, c.name, c.start_frame, c.end_frame, _label(c.kind, c.name, c.options)) for c in plan.controls]
+    return TimelineData(words, spans, plan.n_frames, plan.speech.get("engine", "estimate"))
+
+
+def from_clip(clip, timing: str = "speech") -> TimelineData:
+    """From a generated :class:`~model.motion_file.MotionClip` (words and controls as dicts)."""
+    words = []
+    for w in clip.words:
+        try:
+            words.append((str(w["word"]), float(w["start"]), float(w["end"])))
+        except (KeyError, TypeError, ValueError):
+            continue
+    spans = []
+    for c in clip.controls:
+        try:
+            kind, name = str(c["kind"]), str(c["name"])
+            spans.append(Span(kind, name, int(c["start_frame"]), int(c["end_frame"]), _label(kind, name, c.get("options") or {})))
+        except (KeyError, TypeError, ValueError):
+            continue
+    return TimelineData(words, spans, clip.n_frames, timing)
+
+
+def _put(buf: list[str], col: int, text: str) -> None:
+    for i, ch in enumerate(text):
+        if 0 <= col + i < len(buf):
+            buf[col + i] = ch
+
+
+def _span_text(label: str, width: int, kind: str) -> str:
+    open_, close, fill = {"pose": ("[", "]", "="), "style": ("<", ">", "~")}.get(kind, ("‥", "‥", "‥"))
+    if width <= 1:
+        return open_[:width]
+    inner = width - 2
+    text = label[:inner]
+    return open_ + text + fill * (inner - len(text)) + close
+
+
+def layout(data: TimelineData | None, width: int, playhead: int | None = None, max_lanes: int = 2) -> tuple[list[Row], int | None]:
+    """Rows of text ``width`` cells wide, and the playhead's column (or None)."""
+    lane_w = LANE_WIDTH if width >= 30 else 0
+    w = max(1, width - lane_w)
+    if data is None or data.n_frames <= 0:
+        return [], None
+    n = data.n_frames
+
+    def col(frame: float) -> int:
+        return min(w - 1, max(0, int(frame * w / n)))
+
+    rows: list[Row] = []
+    # time ruler
+    ruler = [" "] * w
+    step = 1
+    while step * FPS * w / n < 4 and step < 600:  # at least 4 cells between labels
+        step *= 2
+    for s in range(0, int(data.duration) + 1, step):
+        _put(ruler, col(s * FPS), f"{s}s" if s else "0")
+    rows.append(Row("time", "".join(ruler)))
+    # words and pauses
+    words = [" "] * w
+    marks: list[tuple[int, int, str]] = []
+    for sp in data.spans:
+        if sp.kind == "pause":
+            a, b = col(sp.start), max(col(sp.start) + 1, col(sp.end))
+            _put(words, a, _span_text("pause", b - a, "pause"))
+            marks.append((a, b, "pause"))
+    current = data.word_at(playhead) if playhead is not None else None
+    placed = sorted(((col(a * FPS), i, word) for i, (word, a, _) in enumerate(data.words)))
+    for k, (c, i, word) in enumerate(placed):
+        room = (placed[k + 1][0] if k + 1 < len(placed) else w) - c
+        if room <= 0:
+            continue
+        text = word if len(word) < room else (word[: max(1, room - 1)] + ("…" if room > 1 else ""))
+        _put(words, c, text)
+        marks.append((c, c + len(text), "word-current" if i == current else "word"))
+    rows.append(Row("words", "".join(words), marks))
+    # control lanes, overlapping spans on extra rows
+    for kind in ("pose", "style"):
+        lanes: list[list[Span]] = []
+        for sp in sorted((s for s in data.spans if s.kind == kind), key=lambda s: (s.start, s.end)):
+            for lane in lanes:
+                if all(sp.start >= o.end or sp.end <= o.start for o in lane):
+                    lane.append(sp)
+                    break
+            else:
+                lanes.append([sp])
+        for li, lane in enumerate(lanes[:max_lanes] or [[]]):
+            buf = [" "] * w
+            lm = []
+            for sp in lane:
+                a = col(sp.start)
+                b = max(a + 1, min(w, int(round(sp.end * w / n))))
+                _put(buf, a, _span_text(sp.label, b - a, kind))
+                lm.append((a, b, kind))
+            rows.append(Row(kind if li == 0 else "", "".join(buf), lm))
+    if lane_w:
+        for r in rows:
+            r.text = f"{r.lane:<{lane_w - 1}.{lane_w - 1}} " + r.text
+            r.marks = [(a + lane_w, b + lane_w, c) for a, b, c in r.marks]
+    head = None
+    if playhead is not None:
+        head = lane_w + col(playhead)
+        t = rows[0].text
+        rows[0].text = t[:head] + "▼" + t[head + 1 :]
+    return rows, head

@@ -1,0 +1,366 @@
+"""The editing model of `sgt edit` (no Textual): document and undo, files, recovery, highlighting,
+incremental analysis, actions' edits, timeline, playback and the braille figure."""
+
+from __future__ import annotations
+
+import random
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sgt_tui.editor.analysis import Analyser
+from sgt_tui.editor.document import Document
+from sgt_tui.editor.edits import EditRefused, apply_style, insert_pose, move_pose, pose_tag, style_tags
+from sgt_tui.editor.files import ChangedOnDisk, FileError, ScriptFile
+from sgt_tui.editor.highlight import line_spans
+from sgt_tui.editor.player import Player
+from sgt_tui.editor.recovery import RecoveryFile
+from sgt_tui.editor.timeline import from_plan, layout
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = sorted((ROOT / "examples").glob("*.sgt"))
+SCRIPT = "@rate 160\nguide: Look at [pose:wave x2] the shelf now.\nguide: hi there\n"
+
+
+def apply(doc: Document, action) -> None:
+    with doc.group(action.label):
+        for r in action.replacements:
+            doc.replace(r.start, r.end, r.text)
+
+
+# -- document and history ---------------------------------------------------------------------
+
+def test_replace_and_locations():
+    d = Document("ab\ncd")
+    c = d.replace((0, 1), (1, 1), "X\nY")
+    assert d.text == "aX\nYd" and c.old_text == "b\nc" and c.new_end == (1, 1)
+    assert d.offset((1, 1)) == 4 and d.location(4) == (1, 1)
+    assert d.get_range((0, 0), (1, 2)) == "aX\nYd"
+
+
+def test_typing_groups_by_word_and_undo_restores_saved_state():
+    d = Document("")
+    for i, ch in enumerate("hello world"):
+        d.replace((0, i), (0, i), ch)
+    assert d.modified
+    d.undo()  # " world"
+    assert d.text == "hello"
+    d.undo()
+    assert d.text == "" and not d.modified
+    d.redo()
+    d.redo()
+    assert d.text == "hello world" and not d.can_redo
+
+
+def test_action_group_is_one_step_and_new_change_clears_redo():
+    d = Document("one two")
+    with d.group("action"):
+        d.insert((0, 7), "</x>")
+        d.insert((0, 4), "<x>")
+    assert d.text == "one <x>two</x>"
+    assert d.undo_label() == "action"
+    d.undo()
+    assert d.text == "one two"
+    d.insert((0, 0), "z")
+    assert not d.can_redo
+
+
+def test_crlf_is_normalised_in_the_document():
+    d = Document("a\r\nb\rc")
+    assert d.lines == ["a", "b", "c"]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 400), st.integers(0, 400), st.text(alphabet="ab \n[]", max_size=5)),
+                min_size=1, max_size=25))
+def test_random_edits_undo_to_start_and_redo_to_end(ops):
+    d = Document("guide: hello [pose:wave] world\nline two")
+    start = d.text
+    for a, b, text in ops:
+        d.replace(d.location(a), d.location(b), text)
+    end = d.text
+    while d.can_undo:
+        d.undo()
+    assert d.text == start
+    while d.can_redo:
+        d.redo()
+    assert d.text == end
+
+
+# -- files and recovery ---------------------------------------------------------------------------
+
+def test_missing_file_opens_empty_and_is_created_on_save(tmp_path):
+    p = tmp_path / "new.sgt"
+    f = ScriptFile.open(p)
+    assert f.is_new and f.document.text == ""
+    f.document.insert((0, 0), "guide: hi\n")
+    f.save()
+    assert p.read_text() == "guide: hi\n" and not f.document.modified and not f.is_new
+
+
+def test_non_utf8_is_a_clear_error(tmp_path):
+    p = tmp_path / "latin.sgt"
+    p.write_bytes("guide: ol\xe9\n".encode("latin-1"))
+    with pytest.raises(FileError, match=r"not UTF-8.*line 1, column 10"):
+        ScriptFile.open(p)
+
+
+def test_folder_is_refused(tmp_path):
+    with pytest.raises(FileError, match="folder"):
+        ScriptFile.open(tmp_path)
+
+
+def test_crlf_and_bom_survive_a_save(tmp_path):
+    p = tmp_path / "win.sgt"
+    p.write_bytes(b"\xef\xbb\xbfguide: a\r\nguide: b\r\n")
+    f = ScriptFile.open(p)
+    assert f.document.text == "guide: a\nguide: b\n"
+    f.document.insert((1, 8), "c")
+    f.save()
+    assert p.read_bytes() == b"\xef\xbb\xbfguide: a\r\nguide: bc\r\n"
+
+
+def test_change_on_disk_is_not_overwritten_silently(tmp_path):
+    p = tmp_path / "s.sgt"
+    p.write_text("guide: one\n")
+    f = ScriptFile.open(p)
+    f.document.insert((0, 0), "# mine\n")
+    p.write_text("guide: theirs\n")
+    assert f.changed_on_disk()
+    with pytest.raises(ChangedOnDisk):
+        f.save()
+    assert p.read_text() == "guide: theirs\n"
+    f.save(force=True)
+    assert p.read_text() == "# mine\nguide: one\n" and not f.changed_on_disk()
+
+
+def test_reload_is_undoable(tmp_path):
+    p = tmp_path / "s.sgt"
+    p.write_text("guide: one\n")
+    f = ScriptFile.open(p)
+    p.write_text("guide: two\n")
+    f.reload()
+    assert f.document.text == "guide: two\n" and not f.document.modified
+    f.document.undo()
+    assert f.document.text == "guide: one\n"
+
+
+def test_recovery_written_while_unsaved_and_removed_when_saved(tmp_path):
+    r = RecoveryFile(tmp_path / "s.sgt", tmp_path / "rec")
+    assert r.load() is None
+    assert r.update("guide: unsaved", version=3, modified=True)
+    assert not r.update("guide: unsaved", version=3, modified=True)  # nothing new
+    found = r.load()
+    assert found.text == "guide: unsaved" and "ago" in found.age()
+    r.update("guide: saved", version=4, modified=False)
+    assert r.load() is None and not r.path.exists()
+
+
+def test_corrupt_recovery_file_is_ignored(tmp_path):
+    r = RecoveryFile(tmp_path / "s.sgt", tmp_path)
+    r.path.write_text("{not json")
+    assert r.load() is None
+
+
+# -- highlighting ------------------------------------------------------------------------------------
+
+def _classes(line: str) -> dict[str, str]:
+    return {line[a:b]: c for a, b, c in line_spans(line)}
+
+
+def test_highlight_classes():
+    got = _classes("guide: hi [pose:wave x2] <speed:-1>so</speed> \\[ # note")
+    assert got["guide:"] == "speaker" and got["pose"] == "tag" and got["wave"] == "name"
+    assert got["x2"] == "value" and got["speed"] == "name" and got["-1"] == "value"
+    assert got["\\["] == "escape" and got["# note"] == "comment" and got["</"] == "tag"
+    assert _classes("@rate 150")["@rate"] == "directive"
+    assert _classes("  indented: not a speaker").get("indented:") is None
+
+
+# -- incremental analysis ---------------------------------------------------------------------------
+
+def _key(diags):
+    return sorted((d.line, d.col, d.severity, d.message, d.hint) for d in diags)
+
+
+SNIPPETS = ["[pose:foo]", "[pose:wave x2]", "<speed:9>", "</x>", "</>", "<happy>", "[pause 3]", "\\q", "#c", "[",
+            ">", "\n@rate 10\n", "\n@audio x.wav\n", "\n  cont [pose:nod]\n", "\nguide: [pose:wave] [pose:wave] hi\n",
+            "\n@preset p = speed:1\n", "\n\n", "guide: ", "[pose:open_arms][pose:open_arms] a b"]
+
+
+def test_incremental_analysis_equals_the_whole_file_analysis():
+    """Chunked analysis must report exactly what `sgt check` reports (overlaps: only without errors)."""
+    from dsl.compiler import compile_file, load_script
+
+    rng = random.Random(5)
+    for trial in range(120):
+        path = rng.choice(EXAMPLES)
+        text = path.read_text()
+        for _ in range(rng.randint(0, 4)):
+            i = rng.randrange(len(text) + 1)
+            text = text[:i] + rng.choice(SNIPPETS) + text[i:]
+        mine = Analyser(path).run(text).diagnostics
+        full = compile_file(path, timing="estimate", source=text)
+        if any(d.is_error for d in full.diagnostics):
+            static = load_script(path, source=text)[2]
+            assert _key(d for d in mine if d.code != "overlap") == _key(static), text
+        else:
+            assert _key(mine) == _key(full.diagnostics), text
+
+
+def test_one_keystroke_reanalyses_one_chunk_and_moves_the_others():
+    text = (ROOT / "examples" / "lecture.sgt").read_text()
+    a = Analyser("lecture.sgt")
+    first = a.run(text)
+    assert a.chunks_analysed == len(first.utterances)
+    lines = text.split("\n")
+    u = first.utterances[2]
+    lines[u.line - 1] += " more"
+    second = a.run("\n".join(lines))
+    assert a.chunks_analysed == 1
+    third_text = "\n\n" + "\n".join(lines) + "\n[pose:nope]"  # two lines above, an error at the end
+    third = a.run(third_text)
+    assert [u.line + 2 for u in second.utterances] == [u.line for u in third.utterances[:-1]]
+    bad = [d for d in third.diagnostics if d.is_error]
+    assert {d.line for d in bad} == {third_text.split("\n").index("[pose:nope]") + 1}
+    assert third.utterance_at(1).index == 0
+
+
+def test_plan_of_one_utterance_survives_errors_elsewhere():
+    text = "guide: hello [pose:wave] world\nguide: [pose:nope] broken\n"
+    a = Analyser("t.sgt").run(text)
+    assert a.errors == 1
+    assert a.utterances[0].plan is not None and a.utterances[1].plan is None
+    assert [w for w, _, _ in [(w.word, w.start, w.end) for w in a.utterances[0].plan.words]] == ["hello", "world"]
+
+
+# -- actions' edits ------------------------------------------------------------------------------------
+
+def _anchor(text: str, line: int = 2):
+    """(word index, after word) of the first pose control on `line`, from the real analyser."""
+    from dsl.parser import analyse
+
+    script = analyse(text, "t.sgt", gesture_names=None)
+    utt = next(u for u in script.utterances if u.line == line)
+    return utt.poses[0].word_index, utt.poses[0].after_word
+
+
+def test_move_pose_walks_word_by_word_and_stops_at_the_ends():
+    d = Document(SCRIPT)
+    anchors = []
+    cursor = (1, 17)
+    for step in (1, 1, 1):
+        info = Analyser("t.sgt").run(d.text).utterance_at(2)
+        act = move_pose(d, cursor, step, info.word_spans())
+        apply(d, act)
+        cursor = act.cursor
+        anchors.append(_anchor(d.text))
+    assert anchors == [(3, None), (4, None), (None, 4)]  # shelf, now, after the last word
+    assert d.lines[1] == "guide: Look at the shelf now [pose:wave x2]."
+    info = Analyser("t.sgt").run(d.text).utterance_at(2)
+    with pytest.raises(EditRefused, match="end"):
+        move_pose(d, cursor, 1, info.word_spans())
+    for _ in range(5):
+        info = Analyser("t.sgt").run(d.text).utterance_at(2)
+        act = move_pose(d, cursor, -1, info.word_spans())
+        apply(d, act)
+        cursor = act.cursor
+    assert _anchor(d.text) == (0, None)
+    assert d.lines[1] == "guide: [pose:wave x2] Look at the shelf now."
+
+
+def test_move_pose_refuses_without_a_pose():
+    d = Document(SCRIPT)
+    with pytest.raises(EditRefused, match="no \\[pose"):
+        move_pose(d, (2, 3), 1, Analyser("t.sgt").run(d.text).utterance_at(3).word_spans())
+
+
+def test_insert_pose_goes_before_the_word_and_keeps_spacing():
+    d = Document("guide: hello world")
+    act = insert_pose(d, (0, 15), pose_tag("point_right", 2, True))  # inside "world"
+    apply(d, act)
+    assert d.text == "guide: hello [pose:point_right x2 flip] world"
+    assert act.cursor == (0, 13 + len("[pose:point_right x2 flip]"))
+    with pytest.raises(EditRefused):
+        insert_pose(Document("@rate 150"), (0, 3), "[pose:wave]")
+
+
+def test_apply_style_wraps_whole_words_of_one_utterance():
+    d = Document(SCRIPT)
+    apply(d, apply_style(d, (1, 32), (1, 41), values={"speed": -1, "space": 0.5}))  # "e shelf n"
+    assert d.lines[1] == "guide: Look at [pose:wave x2] <speed:-1 space:+0.5>the shelf now</speed>."
+    a = Analyser("t.sgt").run(d.text)
+    assert a.errors == 0 and a.utterances[0].utterance.styles[0].values == {"speed": -1.0, "space": 0.5}
+    d = Document(SCRIPT)
+    apply(d, apply_style(d, (2, 8), (2, 8), preset="happy"))
+    assert d.lines[2] == "guide: <happy>hi</happy> there"
+    with pytest.raises(EditRefused, match="one utterance"):
+        apply_style(d, (1, 10), (2, 10), preset="sad")
+    with pytest.raises(EditRefused):
+        style_tags({}, None)
+    assert style_tags({"handedness": 2}, "calm") == ("<calm handedness:+2>", "</calm>")
+
+
+# -- timeline, player, braille -------------------------------------------------------------------------
+
+def test_timeline_places_spans_and_playhead():
+    a = Analyser("t.sgt").run(SCRIPT)
+    data = from_plan(a.utterances[0].plan)
+    pose = next(s for s in data.spans if s.kind == "pose")
+    rows, head = layout(data, 86, playhead=pose.start)
+    lanes = {r.lane: r.text for r in rows}
+    assert set(lanes) >= {"time", "words", "pose", "style"}
+    col = lanes["pose"].index("[wave")
+    assert abs(col - (6 + pose.start * 80 // data.n_frames)) <= 1
+    assert head == col and rows[0].text[head] == "▼"
+    assert "shelf" in lanes["words"]
+
+
+def test_player_loops_and_clamps():
+    p = Player()
+    p.load(np.zeros((3, 10, 3)), "x")
+    p.tick(), p.tick(), p.tick()
+    assert p.frame == 0
+    p.seek(99)
+    assert p.frame == 2
+    assert p.toggle() and not p.toggle()
+
+
+def test_braille_figure_follows_the_hand():
+    from library import load_library
+    from model.skeleton import REST_POSE, positions_from_pose
+    from renders.terminal import stick_figure
+
+    def top_dot_row(lines):
+        return next(i for i, l in enumerate(lines) if any(c != "\u2800" for c in l))
+
+    rest = stick_figure(positions_from_pose(REST_POSE), 30, 15)
+    clip = load_library(use_config=False).get("raise_hand").clip()
+    raised = stick_figure(positions_from_pose(clip.poses[clip.stroke_frame or len(clip.poses) // 2]), 30, 15)
+    assert len(rest) == 15 and all(len(l) == 30 for l in rest)
+    assert all(0x2800 <= ord(c) <= 0x28FF for l in rest for c in l)
+    assert top_dot_row(raised) < top_dot_row(rest)
+
+
+# -- the boundary: the model never imports Textual ----------------------------------------------------------
+
+CORE = ["dsl", "model", "library", "renders", "sgt_tui/editor"]
+
+
+def test_core_packages_never_import_textual():
+    for folder in CORE:
+        for f in (ROOT / folder).rglob("*.py"):
+            src = f.read_text(encoding="utf-8")
+            assert "import textual" not in src and "from textual" not in src, f
+    modules = ["sgt_tui.editor." + p.stem for p in (ROOT / "sgt_tui" / "editor").glob("*.py") if p.stem != "__init__"]
+    modules += ["dsl.compiler", "library", "model.generate", "model.motion_file", "renders.terminal", "sgt_tui.cli",
+                "sgt_tui.commands.edit"]
+    code = "import sys\n" + "".join(f"import {m}\n" for m in modules) + "print('textual' in sys.modules, 'rich' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["False", "False"]
