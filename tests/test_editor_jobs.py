@@ -1,0 +1,100 @@
+"""Jobs of `sgt edit` in the worker subprocess: results, errors as messages, cancel."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from model.motion_file import load_motion
+from sgt_tui.editor.jobs import CANCELLED, DONE, FAILED, JobRunner
+
+ROOT = Path(__file__).resolve().parent.parent
+SCRIPT = ROOT / "examples" / "mall_guide.sgt"
+
+
+class Events:
+    def __init__(self) -> None:
+        self.seen = []
+        self.finished = threading.Event()
+
+    def __call__(self, job) -> None:
+        self.seen.append((job.id, job.state, job.phase))
+        if job.finished_state:
+            self.finished.set()
+
+    def wait(self, timeout: float = 120.0) -> None:
+        assert self.finished.wait(timeout), f"no job finished in {timeout} s: {self.seen[-5:]}"
+        self.finished.clear()
+
+
+@pytest.fixture
+def runner(tmp_path):
+    events = Events()
+    r = JobRunner(events, log_path=tmp_path / "worker.log")
+    r.events = events
+    yield r
+    r.shutdown()
+
+
+def test_generate_one_utterance_then_reuse_the_warm_worker(runner, tmp_path):
+    src = SCRIPT.read_text()
+    out = tmp_path / "take.npz"
+    job = runner.submit("generate", "gen", path=str(SCRIPT), source=src, engine="rules", utterances=[1], out=str(out))
+    runner.events.wait()
+    assert job.state == DONE, job.message
+    assert job.result["utterances"] == [1] and job.result["motion"] == str(out)
+    clips = load_motion(out)
+    assert len(clips) == 1 and clips[0].n_frames == job.result["frames"] > 15
+    assert "shelf" in [w["word"] for w in clips[0].words]
+    pid = runner.worker_pid
+    again = runner.submit("generate", "gen", path=str(SCRIPT), source=src + "\nguide: one more [pose:nod] line",
+                          engine="keyframe", utterances=[4], out=str(out))
+    runner.events.wait()
+    assert again.state == DONE and runner.worker_pid == pid  # same process: models stay loaded
+    assert [p for _, _, p in runner.events.seen if p] and again.fraction == 1.0
+
+
+def test_errors_come_back_as_messages(runner, tmp_path):
+    job = runner.submit("generate", "gen", path=str(SCRIPT), source="guide: [pose:nope] hi\n", engine="rules",
+                        out=str(tmp_path / "x.npz"))
+    runner.events.wait()
+    assert job.state == FAILED and "error" in job.message and "nope" in job.message
+    assert job.diagnostics and job.diagnostics[0]["line"] == 1
+    job = runner.submit("generate", "gen", path=str(SCRIPT), source="guide: hello\n", engine="neural",
+                        weights=str(tmp_path / "missing.pt"), out=str(tmp_path / "x.npz"))
+    runner.events.wait()
+    assert job.state == FAILED and "weights not found" in job.message and "sgt train" in job.message
+
+
+def test_cancel_kills_the_running_job_and_the_next_one_still_runs(runner, tmp_path):
+    long = "\n".join(f"guide: line {i} with [pose:wave] words to say and more words to say." for i in range(40))
+    job = runner.submit("generate", "long", path=str(SCRIPT), source=long, engine="rules", timing="estimate",
+                        out=str(tmp_path / "long.npz"))
+    queued = runner.submit("generate", "queued", path=str(SCRIPT), source="guide: hi\n", engine="rules",
+                           out=str(tmp_path / "q.npz"))
+    deadline = time.monotonic() + 60
+    while runner.worker_pid is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    pid = runner.worker_pid
+    assert runner.cancel(queued) is queued and queued.state == CANCELLED
+    runner.events.finished.clear()
+    runner.cancel(job)
+    runner.events.wait(60)
+    assert job.state == CANCELLED
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.05)
+    else:
+        pytest.fail("the cancelled worker is still alive")
+    after = runner.submit("generate", "after", path=str(SCRIPT), source="guide: hi there\n", engine="rules",
+                          out=str(tmp_path / "a.npz"))
+    runner.events.wait()
+    assert after.state == DONE and runner.worker_pid != pid
