@@ -15,7 +15,7 @@ import importlib
 import sys
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
-COMMANDS = ("check", "compile", "say", "library_cmd", "generate", "train", "render", "export", "corpus", "eval")
+COMMANDS = ("check", "compile", "say", "library_cmd", "generate", "train", "render", "export", "corpus", "eval", "edit")
 
 EPILOG = """\
 exit status: 0 when clean, 1 when the input has errors (diagnostics are printed),

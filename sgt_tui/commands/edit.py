@@ -1,0 +1,69 @@
+"""sgt edit: the terminal authoring app (Textual), imported only when the command runs."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+HELP = "edit a script in the terminal: live diagnostics, timeline, preview, library, jobs"
+DESCRIPTION = """\
+Open a script in the terminal editor: syntax highlighting and live diagnostics, a
+timeline of the utterance at the cursor, a stick-figure preview of its motion, the
+motion library with previews, style sliders and presets, generation and GIF rendering
+in the background, one undo history, atomic saves and crash recovery.
+
+A file that does not exist opens empty and is created on the first save. Press F1 in
+the editor for every key, ctrl+p for the command palette. See docs/editor.md."""
+
+ENGINES = ("neural", "keyframe", "rules")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("edit", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", metavar="FILE", help="script file (.sgt); created on the first save if missing")
+    p.add_argument("--engine", choices=ENGINES, default=None,
+                   help="generation engine (default neural when its weights exist, else rules)")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import signal
+
+    from pathlib import Path
+
+    from sgt_tui.cli import UsageError
+    from sgt_tui.editor.files import FileError, ScriptFile
+
+    if Path(args.file).is_dir():
+        raise UsageError(f"{args.file} is a folder, not a script file")
+    try:
+        script = ScriptFile.open(args.file)
+    except FileError as exc:
+        print(f"sgt edit: error: {exc}", file=sys.stderr)
+        return 1
+    if not sys.stdin.isatty() or not sys.stdout.isatty():
+        print("sgt edit: error: needs a terminal (stdin and stdout must be a TTY)", file=sys.stderr)
+        return 2
+    engine = args.engine
+    if engine is None:
+        from model.weights import DEFAULT_WEIGHTS
+
+        engine = "neural" if DEFAULT_WEIGHTS.exists() else "rules"
+
+    from sgt_tui.app.main import EditorApp
+
+    app = EditorApp(script, engine=engine)
+
+    def hang_up(signum, frame):  # the terminal went away (a dropped SSH connection): keep the work
+        try:
+            app.write_recovery()
+        finally:
+            import os
+
+            os._exit(128 + signum)
+
+    signal.signal(signal.SIGHUP, hang_up)
+    signal.signal(signal.SIGTERM, hang_up)
+    app.run()
+    return int(app.return_code or 0)
+
