@@ -239,10 +239,9 @@ class EditorApp(App):
         name = display_name(self.script.path)
         parts = [name + (" [+]" if self.doc.modified else "") + (" (new)" if self.script.is_new else "")]
         if a is not None:
-            if a.errors or a.warnings:
-                parts.append(f"E{a.errors} W{a.warnings}")
-            else:
-                parts.append("ok")
+            from dsl.diagnostics import summary
+
+            parts.append(summary(a.diagnostics) if a.diagnostics else "ok")
             if self.current_index is not None and a.utterances:
                 parts.append(f"utt {self.current_index + 1}/{len(a.utterances)}")
         engine = self.engine
@@ -299,11 +298,12 @@ class EditorApp(App):
             timeline.show(data, self.player.frame, f"{title} · {data.duration:.1f} s · speech timing")
         elif info.plan is not None:
             positions = self._draft(info)
-            self.player.load(positions, "draft (keyframe) · ^g generates", keep_frame=not restart)
+            self.player.load(positions, "draft · ^g generates", keep_frame=not restart)
             data = from_plan(info.plan)
             timeline.show(data, self.player.frame, f"{title} · {data.duration:.1f} s · estimated timing")
         else:
-            self.player.stale = self.player.positions is not None
+            self.player.load(None, "")
+            preview.empty_message = "fix the errors to preview"
             timeline.show(None, None, title, f"utterance {info.index + 1} has errors: fix them to see its timeline")
         preview.sync_timer()
         preview.refresh()
@@ -394,7 +394,12 @@ class EditorApp(App):
     def action_style(self) -> None:
         a = self.run_analysis_now()
         start, end = self.area.selection
-        selected = self.doc.get_range(start, end) or "(the word at the cursor)"
+        try:
+            target = edits.style_target(self.doc, start, end)
+        except edits.EditRefused as exc:
+            self.say(str(exc))
+            return
+        selected = self.doc.get_range(*target)
         presets = a.header.presets if a.header is not None else {}
 
         def done(answer) -> None:

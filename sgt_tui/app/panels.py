@@ -69,6 +69,9 @@ class PreviewPanel(Widget, can_focus=True):
             self._timer = None
 
     def _tick(self) -> None:
+        if not self.player.playing:  # a tick already queued when playback stopped
+            self.sync_timer()
+            return
         self.player.tick()
         self.refresh()
         self.post_message(self.FrameChanged())
@@ -114,8 +117,7 @@ class PreviewPanel(Widget, can_focus=True):
         else:
             text.append("\n".join(stick_figure(pos, w, rows)) + "\n")
         text.append(caption[:w] + "\n", style=Style(bold=True))
-        label = p.label + (" · outdated" if p.stale else "")
-        text.append(label[:w], style=Style(italic=True, dim=p.stale))
+        text.append(p.label[:w], style=Style(italic=True))
         return text
 
 

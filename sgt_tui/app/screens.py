@@ -105,7 +105,7 @@ class LibraryScreen(ModalScreen):
         with Vertical(id="library-dialog"):
             yield Static("Motion library · 1/2/3 speed · f flip · enter insert · esc close", id="dialog-title")
             with Horizontal():
-                yield OptionList(*[Option(f"{g.name:<15} {g.duration:>4.1f}s", id=g.name) for g in self.library],
+                yield OptionList(*[Option(f"{g.name:<14}{g.duration:>4.1f}s", id=g.name) for g in self.library],
                                  id="gesture-list")
                 with Vertical(id="library-right"):
                     yield PreviewPanel(self.player, id="library-preview")
@@ -179,7 +179,7 @@ class StyleSlider(Widget, can_focus=True):
         self.refresh()
 
     def render(self) -> Text:
-        w = max(10, self.content_size.width - 24)
+        w = max(10, self.content_size.width - 30)
         text = Text(no_wrap=True, overflow="crop")
         text.append(f"{'▸' if self.has_focus else ' '} {self.element:<11}", style=Style(bold=self.has_focus))
         if self.value is None:

@@ -209,10 +209,10 @@ def _clip_to_words(doc: Document, start: Location, end: Location) -> tuple[Locat
     return (r0, c0), (r1, c1)
 
 
-def apply_style(doc: Document, start: Location, end: Location, *, values: dict[str, float] | None = None,
-                preset: str | None = None) -> Action:
-    """Wrap the selected words of one utterance in a style span."""
-    open_tag, close_tag = style_tags(values, preset)
+def style_target(doc: Document, start: Location, end: Location) -> tuple[Location, Location]:
+    """The words a style span over the selection would cover: whole words of one utterance.
+
+    An empty selection means the word at the cursor. Raises EditRefused."""
     (r0, c0), (r1, c1) = _clip_to_words(doc, start, end)
     stmt = _statement_at(doc, r0)
     if stmt is None or not (stmt.line - 1 <= r1 <= stmt.last_line - 1):
@@ -224,6 +224,14 @@ def apply_style(doc: Document, start: Location, end: Location, *, values: dict[s
             raise EditRefused("the selection reaches into a comment; select only spoken words")
     if (r0, c0) >= (r1, c1) or not _has_word(doc.get_range((r0, c0), (r1, c1))):
         raise EditRefused("select at least one spoken word to style")
+    return (r0, c0), (r1, c1)
+
+
+def apply_style(doc: Document, start: Location, end: Location, *, values: dict[str, float] | None = None,
+                preset: str | None = None) -> Action:
+    """Wrap the selected words of one utterance in a style span."""
+    open_tag, close_tag = style_tags(values, preset)
+    (r0, c0), (r1, c1) = style_target(doc, start, end)
     # closing tag first, so the opening one does not move it
     reps = [Replacement((r1, c1), (r1, c1), close_tag), Replacement((r0, c0), (r0, c0), open_tag)]
     end_col = c1 + len(close_tag) + (len(open_tag) if r0 == r1 else 0)

@@ -18,8 +18,7 @@ class Player:
     positions: np.ndarray | None = None  # (T, 10, 3)
     frame: int = 0
     playing: bool = False
-    label: str = ""  # what is shown: "generated (rules)", "draft (keyframe)", a gesture ...
-    stale: bool = False  # the text changed since this motion was made
+    label: str = ""  # what is shown: "generated · rules", "draft", a gesture ...
 
     interval = 1.0 / FPS
 
@@ -31,10 +30,9 @@ class Player:
     def seconds(self) -> float:
         return self.frame / FPS
 
-    def load(self, positions: np.ndarray | None, label: str = "", *, stale: bool = False, keep_frame: bool = True) -> None:
+    def load(self, positions: np.ndarray | None, label: str = "", *, keep_frame: bool = True) -> None:
         self.positions = None if positions is None or len(positions) == 0 else np.asarray(positions)
         self.label = label
-        self.stale = stale
         if not keep_frame:
             self.frame = 0
         self.frame = min(self.frame, max(0, self.n_frames - 1))
