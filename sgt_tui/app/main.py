@@ -237,6 +237,8 @@ class EditorApp(App):
     def update_status(self) -> None:
         a = self.analysis
         name = display_name(self.script.path)
+        if len(name) > 32:  # keep room for the rest of the line
+            name = "…/" + self.script.path.name
         parts = [name + (" [+]" if self.doc.modified else "") + (" (new)" if self.script.is_new else "")]
         if a is not None:
             from dsl.diagnostics import summary

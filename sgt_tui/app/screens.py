@@ -31,6 +31,7 @@ class ChoiceScreen(ModalScreen[str]):
     def __init__(self, title: str, message: str, choices: list[tuple[str, str]]) -> None:
         super().__init__()
         self.title_text, self.message, self.choices = title, message, choices
+        self.answered = False
 
     def compose(self):
         with Vertical(id="dialog"):
@@ -40,17 +41,22 @@ class ChoiceScreen(ModalScreen[str]):
                 for key, label in self.choices:
                     yield Button(f"[{key}] {label}", id=f"choice-{key}", compact=True)
 
+    def answer(self, key: str) -> None:
+        if not self.answered:  # keys typed quickly may arrive after the first answer
+            self.answered = True
+            self.dismiss(key)
+
     def on_key(self, event) -> None:
         keys = {k for k, _ in self.choices}
         if event.key in keys:
             event.stop()
-            self.dismiss(event.key)
+            self.answer(event.key)
         elif event.key == "escape":
             event.stop()
-            self.dismiss(self.choices[-1][0])
+            self.answer(self.choices[-1][0])
 
     def on_button_pressed(self, event: Button.Pressed) -> None:
-        self.dismiss(event.button.id.removeprefix("choice-"))
+        self.answer(event.button.id.removeprefix("choice-"))
 
 
 class ProblemsScreen(ModalScreen):

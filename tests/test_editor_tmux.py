@@ -1,0 +1,111 @@
+"""Smoke tests of the real `sgt edit` in a terminal: tmux runs it, send-keys types, the file is checked.
+
+Skipped when tmux is not installed. Each test uses its own tmux server (-L), never the user's.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed")
+
+ROOT = Path(__file__).resolve().parent.parent
+LAUNCH = "import sys; from sgt_tui.cli import main; sys.exit(main())"
+
+
+class Tmux:
+    def __init__(self, tmp: Path) -> None:
+        self.socket = f"sgt-test-{os.getpid()}-{tmp.name}"
+        self.tmp = tmp
+
+    def __call__(self, *args: str, check: bool = True) -> str:
+        out = subprocess.run(["tmux", "-L", self.socket, *args], capture_output=True, text=True, timeout=30)
+        if check and out.returncode != 0:
+            raise AssertionError(f"tmux {' '.join(args)}: {out.stderr}")
+        return out.stdout
+
+    def start(self, script: Path) -> None:
+        env = f"SGT_EDITOR_CACHE={shlex.quote(str(self.tmp / 'cache'))} TERM=xterm-256color"
+        cmd = (f"cd {shlex.quote(str(ROOT))} && {env} {shlex.quote(sys.executable)} -c {shlex.quote(LAUNCH)} "
+               f"edit {shlex.quote(str(script))} --engine rules; echo EXIT=$? > {shlex.quote(str(self.tmp / 'exit'))}")
+        self("new-session", "-d", "-s", "t", "-x", "100", "-y", "30", cmd)
+
+    def screen(self) -> str:
+        return self("capture-pane", "-p", "-t", "t", check=False)
+
+    def wait_for(self, text: str, timeout: float = 60.0) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            shown = self.screen()
+            if text in shown:
+                return shown
+            time.sleep(0.1)
+        raise AssertionError(f"{text!r} never appeared; the screen shows:\n{self.screen()}")
+
+    def keys(self, *keys: str, literal: bool = False) -> None:
+        self("send-keys", "-t", "t", *(["-l"] if literal else []), *keys)
+        time.sleep(0.15)
+
+    def close(self) -> None:
+        self("kill-server", check=False)
+
+
+@pytest.fixture
+def tmux(tmp_path):
+    t = Tmux(tmp_path)
+    yield t
+    t.close()
+
+
+def test_type_save_and_quit_in_tmux(tmux, tmp_path):
+    script = tmp_path / "lobby.sgt"
+    script.write_text("guide: Look at [pose:wave] the shelf\n")
+    tmux.start(script)
+    tmux.wait_for("engine rules")
+    tmux.wait_for("utterance 1")
+    tmux.keys("guide: typed in tmux", literal=True)
+    tmux.keys("Enter")
+    tmux.keys("Down")
+    tmux.keys("End")
+    tmux.keys("Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left")
+    tmux.keys("M-Right")  # alt+right: the pose control moves to the next word
+    tmux.keys("F3")
+    tmux.wait_for("Motion library")
+    tmux.keys("Escape")
+    tmux.keys("C-s")
+    tmux.wait_for("lobby.sgt │ ok")  # no [+]: saved
+    tmux.wait_for("saved ")
+    assert script.read_text() == "guide: typed in tmux\nguide: Look at the [pose:wave] shelf\n"
+    tmux.keys("C-q")
+    deadline = time.monotonic() + 20
+    while not (tmp_path / "exit").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert (tmp_path / "exit").read_text().strip() == "EXIT=0"
+
+
+def test_a_dropped_terminal_keeps_the_unsaved_work(tmux, tmp_path):
+    script = tmp_path / "s.sgt"
+    script.write_text("guide: saved\n")
+    tmux.start(script)
+    tmux.wait_for("engine rules")
+    tmux.keys("guide: not saved yet", literal=True)
+    tmux.keys("Enter")
+    tmux.wait_for("s.sgt [+]")
+    tmux.close()  # like a dropped SSH connection: the terminal hangs up
+    recovery = tmp_path / "cache" / "recovery"
+    deadline = time.monotonic() + 20
+    while not list(recovery.glob("s.sgt.*.json")) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    found = list(recovery.glob("s.sgt.*.json"))
+    assert found, "no recovery file"
+    assert json.loads(found[0].read_text())["text"] == "guide: not saved yet\nguide: saved\n"
+    assert script.read_text() == "guide: saved\n"
