@@ -15,6 +15,7 @@ palette). Keys avoid ctrl+shift combinations and keys terminals or tmux take for
 from __future__ import annotations
 
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,6 +40,7 @@ from sgt_tui.editor.recovery import INTERVAL, RecoveryFile, editor_cache_dir
 from sgt_tui.editor.timeline import from_clip, from_plan
 
 ANALYSIS_DELAY = 0.08  # seconds of quiet typing before the diagnostics are refreshed
+QUICK_ANALYSIS = 0.03  # an analysis faster than this (seconds) runs on the interface thread
 DISK_CHECK = 2.0  # seconds between checks for changes on disk
 ENGINE_ORDER = ("neural", "keyframe", "rules")
 
@@ -117,6 +119,7 @@ class EditorApp(App):
         self.analysed_version = -1
         self._analysis_lock = threading.Lock()
         self._analysis_timer = None
+        self._analysis_seconds = 1.0  # how long the last analysis took
         self.recovery = RecoveryFile(script.path, recovery_dir)
         self.player = Player()
         self.generated: dict[str, tuple[str, object]] = {}  # utterance key -> (engine, MotionClip)
@@ -204,25 +207,36 @@ class EditorApp(App):
 
     def _start_analysis(self) -> None:
         self._analysis_timer = None
-        self.run_worker(self._analyse_in_thread, thread=True, group="analysis", exclusive=False)
+        if not self.screen_stack:  # shutting down
+            return
+        if self._analysis_seconds < QUICK_ANALYSIS:  # cheaper than handing it to a thread
+            self.run_analysis_now()
+        else:
+            self.run_worker(self._analyse_in_thread, thread=True, group="analysis", exclusive=False)
 
     def _analyse_in_thread(self) -> None:
         with self._analysis_lock:
             version, text = self.doc.version, self.doc.text
             if version == self.analysed_version:
                 return
-            result = self.analyser.run(text)
+            result = self._timed_run(text)
         self.call_from_thread(self.apply_analysis, result, version)
+
+    def _timed_run(self, text: str) -> Analysis:
+        t = time.perf_counter()
+        result = self.analyser.run(text)
+        self._analysis_seconds = time.perf_counter() - t
+        return result
 
     def run_analysis_now(self) -> Analysis:
         """Analyse on this thread when the analysis is stale (before an action needs it)."""
         with self._analysis_lock:
             if self.analysed_version != self.doc.version or self.analysis is None:
-                self.apply_analysis(self.analyser.run(self.doc.text), self.doc.version)
+                self.apply_analysis(self._timed_run(self.doc.text), self.doc.version)
         return self.analysis
 
     def apply_analysis(self, analysis: Analysis, version: int) -> None:
-        if version != self.doc.version:
+        if version != self.doc.version or not self.screen_stack:
             return  # a newer change is on its way
         self.analysis, self.analysed_version = analysis, version
         by_row: dict[int, list] = {}

@@ -139,16 +139,28 @@ class TimelinePanel(Widget, can_focus=True):
         self.data: TimelineData | None = None
         self.playhead: int | None = None
         self.empty_message = ""
+        self._drawn: tuple | None = None  # (data, size, playhead column, current word) last drawn
 
     def show(self, data: TimelineData | None, playhead: int | None, title: str = "", empty: str = "") -> None:
         self.data, self.playhead, self.empty_message = data, playhead, empty
         self.border_title = title
+        self._drawn = None
         self.refresh()
 
     def set_playhead(self, frame: int | None) -> None:
-        if frame != self.playhead:
-            self.playhead = frame
+        """Move the playhead; redraw only when its column or the current word changes."""
+        if frame == self.playhead:
+            return
+        self.playhead = frame
+        if self._key() != self._drawn:
             self.refresh()
+
+    def _key(self) -> tuple:
+        w, _ = self.content_size
+        d, f = self.data, self.playhead
+        if d is None or f is None or not d.n_frames:
+            return (id(d), self.content_size, None, None)
+        return (id(d), self.content_size, f * max(1, w - 6) // d.n_frames, d.word_at(f))
 
     def action_scrub(self, frames: int) -> None:
         self.post_message(self.Scrub(frames))
@@ -158,6 +170,7 @@ class TimelinePanel(Widget, can_focus=True):
 
     def render(self) -> Text:
         w, h = self.content_size
+        self._drawn = self._key()
         rows, head = layout(self.data, w, self.playhead, max_lanes=max(1, (h - 2) // 2))
         if not rows:
             return Text(self.empty_message or "no timeline", no_wrap=True, overflow="crop", style=Style(italic=True))

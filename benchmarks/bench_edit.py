@@ -1,0 +1,228 @@
+"""Benchmark of `sgt edit`: keystroke-to-diagnostics, regenerate-and-show, CPU while the preview plays.
+
+    python benchmarks/bench_edit.py [--lines 500] [--repeat 15] [--seconds 4]
+
+1. Keystroke to diagnostics on a 500-line script (target: under 50 ms): one character typed into
+   an utterance, then (a) the editor's analysis alone and (b) the whole path in the running app,
+   from the key reaching the document to the diagnostics, timeline and preview updated in the
+   widgets (the screen repaints on its next frame), not counting the 80 ms typing debounce.
+2. Regenerate and show a 10-second utterance with warm models (target: under 0.5 s): in the app,
+   ctrl+g until the new motion is in the preview; the worker process and the speech cache are
+   warm. Uses the neural engine when model/weights/generator.pt exists, else says which engine.
+3. CPU while the preview plays at 15 fps: process CPU time / wall time of the real `sgt edit` in a
+   tmux terminal (headless Textual when tmux is missing), playing and paused.
+
+Prints medians. Figures vary with machine load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import random
+import shlex
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+
+def ms(values) -> str:
+    return f"median {statistics.median(values) * 1000:7.1f} ms   min {min(values) * 1000:7.1f} ms   (n={len(values)})"
+
+
+def ten_second_utterance() -> str:
+    words = ("we have three new shops on the ground floor and a cinema upstairs so take the lift "
+             "behind you then turn left at the fountain and you will see the big blue sign").split()
+    return "guide: [pose:wave] Welcome! " + " ".join(words) + " [pose:point_right] over there."
+
+
+def keystroke(lines: int, repeat: int) -> None:
+    from bench_check import make_script
+    from sgt_tui.editor.analysis import Analyser
+
+    text = make_script(lines)
+    path = Path(tempfile.mkdtemp()) / "big.sgt"
+    path.write_text(text)
+    a = Analyser(path)
+    t = time.perf_counter()
+    first = a.run(text)
+    cold = time.perf_counter() - t
+    rows = text.split("\n")
+    rng = random.Random(0)
+    times = []
+    for _ in range(repeat):
+        u = rng.choice(first.utterances)
+        rows[u.line - 1] += "a"
+        t = time.perf_counter()
+        a.run("\n".join(rows))
+        times.append(time.perf_counter() - t)
+    print(f"script: {len(rows)} lines, {len(first.utterances)} utterances; first analysis {cold * 1000:.0f} ms")
+    print(f"{'keystroke -> diagnostics (analysis)':<44} {ms(times)}")
+    edit_times = asyncio.run(_app_keystrokes(path, repeat))
+    print(f"{'keystroke -> diagnostics shown (app)':<44} {ms(edit_times)}   (after the 80 ms typing debounce)")
+
+
+async def _app_keystrokes(path: Path, repeat: int) -> list[float]:
+    from sgt_tui.app.main import ANALYSIS_DELAY, EditorApp
+    from sgt_tui.editor.files import ScriptFile
+
+    app = EditorApp(ScriptFile.open(path), engine="rules", cursor_blink=False)
+    marks: dict[str, float] = {}
+    replace, apply = app.doc.replace, app.apply_analysis
+
+    def timed_replace(*a, **kw):  # the key reaches the document
+        marks["edit"] = time.perf_counter()
+        return replace(*a, **kw)
+
+    def timed_apply(*a, **kw):  # diagnostics, timeline and preview updated; the repaint follows
+        apply(*a, **kw)
+        marks["shown"] = time.perf_counter()
+
+    app.doc.replace, app.apply_analysis = timed_replace, timed_apply
+    from_edit = []
+    async with app.run_test(size=(80, 24)) as pilot:
+        await pilot.pause()
+        rng = random.Random(1)
+        for _ in range(repeat):
+            u = rng.choice(app.analysis.utterances)
+            app.area.move_cursor((u.line - 1, 12))
+            await pilot.pause()
+            await pilot.press("a")
+            while app.analysed_version != app.doc.version:
+                await asyncio.sleep(0.001)
+            from_edit.append(marks["shown"] - marks["edit"] - ANALYSIS_DELAY)
+    return from_edit
+
+
+def regenerate(repeat: int) -> None:
+    from model.weights import DEFAULT_WEIGHTS
+
+    engine = "neural" if DEFAULT_WEIGHTS.exists() else "rules"
+    note = "" if engine == "neural" else " (model/weights/generator.pt missing: rules engine)"
+    tmp = Path(tempfile.mkdtemp())
+    os.environ["SGT_EDITOR_CACHE"] = str(tmp / "cache")
+    path = tmp / "ten.sgt"
+    path.write_text(ten_second_utterance() + "\n")
+    times, seconds = asyncio.run(_app_regenerate(path, engine, repeat))
+    print(f"utterance: {seconds:.1f} s of motion; engine {engine}{note}")
+    print(f"{'regenerate and show (warm worker)':<44} {ms(times)}")
+
+
+async def _app_regenerate(path: Path, engine: str, repeat: int):
+    from sgt_tui.app.main import EditorApp
+    from sgt_tui.editor.files import ScriptFile
+
+    app = EditorApp(ScriptFile.open(path), engine=engine, cursor_blink=False)
+    out = []
+    seconds = 0.0
+    async with app.run_test(size=(80, 24)) as pilot:
+        await pilot.pause()
+        for i in range(repeat + 1):  # the first run warms the worker, models and speech cache
+            app.generated.clear()
+            t = time.perf_counter()
+            await pilot.press("ctrl+g")
+            while not app.player.label.startswith("generated"):
+                if not app.runner.busy and app.last_message.endswith(("failed", "error")):
+                    raise SystemExit(app.last_message)
+                await asyncio.sleep(0.002)
+            if i:
+                out.append(time.perf_counter() - t)
+            seconds = app.player.n_frames / 15
+    return out, seconds
+
+
+def cpu_while_playing(seconds: float) -> None:
+    if shutil.which("tmux"):
+        playing, paused = _tmux_cpu(seconds)
+        where = "real terminal (tmux)"
+    else:
+        playing, paused = asyncio.run(_headless_cpu(seconds))
+        where = "headless Textual"
+    print(f"{'CPU while the preview plays (15 fps)':<44} {playing * 100:5.1f} % of one core   ({where}, {seconds:g} s)")
+    print(f"{'CPU while paused (idle editor)':<44} {paused * 100:5.1f} % of one core")
+
+
+def _proc_cpu(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _tmux_cpu(seconds: float) -> tuple[float, float]:
+    tmp = Path(tempfile.mkdtemp())
+    path = tmp / "play.sgt"
+    path.write_text(ten_second_utterance() + "\n")
+    sock = f"sgt-bench-{os.getpid()}"
+    launch = "import sys; from sgt_tui.cli import main; sys.exit(main())"
+    cmd = (f"cd {shlex.quote(str(ROOT))} && SGT_EDITOR_CACHE={shlex.quote(str(tmp / 'c'))} TERM=xterm-256color "
+           f"exec {shlex.quote(sys.executable)} -c {shlex.quote(launch)} edit {shlex.quote(str(path))} --engine rules")
+
+    def tmux(*args):
+        return subprocess.run(["tmux", "-L", sock, *args], capture_output=True, text=True, timeout=30).stdout
+
+    tmux("new-session", "-d", "-s", "b", "-x", "80", "-y", "24", cmd)
+    try:
+        deadline = time.monotonic() + 60
+        while "utterance 1" not in tmux("capture-pane", "-p", "-t", "b") and time.monotonic() < deadline:
+            time.sleep(0.2)
+        pid = int(tmux("display-message", "-p", "-t", "b", "#{pane_pid}").strip())
+        time.sleep(1.0)
+
+        def measure() -> float:
+            c0, t0 = _proc_cpu(pid), time.monotonic()
+            time.sleep(seconds)
+            return (_proc_cpu(pid) - c0) / (time.monotonic() - t0)
+
+        paused = measure()
+        tmux("send-keys", "-t", "b", "F5")
+        time.sleep(0.3)
+        playing = measure()
+        return playing, paused
+    finally:
+        tmux("kill-server")
+
+
+async def _headless_cpu(seconds: float) -> tuple[float, float]:
+    from sgt_tui.app.main import EditorApp
+    from sgt_tui.editor.files import ScriptFile
+
+    tmp = Path(tempfile.mkdtemp())
+    path = tmp / "play.sgt"
+    path.write_text(ten_second_utterance() + "\n")
+    app = EditorApp(ScriptFile.open(path), engine="rules", cursor_blink=False)
+    async with app.run_test(size=(80, 24)) as pilot:
+        await pilot.pause(0.5)
+
+        async def measure() -> float:
+            c0, t0 = time.process_time(), time.monotonic()
+            await asyncio.sleep(seconds)
+            return (time.process_time() - c0) / (time.monotonic() - t0)
+
+        paused = await measure()
+        await pilot.press("f5")
+        playing = await measure()
+    return playing, paused
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--lines", type=int, default=500)
+    ap.add_argument("--repeat", type=int, default=15)
+    ap.add_argument("--seconds", type=float, default=4.0, help="how long to measure CPU use")
+    args = ap.parse_args()
+    keystroke(args.lines, args.repeat)
+    regenerate(max(3, args.repeat // 3))
+    cpu_while_playing(args.seconds)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
