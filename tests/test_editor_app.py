@@ -443,3 +443,11 @@ def test_cli_errors_are_messages_not_tracebacks(tmp_path):
     out = _sgt("edit", str(tmp_path / "fine.sgt"))
     assert out.returncode == 2 and "terminal" in out.stderr
     assert "edit" in _sgt("--help").stdout
+
+
+def test_every_key_is_documented():
+    from sgt_tui.app.main import ACTIONS
+
+    doc = (ROOT / "docs" / "editor.md").read_text()
+    for a in ACTIONS:
+        assert f"| `{a.key}` | {a.title} |" in doc, a.key
