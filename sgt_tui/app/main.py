@@ -587,7 +587,7 @@ class EditorApp(App):
         cache = editor_cache_dir() / "motion"
         request = dict(path=str(self.script.path), source=self.doc.text, engine=self.engine, weights=self.weights,
                        utterances=None if whole else [info.index], keys=keys,
-                       out=str(cache / f"{(info.key if not whole else 'all')[:16]}-{self.engine}.npz"))
+                       out=str(cache / f"{_take_name(self.script.path, 'all' if whole else info.key)}-{self.engine}.npz"))
         what = "script" if whole else f"utterance {info.index + 1}"
         if op == "render":
             stem = self.script.path.stem
@@ -686,6 +686,13 @@ class EditorApp(App):
             yield SystemCommand(f"Style preset: {preset}", f"wrap the selected words in <{preset}>",
                                 lambda p=preset: self.apply_style(None, p))
         yield from super().get_system_commands(screen)
+
+
+def _take_name(script: Path, what: str) -> str:
+    """A cache file name for generated motion: one per script and utterance text (or 'all')."""
+    import hashlib
+
+    return hashlib.sha1(f"{script.resolve()}|{what}".encode("utf-8")).hexdigest()[:20]
 
 
 _ACTION_NAMES = {a.action.partition("(")[0] for a in ACTIONS} - {"command_palette"}

@@ -12,11 +12,9 @@ from __future__ import annotations
 
 from rich.style import Style
 from rich.segment import Segment
-from textual.document._edit import Edit
-from textual.document._history import EditHistory
 from textual.strip import Strip
 from textual.widgets import TextArea
-from textual.widgets.text_area import TextAreaTheme
+from textual.widgets.text_area import Edit, EditHistory, TextAreaTheme
 
 from dsl.diagnostics import ERROR
 from sgt_tui.editor.document import Document, normalise_newlines

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Callable
 
 QUEUED, RUNNING, DONE, FAILED, CANCELLED = "queued", "running", "done", "failed", "cancelled"
+MAX_LOG = 1 << 20  # the worker's log starts afresh past this size (bytes)
 
 
 @dataclass
@@ -156,7 +157,8 @@ class JobRunner:
         stderr = subprocess.DEVNULL
         if self.log_path is not None:
             self.log_path.parent.mkdir(parents=True, exist_ok=True)
-            stderr = open(self.log_path, "ab")
+            big = self.log_path.exists() and self.log_path.stat().st_size > MAX_LOG
+            stderr = open(self.log_path, "wb" if big else "ab")
         proc = subprocess.Popen(
             [self.python, "-m", "sgt_tui.editor.worker"], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
             stderr=stderr, env=env, start_new_session=True, text=True, encoding="utf-8", bufsize=1,
