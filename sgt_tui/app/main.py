@@ -319,7 +319,7 @@ class EditorApp(App):
             timeline.show(data, self.player.frame, f"{title} · {data.duration:.1f} s · estimated timing")
         else:
             self.player.load(None, "")
-            preview.empty_message = "fix the errors to preview"
+            preview.empty_message = "fix errors to preview"
             timeline.show(None, None, title, f"utterance {info.index + 1} has errors: fix them to see its timeline")
         preview.sync_timer()
         preview.refresh()
