@@ -2,10 +2,16 @@
 
     python benchmarks/bench_check.py [--lines 10000] [--repeat 5]
 
-Builds a varied script from the shipped examples (utterances with pose, style and pause marks,
-every line's words shuffled so no two lines are equal), then times:
-- the front end in-process (parse + static checks + estimated timing + control arrays),
+Builds a script from the shipped examples: each line one of their utterances (pose, style and
+pause marks, escapes, speakers) followed by 2-8 random words, so that about 98% of the lines
+are distinct (nothing in the front end caches by line, so repetition would not help it anyway).
+Then times:
 - the whole `sgt check FILE` command in a subprocess (interpreter start and imports included),
+  and the same on the script with a mistake on every 10th line (Lark, error recovery and
+  did-you-mean suggestions, ~700 diagnostics printed),
+- in-process: parse + static checks (`analyse`), and the whole front end `sgt check` runs
+  (`compile_file` with estimated timing: + timing + pose placement and overlap checks),
+  both with the garbage collector on as in any program and off as in `sgt check`,
 - `sgt --help`.
 Prints the median and min of each. Figures vary with machine load: quote medians.
 """
@@ -13,6 +19,8 @@ Prints the median and min of each. Figures vary with machine load: quote medians
 from __future__ import annotations
 
 import argparse
+import gc
+import os
 import random
 import statistics
 import subprocess
@@ -43,12 +51,33 @@ def make_script(n_lines: int, seed: int = 0) -> str:
     return "\n".join(out) + "\n"
 
 
-def timeit(fn, repeat: int) -> list[float]:
+def with_errors(script: str, every: int = 10, seed: int = 0) -> str:
+    """``script`` with a typical mistake on every ``every``-th line (from the 10th on)."""
+    rng = random.Random(seed)
+    mistakes = [
+        lambda line: line.replace("[pose:", "[pose:x", 1),  # unknown gesture, with suggestions
+        lambda line: line.replace("]", "", 1),  # unclosed tag: Lark and error recovery
+        lambda line: line.replace("<", "<<", 1),
+        lambda line: line + " [pose:wave x5]",  # unknown option
+        lambda line: line.replace("speed", "sped", 1),
+    ]
+    lines = script.splitlines()
+    for i in range(every, len(lines), every):
+        lines[i] = rng.choice(mistakes)(lines[i])
+    return "\n".join(lines) + "\n"
+
+
+def timeit(fn, repeat: int, collect: bool = True) -> list[float]:
     times = []
     for _ in range(repeat):
+        if not collect:
+            gc.disable()
         t = time.perf_counter()
-        fn()
+        result = fn()
         times.append(time.perf_counter() - t)
+        del result
+        gc.enable()
+        gc.collect()
     return times
 
 
@@ -63,6 +92,7 @@ def main() -> int:
     args = ap.parse_args()
 
     from dsl.compiler import compile_file
+    from dsl.parser import analyse
     from library import load_library
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -73,10 +103,21 @@ def main() -> int:
         n_err = sum(d.is_error for d in result.diagnostics)
         print(f"script: {args.lines} lines, {len(result.script.utterances)} utterances, {n_err} errors, "
               f"{sum(len(u.controls) for u in result.plan.utterances) if result.plan else 0} controls")
-        report(f"front end in-process ({args.lines} lines)", timeit(lambda: compile_file(path, timing="estimate", library=lib), args.repeat))
+        del result
+        bad = Path(tmp) / "big_errors.sgt"
+        bad.write_text(with_errors(path.read_text(encoding="utf-8")), encoding="utf-8")
         sgt = [sys.executable, "-m", "sgt_tui.cli"]
         report(f"`sgt check` subprocess ({args.lines} lines)", timeit(lambda: subprocess.run(sgt + ["check", "-q", str(path)], check=False, capture_output=True), args.repeat))
+        report("  same, a mistake every 10th line", timeit(lambda: subprocess.run(sgt + ["check", str(bad)], check=False, capture_output=True), args.repeat))
+        source, names = path.read_text(encoding="utf-8"), lib.names()
+        front_end = lambda: compile_file(path, timing="estimate", library=lib)  # noqa: E731
+        parse = lambda: analyse(source, str(path), gesture_names=names)  # noqa: E731
+        for collect in (True, False):
+            gc_state = "gc on" if collect else "gc off"
+            report(f"parse + analyse in-process ({gc_state})", timeit(parse, args.repeat, collect))
+            report(f"front end in-process ({gc_state})", timeit(front_end, args.repeat, collect))
         report("`sgt --help` subprocess", timeit(lambda: subprocess.run(sgt + ["--help"], check=True, capture_output=True), args.repeat))
+    print(f"load average (1, 5, 15 min) after the runs: {', '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs")
     return 0
 
 

@@ -22,7 +22,7 @@ from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
 from dsl.parser import analyse, read_source
 from dsl.plan import ArrayRequests, Control, Plan, UtterancePlan
 from dsl.script import Script, Utterance
-from dsl.timing import TimedWord, Timing, estimate_timing, speech_timing
+from dsl.timing import Timing, estimate_timing, speech_timing
 from model.skeleton import FPS, frame_count, seconds_to_frame
 
 Progress = Callable[[int, int, str], None]
@@ -151,22 +151,19 @@ def _speech_diagnostic(script: Script, utt: Utterance, exc) -> Diagnostic:
     return Diagnostic(ERROR, message, script.path, line, col, length, hint, "speech", tuple(sugg))
 
 
-def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, int]]:
-    """(mark, clip, start frame) per pose control: its stroke lands on its anchor frame."""
+def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, int, int]]:
+    """(mark, gesture, start frame, frames) per pose control: its stroke lands on its anchor frame.
+
+    The clip itself is built only when the control arrays are (``sgt check`` never needs them)."""
     out = []
     for mark in utt.poses:
         gesture = lib.get(mark.name)
         if gesture is None:  # already reported by the analyser
             continue
-        clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
         at = t.words[mark.word_index].start if mark.word_index is not None else t.words[mark.after_word].end
-        out.append((mark, clip, seconds_to_frame(at) - (clip.stroke_frame or 0)))
+        start = seconds_to_frame(at) - (gesture.stroke_frame(mark.speed) or 0)
+        out.append((mark, gesture, start, gesture.clip_length(speed=mark.speed, hold=mark.hold)))
     return out
-
-
-def _shifted(t: Timing, lead: float) -> Timing:
-    words = [TimedWord(w.word, w.start + lead, w.end + lead) for w in t.words]
-    return Timing(words, t.duration + lead, t.source, t.audio_path, t.sample_rate)
 
 
 def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: bool, diags: list[Diagnostic]) -> UtterancePlan:
@@ -174,12 +171,12 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
     # a lead-in before the speech (whole frames, so onsets keep their frame phase) and a tail
     # after it, so that no gesture loses its preparation or its retraction.
     poses = _place_poses(utt, t, lib)
-    lead_frames = max([0] + [-start for _, _, start in poses])
+    lead_frames = max([0] + [-start for _, _, start, _ in poses])
     lead = lead_frames / FPS
     if lead_frames:
-        t = _shifted(t, lead)
-        poses = [(m, c, start + lead_frames) for m, c, start in poses]
-    n_frames = max([frame_count(t.duration)] + [start + len(c.poses) for _, c, start in poses])
+        t = t.shifted(lead)
+        poses = [(m, g, start + lead_frames, n) for m, g, start, n in poses]
+    n_frames = max([frame_count(t.duration)] + [start + n for _, _, start, n in poses])
     tail = max(0.0, n_frames / FPS - t.duration)
     requests = ArrayRequests(n_frames)
     controls: list[Control] = []
@@ -200,8 +197,8 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         controls.append(Control("pause", "pause", a, b, p.where.line, p.where.col, {"seconds": p.seconds}))
 
     placed: list[tuple[int, int, object]] = []
-    for mark, clip, start in poses:
-        lo, hi = start, start + len(clip.poses)
+    for mark, gesture, start, length in poses:
+        lo, hi = start, start + length
         w = mark.where
         for plo, phi, other in placed:
             if lo < phi and plo < hi:
@@ -215,7 +212,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
                 ))
                 break
         else:
-            requests.poses.append((start, clip.poses))
+            requests.poses.append((start, gesture, mark))
         placed.append((lo, hi, mark))
         controls.append(Control("pose", mark.name, lo, hi, w.line, w.col, mark.options))
 

@@ -78,7 +78,9 @@ def format_text(diags: Sequence[Diagnostic], sources: dict[str, str] | None = No
         out.append(f"{where}: {sev}: {d.message}")
         src = (sources or {}).get(d.file)
         if src is not None and d.line:
-            lines = lines_cache.setdefault(d.file, src.splitlines())
+            lines = lines_cache.get(d.file)
+            if lines is None:  # split each file once, not once per diagnostic
+                lines = lines_cache[d.file] = src.splitlines()
             if 0 < d.line <= len(lines):
                 text = lines[d.line - 1].replace("\t", " ")
                 out.append(f"  {d.line:>4} | {text}")

@@ -47,6 +47,12 @@ class Statement:
         return self._lines[i], self._cols[i] + (offset - self._starts[i])
 
     @property
+    def origin(self) -> tuple[int, int] | None:
+        """For a one-line statement, the (line, col) of offset 0 (a column is then the offset
+        plus that col); None when it has continuation lines."""
+        return (self._lines[0], self._cols[0]) if len(self._starts) == 1 else None
+
+    @property
     def last_line(self) -> int:
         return self._lines[-1] if self._lines else self.line
 
@@ -63,6 +69,8 @@ def decode_source(data: bytes) -> tuple[str, int | None]:
 
 def strip_comment(line: str) -> str:
     """The line without its comment; an escaped ``\\#`` is kept."""
+    if "#" not in line:
+        return line
     i = 0
     n = len(line)
     while i < n:

@@ -7,14 +7,15 @@ every keystroke. Timing-dependent checks (overlapping pose controls) live in the
 from __future__ import annotations
 
 import re
-from functools import lru_cache
-from itertools import compress
+from bisect import bisect_right
 from pathlib import Path
 
+from dsl.body import parse_items
 from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
 from dsl.directives import DirectiveContext, apply_directive
 from dsl.lines import Statement, decode_source, split_statements
 from dsl.presets import BUILTIN_PRESETS
+from dsl.scan import scan_body
 from dsl.script import (
     Header,
     Pause,
@@ -37,64 +38,7 @@ POSE_OPTIONS = ("x1", "x2", "x3", "flip", "hold")
 MAX_PAUSE = 10.0
 MAX_HOLD = 10.0
 _MAX_RECOVERIES = 50
-_HIDDEN = [False]
-
-
-class _Node(tuple):
-    """(kind, start, end, payload): one item of an utterance body, offsets into the body."""
-
-    kind = property(lambda self: self[0])
-    start = property(lambda self: self[1])
-    end = property(lambda self: self[2])
-    payload = property(lambda self: self[3])
-
-
-def _span_of(children) -> tuple[int, int]:
-    first, last = children[0], children[-1]
-    start = first.start_pos if hasattr(first, "start_pos") else first[-2]
-    end = last.end_pos if hasattr(last, "end_pos") else last[-1]
-    return start, end
-
-
-def _named(children):
-    return [c for c in children if getattr(c, "type", None) in ("NAME", "WORD")]
-
-
-@lru_cache(maxsize=1)
-def _lark():
-    """The LALR parser; it builds plain tuples while parsing (no parse tree: 2x faster)."""
-    from lark import Lark, Transformer
-
-    class Build(Transformer):
-        def start(self, c):
-            return c
-
-        def text(self, c):
-            return _Node(("text", c[0].start_pos, c[0].end_pos, str(c[0])))
-
-        def escape(self, c):
-            return _Node(("escape", c[0].start_pos, c[0].end_pos, str(c[0])))
-
-        def tag(self, c):
-            args = [a for a in c if isinstance(a, tuple)]
-            return _Node(("tag", *_span_of(c), (_named(c), args)))
-
-        def arg(self, c):
-            toks = _named(c)
-            return (toks[0], toks[1] if len(toks) > 1 else None, *_span_of(c))
-
-        style_item = arg
-
-        def style_open(self, c):
-            return _Node(("style_open", *_span_of(c), [a for a in c if isinstance(a, tuple)]))
-
-        def style_close(self, c):
-            return _Node(("style_close", *_span_of(c), _named(c)))
-
-    return Lark.open(
-        str(Path(__file__).with_name("sgt.lark")), parser="lalr", lexer="contextual",
-        keep_all_tokens=True, transformer=Build(),
-    )
+_new_span = tuple.__new__  # Span(line, col, length) without the NamedTuple call overhead
 
 
 def parse_duration(text: str) -> float | None:
@@ -124,16 +68,24 @@ class _Analyser:
         return Span(line, col, max(1, length))
 
     # -- syntax ------------------------------------------------------------------------
-    def parse_body(self, stmt: Statement):
-        """Parse the utterance body; on a syntax error report it, blank the bad tag and retry."""
+    def parse_body(self, stmt: Statement) -> tuple[list[tuple] | None, str]:
+        """Parse the utterance body; on a syntax error report it, blank the bad tag and retry.
+
+        Returns the body's items (see :mod:`dsl.scan`), None when it could not be repaired, and
+        the body as parsed (bad tags blanked)."""
+        body = stmt.text[stmt.body_offset :]
+        items = scan_body(body)
+        if items is not None:
+            return items, body
+        return self._recover(stmt, list(body))
+
+    def _recover(self, stmt: Statement, body: list[str]) -> tuple[list[tuple] | None, str]:
         from lark.exceptions import UnexpectedInput
 
-        text = stmt.text
         base = stmt.body_offset
-        body = list(text[base:])
         for _ in range(_MAX_RECOVERIES):
             try:
-                return _lark().parse("".join(body)), "".join(body)
+                return parse_items("".join(body)), "".join(body)
             except UnexpectedInput as exc:
                 lo, hi = self._syntax_error(stmt, "".join(body), exc, base)
                 for i in range(lo, hi):
@@ -207,55 +159,75 @@ class _Analyser:
         self.gesture_names = set(names) if names is not None else None
 
     def utterance(self, stmt: Statement, index: int, header: Header) -> Utterance:
-        tree, body = self.parse_body(stmt)
+        items, body = self.parse_body(stmt)
         base = stmt.body_offset
-        spoken = list(" " * base + body.replace("\n", " "))
-        shown = [True] * len(spoken)  # False: not part of the display text (tags, escape marks)
         utt = Utterance(index=index, speaker=stmt.speaker, line=stmt.line, text="")
-        marks: list[tuple[int, str, object]] = []  # (offset, kind, node) in source order
-        if tree is not None:
-            for node in tree:
-                start = node.start + base
-                if node.kind == "text":
-                    for m in WORD_RE.finditer(node.payload):
-                        s = start + m.start()
-                        utt.words.append(WordToken(m.group(), s, s + len(m.group()), self.span(stmt, s, len(m.group()))))
-                    continue
-                end = node.end + base
-                spoken[start:end] = " " * (end - start)  # tags and escapes are not spoken
-                shown[start:end] = _HIDDEN * (end - start)
-                if node.kind == "escape":
-                    ch = node.payload[1]
-                    if ch not in ESCAPABLE:
-                        self.report(stmt, start, 2, f"unknown escape '\\{ch}'", "escapes are \\[ \\] \\< \\> \\\\ \\# \\:", "bad-escape")
+        marks: list[tuple] = []  # tags and style tags, in source order
+        if items is None:
+            spoken = shown = [body]
+        else:  # tags and escape marks are blanked in the spoken text and left out of the display
+            spoken, shown = [], []
+            for item in items:
+                kind = item[0]
+                if kind == "text":
+                    spoken.append(item[3])
+                    shown.append(item[3])
+                elif kind == "escape":
+                    ch = item[3][1]
+                    if ch in ESCAPABLE:
+                        spoken.append(" " + ch)
+                        shown.append(ch)
                     else:
-                        spoken[start + 1] = ch
-                        shown[start + 1] = True
-                    continue
-                marks.append(node)
-        utt.text = "".join(spoken)
-        utt.display = " ".join("".join(compress(spoken, shown)).split())
+                        spoken.append("  ")
+                        self.report(stmt, base + item[1], 2, f"unknown escape '\\{ch}'", "escapes are \\[ \\] \\< \\> \\\\ \\# \\:", "bad-escape")
+                else:
+                    spoken.append(" " * (item[2] - item[1]))
+                    marks.append(item)
+        # line breaks of continuation lines are spaces (an escaped one is already blanked)
+        utt.text = text = " " * base + "".join(spoken).replace("\n", " ")
+        utt.display = " ".join("".join(shown).split())
+        if items is not None:
+            utt.words = self._words(stmt, text)
         self._marks(stmt, utt, marks, header, base)
         return utt
 
+    def _words(self, stmt: Statement, text: str) -> list[WordToken]:
+        """The spoken words of ``text`` (an item never ends inside a word: tags and escapes are
+        blanked, and an escaped character is never part of a word)."""
+        words: list[WordToken] = []
+        append = words.append
+        origin = stmt.origin
+        if origin is not None:  # one line: the column follows from the offset
+            line, col0 = origin
+            for m in WORD_RE.finditer(text):
+                s, e = m.span()
+                append(WordToken(m.group(), s, e, _new_span(Span, (line, col0 + s, e - s))))
+        else:
+            for m in WORD_RE.finditer(text):
+                s, e = m.span()
+                append(WordToken(m.group(), s, e, self.span(stmt, s, e - s)))
+        return words
+
     def _marks(self, stmt: Statement, utt: Utterance, marks, header: Header, base: int) -> None:
+        if not marks:
+            return
         presets = {**BUILTIN_PRESETS, **header.presets}
         stack: list[StyleSpan] = []
         starts = [w.start for w in utt.words]
-        for node in marks:
-            offset, length, kind = base + node.start, node.end - node.start, node.kind
+        for kind, start, end, payload in marks:
+            offset, length = base + start, end - start
             if kind == "tag":
-                self._tag(stmt, utt, offset, length, node.payload, starts, base)
+                self._tag(stmt, utt, offset, length, payload, starts, base)
             elif kind == "style_open":
-                span = self._style_open(stmt, offset, length, node.payload, presets, stack, base)
+                span = self._style_open(stmt, offset, length, payload, presets, stack, base)
                 if span is not None:
                     utt.styles.append(span)
                 else:  # keep the stack in step so its closing tag is not reported again
-                    first = str(node.payload[0][0])
+                    first = payload[0][0]
                     span = StyleSpan(first, dict(stack[-1].values) if stack else {}, {}, offset, -1, self.span(stmt, offset, length))
                 stack.append(span)
             else:  # style_close
-                names = [str(t) for t in node.payload]
+                names = payload
                 if not stack:
                     self.report(stmt, offset, length, "closing tag with no open style span", "remove it, or open a span before it with <speed:...>", "unmatched-close")
                     continue
@@ -276,10 +248,9 @@ class _Analyser:
         self._resolve_styles(stmt, utt)
 
     def _tag(self, stmt, utt: Utterance, offset: int, length: int, payload, starts: list[int], base: int) -> None:
-        names, args = payload  # NAME tokens; args as (key, value|None, start, end)
-        kind_tok = names[0]
-        kind = str(kind_tok)
-        kpos = base + kind_tok.start_pos
+        names, args = payload  # NAMEs as (text, start); args as (key, value|None, start, end)
+        kind, kpos = names[0]
+        kpos += base
         if kind not in TAG_KINDS:
             hint, sugg = did_you_mean(kind, TAG_KINDS)
             self.report(stmt, kpos, len(kind), f"unknown tag '{kind}'", hint or "tags are [pose:NAME ...] and [pause DURATION]; write '\\[' for a literal '['", "unknown-tag", suggestions=sugg)
@@ -290,9 +261,8 @@ class _Analyser:
         if len(names) < 2:
             self.report(stmt, offset, length, "a pose control needs a gesture name: [pose:NAME]", "for example [pose:point_right]; 'sgt library list' shows the names", "missing-name")
             return
-        name_tok = names[1]
-        name = str(name_tok)
-        npos = base + name_tok.start_pos
+        name, npos = names[1]
+        npos += base
         ok = True
         if self.gesture_names is not None and name not in self.gesture_names:
             hint, sugg = did_you_mean(name, sorted(self.gesture_names))
@@ -300,9 +270,7 @@ class _Analyser:
             ok = False
         speed, flip, hold = 1, False, 0.0
         seen: dict[str, int] = {}
-        for key_tok, value_tok, a0, a1 in args:
-            key = str(key_tok)
-            value = str(value_tok) if value_tok is not None else None
+        for key, value, a0, a1 in args:
             apos, alen = base + a0, a1 - a0
             group = "speed" if key in ("x1", "x2", "x3") else key
             if group in seen:
@@ -337,9 +305,9 @@ class _Analyser:
         if not ok:
             return
         mark = PoseMark(name, speed, flip, hold, offset, self.span(stmt, offset, length), None)
-        following = [i for i, s in enumerate(starts) if s > offset]
-        if following:
-            mark.word_index = following[0]
+        following = bisect_right(starts, offset)  # the first word after the mark
+        if following < len(starts):
+            mark.word_index = following
         else:
             mark.after_word = len(starts) - 1
         utt.poses.append(mark)
@@ -348,7 +316,7 @@ class _Analyser:
         if len(names) > 1 or len(args) != 1 or args[0][1] is not None:
             self.report(stmt, offset, length, "a pause needs one duration: [pause 300ms] or [pause 1.2s]", None, "bad-pause")
             return
-        text = str(args[0][0])
+        text = args[0][0]
         seconds = parse_duration(text)
         apos = base + args[0][2]
         if seconds is None:
@@ -358,16 +326,14 @@ class _Analyser:
         if not 0 < seconds <= MAX_PAUSE:
             self.report(stmt, apos, len(text), f"pause of {text} is out of range", f"use more than 0 and at most {MAX_PAUSE:g}s", "out-of-range")
             return
-        index = next((i for i, s in enumerate(starts) if s > offset), len(starts))
+        index = bisect_right(starts, offset)
         utt.pauses.append(Pause(seconds, offset, self.span(stmt, offset, length), index))
 
     def _style_open(self, stmt, offset, length, items, presets, stack, base) -> StyleSpan | None:
         values: dict[str, float] = {}
         first_name = None
         ok = True
-        for name_tok, value_tok, i0, i1 in items:
-            name = str(name_tok)
-            value = str(value_tok) if value_tok is not None else None
+        for name, value, i0, i1 in items:
             ipos, ilen = base + i0, i1 - i0
             first_name = first_name or name
             if name in presets:

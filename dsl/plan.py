@@ -49,15 +49,15 @@ class ArrayRequests:
     """What the control arrays must hold; they are built on first use (``sgt check`` never needs them)."""
 
     n_frames: int
-    poses: list = field(default_factory=list)  # (start frame, (L, 27) poses)
+    poses: list = field(default_factory=list)  # (start frame, library Gesture, PoseMark)
     styles: list = field(default_factory=list)  # (start, end, {name: value}), outer spans first
 
     def build(self) -> ControlArrays:
         arrays = ControlArrays.empty(self.n_frames)
         for a, b, values in self.styles:
             arrays.set_style(a, b, values)
-        for start, poses in self.poses:
-            arrays.set_pose(start, poses)
+        for start, gesture, mark in self.poses:
+            arrays.set_pose(start, gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).poses)
         return arrays
 
 

@@ -15,6 +15,7 @@ from dsl.script import Utterance
 
 _SENTENCE_END = re.compile(r"[.!?;:]")
 LEAD_IN = 0.05  # seconds of silence before the first estimated word
+_timed_word = tuple.__new__  # TimedWord(word, start, end) without the NamedTuple call overhead
 
 
 class TimedWord(NamedTuple):
@@ -31,31 +32,44 @@ class Timing:
     audio_path: Path | None = None
     sample_rate: int | None = None
 
+    def shifted(self, lead: float) -> Timing:
+        """The same timing ``lead`` seconds later."""
+        words = [_timed_word(TimedWord, (w[0], w[1] + lead, w[2] + lead)) for w in self.words]
+        return Timing(words, self.duration + lead, self.source, self.audio_path, self.sample_rate)
+
 
 def estimate_timing(utt: Utterance) -> Timing:
     """A deterministic guess at word times from text length and the speaking rate."""
     per_word = 60.0 / max(1, utt.voice.rate)
     t = LEAD_IN
     words: list[TimedWord] = []
+    append = words.append
     pauses = {}
     for p in utt.pauses:
         pauses[p.word_index] = pauses.get(p.word_index, 0.0) + p.seconds
     text = utt.text
-    ends = [w.start for w in utt.words[1:]] + [len(text)]
-    for i, w in enumerate(utt.words):
+    spoken = utt.words
+    following = [w.start for w in spoken]  # following[i + 1]: where the gap after word i ends
+    following.append(len(text))
+    sentence_end = _SENTENCE_END.search
+    i = 0
+    for w in spoken:
         if pauses:
             t += pauses.get(i, 0.0)
-        length = per_word * (0.45 + 0.11 * min(w.end - w.start, 14))
-        words.append(TimedWord(w.text, t, t + length))
+        i += 1
+        end = w.end
+        n = end - w.start
+        length = per_word * (0.45 + 0.11 * (n if n < 14 else 14))
+        append(_timed_word(TimedWord, (w.text, t, t + length)))
         t += length
-        tail = text[w.end : ends[i]]
-        if tail.isspace() or not tail:
+        tail = text[end : following[i]]
+        if not tail or tail.isspace():
             continue
-        if _SENTENCE_END.search(tail):
+        if sentence_end(tail):
             t += 0.25
         elif "," in tail:
             t += 0.12
-    t += pauses.get(len(utt.words), 0.0)
+    t += pauses.get(len(spoken), 0.0)
     return Timing(words, max(t + LEAD_IN, 0.2), "estimate")
 
 

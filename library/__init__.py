@@ -77,6 +77,10 @@ class Gesture:
         n = self.n_frames(speed)
         return int(round(t / self.duration * (n - 1))) if n > 1 else 0
 
+    def clip_length(self, speed: int = 1, hold: float = 0.0) -> int:
+        """The number of frames of ``clip(speed, flip, hold)``, without building it."""
+        return self.n_frames(speed) + (frame_count(hold) if hold > 0 else 0)
+
     def clip(self, speed: int = 1, flip: bool = False, hold: float = 0.0) -> Clip:
         """Play at ``speed`` x (length ~ duration/speed), mirrored if ``flip``.
 

@@ -76,6 +76,13 @@ def test_clips_are_smooth_unit_vectors(lib, speed):
         assert clip.stroke_frame is not None and 0 <= clip.stroke_frame < len(clip.poses)
 
 
+@pytest.mark.parametrize("hold", [0.0, 0.05, 0.5, 1.234, 10.0])
+def test_clip_length_without_building_the_clip(lib, hold):
+    for g in lib:
+        for speed in (1, 2, 3):
+            assert g.clip_length(speed=speed, hold=hold) == len(g.clip(speed=speed, hold=hold).poses), (g.name, speed)
+
+
 def test_starts_and_ends_near_rest(lib):
     rest = REST_POSE
     for g in lib:
