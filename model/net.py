@@ -8,14 +8,21 @@ It outputs the 27-number pose (unit bone directions).
 Architecture (chosen by measurement, see docs/model.md): per-frame inputs are projected to
 ``hidden`` channels, then a stack of residual dilated 1-D convolutions (non-causal: the whole
 window of speech is known) and an optional bidirectional GRU, then a linear head that predicts
-an offset from a base pose (the requested pose on controlled frames, the mean pose elsewhere);
-every bone is renormalised to unit length.
+an offset from a base pose (the requested pose on controlled frames, the mean pose elsewhere).
+With ``smooth`` = k > 0 the free (uncontrolled) frames then go through a fixed k-tap binomial
+low-pass along time, inside the network, so every loss (and the discriminator) sees the
+smoothed motion: the network cannot buy speed with frame-to-frame jitter, which a per-frame
+output layer otherwise leaves and post-hoc smoothing then strips along with the style.
+Every bone is renormalised to unit length.
 """
 
 from __future__ import annotations
 
+import math
+
 import torch
 from torch import nn
+from torch.nn import functional as F
 
 from model.controls import STYLE_NAMES
 from model.features import AUDIO_DIM, WORD_BUCKETS
@@ -28,6 +35,7 @@ DEFAULT_CONFIG = {
     "layers": 4,
     "kernel": 5,
     "gru": True,
+    "smooth": 5,  # taps of the in-network low-pass on free frames; 0 = off
 }
 
 
@@ -57,6 +65,12 @@ class GestureNet(nn.Module):
         self.gru = nn.GRU(h, h // 2, batch_first=True, bidirectional=True) if cfg["gru"] else None
         self.head = nn.Linear(h, POSE_DIM)
         self.register_buffer("mean_pose", torch.as_tensor(REST_POSE, dtype=torch.float32))
+        taps = int(cfg["smooth"])
+        if taps > 1:
+            k = torch.tensor([math.comb(taps - 1, i) for i in range(taps)], dtype=torch.float32)
+            self.register_buffer("smooth_kernel", (k / k.sum()).repeat(POSE_DIM, 1, 1), persistent=False)
+        else:
+            self.smooth_kernel = None
 
     def forward(self, audio, word_ids, onsets, pose, pose_mask, style, style_mask, z):
         """All inputs batched (B, T, ...); ``z`` is (B, noise_dim). Returns poses (B, T, 27)."""
@@ -78,6 +92,11 @@ class GestureNet(nn.Module):
         m = pose_mask[..., None]
         base = self.mean_pose + m * (pose - self.mean_pose)
         out = self.head(x) + base
+        if self.smooth_kernel is not None:
+            pad = self.smooth_kernel.shape[-1] // 2
+            y = F.pad(out.transpose(1, 2), (pad, pad), mode="replicate")
+            low = F.conv1d(y, self.smooth_kernel, groups=POSE_DIM).transpose(1, 2)
+            out = m * out + (1 - m) * low
         dirs = out.reshape(b, t, N_BONES, 3)
         dirs = dirs / dirs.norm(dim=-1, keepdim=True).clamp_min(1e-6)
         return dirs.reshape(b, t, POSE_DIM)

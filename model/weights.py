@@ -72,7 +72,7 @@ def load_weights(path: Path | str | None = None):
     diff = sorted(k for k in ours if theirs.get(k) != ours[k])
     if diff:
         raise WeightsError(f"{path} was trained for a different data layout ({', '.join(diff)} differ); {fix}")
-    model = GestureNet(blob.get("config"))
+    model = GestureNet({"smooth": 0, **(blob.get("config") or {})})  # files from before the option: off
     try:
         model.load_state_dict(blob["state_dict"])
     except (RuntimeError, KeyError) as exc:

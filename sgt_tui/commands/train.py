@@ -17,7 +17,12 @@ def register(sub) -> None:
     from model.train_config import TrainConfig
 
     p = sub.add_parser("train", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--corpus", default="data/corpus", help="corpus folder made by 'sgt corpus' (default data/corpus)")
+    src.add_argument("--data", metavar="DIR",
+                     help="train on your own motion instead: BVH takes with WAV audio and TextGrid/JSON word "
+                          "timings, in the GENEA/Trinity layout (Motion/, Audio/, Transcripts/) or one flat folder; "
+                          "the last tenth of the takes (at least one) is the validation split")
     p.add_argument("-o", "--out", default="runs/default", help="output folder (default runs/default)")
     p.add_argument("--epochs", type=int, default=TrainConfig.epochs, help=f"epochs (default {TrainConfig.epochs})")
     p.add_argument("--steps", type=int, default=TrainConfig.steps_per_epoch, help=f"steps per epoch (default {TrainConfig.steps_per_epoch})")
@@ -33,6 +38,8 @@ def register(sub) -> None:
     p.add_argument("--fresh", action="store_true", help="ignore an existing checkpoint")
     p.add_argument("--hidden", type=int, default=128, help="network width")
     p.add_argument("--no-gru", action="store_true", help="convolutions only (faster, see docs/model.md)")
+    p.add_argument("--smooth", type=int, default=5, metavar="TAPS",
+                   help="taps of the in-network low-pass on free frames, 0 = off (default 5, see docs/model.md)")
     p.set_defaults(run=run)
 
 
@@ -43,20 +50,57 @@ def run(args) -> int:
     from model.train import TrainConfig, train
     from sgt_tui.progress import ProgressBar
 
-    corpus = Path(args.corpus)
-    try:
-        from model.corpus import load_corpus
+    if args.data:
+        loaded = _user_data(Path(args.data))
+        if loaded is None:
+            return 1
+        train_clips, val_clips = loaded
+    else:
+        corpus = Path(args.corpus)
+        try:
+            from model.corpus import load_corpus
 
-        train_clips = load_corpus(corpus, "train")
-        val_clips = load_corpus(corpus, "val")
-    except (FileNotFoundError, ValueError) as exc:
-        print(f"sgt train: error: cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}", file=sys.stderr)
-        return 1
+            train_clips = load_corpus(corpus, "train")
+            val_clips = load_corpus(corpus, "val")
+        except (FileNotFoundError, ValueError) as exc:
+            print(f"sgt train: error: cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}",
+                  file=sys.stderr)
+            return 1
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
                       threads=args.threads, ctrl=args.ctrl_weight, vel=args.vel_weight,
-                      net={"hidden": args.hidden, "gru": not args.no_gru})
-    train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
-          log=lambda s: print(s, file=sys.stderr))
+                      net={"hidden": args.hidden, "gru": not args.no_gru, "smooth": args.smooth})
+    try:
+        train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
+              log=lambda s: print(s, file=sys.stderr))
+    except ValueError as exc:  # e.g. no clip as long as a training window
+        print(f"sgt train: error: {exc}", file=sys.stderr)
+        return 1
     print(f"weights: {Path(args.out) / 'generator.pt'}", file=sys.stderr)
     return 0
+
+
+def _user_data(root):
+    """(train, val) clips from a BVH folder (model/loaders.py), or None after printing the error."""
+    import sys
+
+    import numpy as np
+
+    from model.features import AUDIO_DIM
+    from model.loaders import LoaderError, load_folder
+
+    try:
+        clips = load_folder(root)
+    except LoaderError as exc:
+        print(f"sgt train: error: {exc}", file=sys.stderr)
+        return None
+    for c in clips:
+        if "audio" not in c:
+            print(f"sgt train: warning: take '{c['id']}' has no audio; it trains with silence", file=sys.stderr)
+            c["audio"] = np.zeros((len(c["poses"]), AUDIO_DIM), np.float32)
+    if len(clips) < 2:
+        print(f"sgt train: error: {root} has {len(clips)} take(s); at least 2 are needed (one for validation)", file=sys.stderr)
+        return None
+    n_val = max(1, len(clips) // 10)
+    print(f"{len(clips)} takes from {root}: {len(clips) - n_val} for training, {n_val} for validation", file=sys.stderr)
+    return clips[:-n_val], clips[-n_val:]
