@@ -72,4 +72,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # Run through the imported module, not this __main__ copy: the commands raise
+    # sgt_tui.cli.UsageError, which a class defined in __main__ would not catch.
+    from sgt_tui.cli import main as _main
+
+    sys.exit(_main())

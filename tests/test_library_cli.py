@@ -148,3 +148,15 @@ def test_add_default_folder(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("SGT_LIBRARY_PATH", str(tmp_path / "cfg"))
     assert _run(capsys, "library", "add", "there", "--from", str(path), "--frames", "0:8")[0] == 0
     assert (tmp_path / "cfg" / "there.toml").exists()
+
+
+@pytest.mark.parametrize("module", ["sgt_tui", "sgt_tui.cli"])
+def test_python_m_usage_error_is_a_message_not_a_traceback(tmp_path, module):
+    """`python -m` runs the CLI as __main__; a usage error must still exit 2 with one line."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", module, "export", str(tmp_path / "none.json"), "-o", "x.xyz"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr and "sgt export: error:" in r.stderr
