@@ -44,11 +44,7 @@ def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
     from model import neural, postprocess
 
     raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
-    if smoothing == "one_euro":
-        raw = postprocess.one_euro(raw)
-    if blend:
-        raw = postprocess.blend_pose_controls(raw, arrays.pose, arrays.pose_mask)
-    return raw
+    return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing, blend=blend)
 
 
 def _rules(clip, seed):
@@ -62,8 +58,11 @@ def _rules(clip, seed):
 
 
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
-                    progress=None, limit: int | None = None) -> list[dict]:
-    """Table rows (see :func:`model.metrics.report`) for every condition on ``split``."""
+                    progress=None, limit: int | None = None, smoothing: str = "one_euro") -> list[dict]:
+    """Table rows (see :func:`model.metrics.report`) for every condition on ``split``.
+
+    ``smoothing`` is the neural engine's post-filter for the model rows (``model+pose raw`` is
+    always unsmoothed and unblended: the network's own pose following)."""
     from model import keyframe, metrics
     from model.corpus import load_corpus
     from model.weights import load_weights
@@ -84,10 +83,10 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
         pcs_ctl.append(pc)
         sty_ctl.append(sc)
         empty = ControlArrays.empty(len(ref))
-        out["free"].append(_neural(model, clip, empty, seed + i))
+        out["free"].append(_neural(model, clip, empty, seed + i, smoothing=smoothing))
         out["pose_raw"].append(_neural(model, clip, pc, seed + i, blend=False, smoothing="none"))
-        out["pose"].append(_neural(model, clip, pc, seed + i))
-        out["style"].append(_neural(model, clip, sc, seed + i))
+        out["pose"].append(_neural(model, clip, pc, seed + i, smoothing=smoothing))
+        out["style"].append(_neural(model, clip, sc, seed + i, smoothing=smoothing))
         out["mean"].append(np.repeat(mean_pose[None], len(ref), axis=0))
         out["rules"].append(_rules(clip, seed + i))
         out["keyframe"].append(keyframe.generate(pc, mean_pose=mean_pose))

@@ -111,12 +111,5 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
     raw = run_windows(model, audio, ids, onsets, inputs.arrays, seed)
-    if opts.smoothing == "one_euro":
-        raw = postprocess.one_euro(raw)
-    elif opts.smoothing == "moving_average":
-        raw = postprocess.moving_average(raw)
-    elif opts.smoothing != "none":
-        raise ValueError(f"unknown smoothing '{opts.smoothing}'")
-    if opts.blend:
-        raw = postprocess.blend_pose_controls(raw, inputs.arrays.pose, inputs.arrays.pose_mask, opts.ramp)
-    return raw.astype(np.float32)
+    return postprocess.finish(raw, inputs.arrays.pose, inputs.arrays.pose_mask, smoothing=opts.smoothing,
+                              blend=opts.blend, ramp=opts.ramp)

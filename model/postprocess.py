@@ -106,3 +106,22 @@ def blend_pose_controls(generated: np.ndarray, pose: np.ndarray, mask: np.ndarra
     m = np.asarray(mask) > 0.5
     out[m] = normalize_pose(np.asarray(pose, np.float32)[m])
     return out
+
+
+SMOOTHERS = ("one_euro", "moving_average", "none")
+
+
+def finish(raw: np.ndarray, pose: np.ndarray, mask: np.ndarray, *, smoothing: str = "one_euro",
+           blend: bool = True, ramp: int = 6) -> np.ndarray:
+    """The post-processing chain of the neural engine: ``smoothing`` (one of :data:`SMOOTHERS`),
+    then, if ``blend``, the exact pose-control blend of ``pose``/``mask``."""
+    if smoothing == "one_euro":
+        raw = one_euro(raw)
+    elif smoothing == "moving_average":
+        raw = moving_average(raw)
+    elif smoothing != "none":
+        raise ValueError(f"unknown smoothing '{smoothing}' (use one of {', '.join(SMOOTHERS)})")
+    if blend:
+        raw = blend_pose_controls(raw, pose, mask, ramp)
+    return np.asarray(raw, np.float32)
+

@@ -144,3 +144,21 @@ def test_postprocessing_filters_smooth_and_keep_units():
         out = f(noisy)
         assert np.abs(np.diff(out, 2, axis=0)).mean() < np.abs(np.diff(noisy, 2, axis=0)).mean()
         assert np.allclose(np.linalg.norm(out.reshape(80, 9, 3), axis=-1), 1, atol=1e-5)
+
+
+def test_postprocessing_chain_is_switchable():
+    """finish(): each smoother changes the motion, 'none' leaves it, blend makes controlled frames exact."""
+    rng = np.random.default_rng(1)
+    clip = synthetic_clips(1, frames=60, seed=2)[0]["poses"]
+    noisy = clip + rng.normal(0, 0.05, clip.shape).astype(np.float32)
+    mask = np.zeros(60, np.float32)
+    mask[20:25] = 1
+    target = np.repeat(clip[:1], 60, axis=0)
+    plain = postprocess.finish(noisy, target, mask, smoothing="none", blend=False)
+    assert np.allclose(plain, noisy)
+    for name in ("one_euro", "moving_average"):
+        assert not np.allclose(postprocess.finish(noisy, target, mask, smoothing=name, blend=False), noisy)
+    exact = postprocess.finish(noisy, target, mask, smoothing="none", blend=True)
+    assert np.allclose(exact[20:25], target[20:25], atol=1e-6)
+    with pytest.raises(ValueError, match="unknown smoothing"):
+        postprocess.finish(noisy, target, mask, smoothing="gauss")

@@ -23,6 +23,8 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", metavar="JSON", help="also write the rows as JSON")
     p.add_argument("--limit", type=int, help="only the first N clips (quick look)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--smoothing", choices=("one_euro", "moving_average", "none"), default="one_euro",
+                   help="the neural engine's post-filter for the model rows (default one_euro, as sgt generate)")
     p.set_defaults(run=run)
 
 
@@ -39,7 +41,8 @@ def run(args) -> int:
 
     try:
         rows = evaluate_corpus(args.corpus, split=args.split, weights=args.weights, extractor=args.extractor,
-                               seed=args.seed, progress=ProgressBar("eval"), limit=args.limit)
+                               seed=args.seed, progress=ProgressBar("eval"), limit=args.limit,
+                               smoothing=args.smoothing)
     except (WeightsError, ExtractorError) as exc:
         print(f"sgt eval: error: {exc}", file=sys.stderr)
         return 1
