@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -126,8 +127,23 @@ def validate(model, val: Windows, cfg: TrainConfig, count: int = 192) -> dict:
     return {"val_huber": huber, "val_pcs": pcs, "val_scs": scs}
 
 
+def learning_rate(cfg: TrainConfig, step: int) -> float:
+    """Cosine decay from ``cfg.lr`` to ``cfg.lr * cfg.lr_floor`` over all the steps of the run."""
+    total = max(1, cfg.epochs * cfg.steps_per_epoch)
+    return cfg.lr * (cfg.lr_floor + (1 - cfg.lr_floor) * 0.5 * (1 + math.cos(math.pi * min(step, total) / total)))
+
+
+def selection_score(row: dict) -> float:
+    """Which epoch's weights to keep: held-out PCS and SCS, each relative to its target
+    (SGToolkit's 0.014 and 0.249; lower is better). Style following overfits long before the
+    pose terms stop improving, so the last epoch is often not the best one."""
+    return row["val_pcs"] / 0.014 + row["val_scs"] / 0.249
+
+
 def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bool = True, progress=None, log=print):
-    """Train (or resume) and return the model; writes checkpoint.pt, metrics.jsonl and generator.pt in ``out_dir``."""
+    """Train (or resume) and return the model. Writes in ``out_dir``: checkpoint.pt (to resume),
+    metrics.jsonl (a row per epoch), last.pt (the last epoch's weights) and generator.pt (the
+    weights of the epoch with the best :func:`selection_score` on the validation split)."""
     import torch
 
     from model.net import Discriminator, GestureNet
@@ -149,6 +165,7 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
     opt_d = torch.optim.Adam(disc.parameters(), lr=cfg.lr) if disc is not None else None
     rng = np.random.default_rng(cfg.seed)
     epoch0 = 0
+    best = float("inf")
     if resume and ckpt_path.exists():
         state = torch.load(str(ckpt_path), map_location="cpu", weights_only=False)
         if state.get("config") == asdict(cfg) | {"minutes": state["config"].get("minutes")}:
@@ -160,6 +177,7 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
             rng.bit_generator.state = state["rng"]
             torch.set_rng_state(state["torch_rng"])
             epoch0 = state["epoch"]
+            best = state.get("best", best)
             log(f"resumed from {ckpt_path} after epoch {epoch0}")
         else:
             log(f"{ckpt_path} was made with other settings: starting afresh")
@@ -169,6 +187,10 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
         model.train()
         sums = {"loss": 0.0, "huber": 0.0, "ctrl": 0.0, "vel": 0.0, "style": 0.0, "gan": 0.0, "disc": 0.0}
         for step in range(cfg.steps_per_epoch):
+            lr = learning_rate(cfg, epoch * cfg.steps_per_epoch + step)
+            for o in (opt, opt_d):
+                for group in (o.param_groups if o is not None else ()):
+                    group["lr"] = lr
             batch = data.sample(rng, cfg.batch)
             audio, ids, onsets, ref = _tensors(batch, torch)
             with torch.no_grad():
@@ -211,17 +233,23 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
             if progress:
                 progress(epoch * cfg.steps_per_epoch + step + 1, total_steps, f"epoch {epoch + 1} loss {loss.item():.3f}")
         model.eval()
-        row = {"epoch": epoch + 1, **{k: v / cfg.steps_per_epoch for k, v in sums.items()}, **validate(model, val, cfg),
-               "minutes": (time.monotonic() - started) / 60}
+        row = {"epoch": epoch + 1, **{k: v / cfg.steps_per_epoch for k, v in sums.items()}, **validate(model, val, cfg)}
+        row["score"] = selection_score(row)
+        row["best"] = row["score"] < best
+        row["minutes"] = (time.monotonic() - started) / 60
+        best = min(best, row["score"])
         with open(metrics_path, "a", encoding="utf-8") as f:
             f.write(json.dumps(row) + "\n")
         log(" ".join(f"{k}={v:.4f}" if isinstance(v, float) else f"{k}={v}" for k, v in row.items()))
         buf = io.BytesIO()
         torch.save({"model": model.state_dict(), "opt": opt.state_dict(), "disc": disc.state_dict() if disc else None,
                     "opt_d": opt_d.state_dict() if opt_d else None, "rng": rng.bit_generator.state,
-                    "torch_rng": torch.get_rng_state(), "epoch": epoch + 1, "config": asdict(cfg)}, buf)
+                    "torch_rng": torch.get_rng_state(), "epoch": epoch + 1, "config": asdict(cfg), "best": best}, buf)
         atomic_write(ckpt_path, buf.getvalue())
-        save_weights(out_dir / "generator.pt", model, meta={"train_config": asdict(cfg), "epochs_done": epoch + 1, "validation": row})
+        meta = {"train_config": asdict(cfg), "epochs_done": epoch + 1, "validation": row}
+        save_weights(out_dir / "last.pt", model, meta=meta)
+        if row["best"]:
+            save_weights(out_dir / "generator.pt", model, meta=meta)
         if cfg.minutes is not None and (time.monotonic() - started) / 60 >= cfg.minutes:
             log(f"time budget of {cfg.minutes} min reached after epoch {epoch + 1}")
             break

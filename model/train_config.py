@@ -12,10 +12,11 @@ WINDOW = 40
 
 @dataclass
 class TrainConfig:
-    epochs: int = 300
+    epochs: int = 120
     steps_per_epoch: int = 60
     batch: int = 48
     lr: float = 5e-4
+    lr_floor: float = 0.05  # the cosine schedule ends at lr * lr_floor
     window: int = WINDOW
     alpha: float = 500.0  # Huber pose term
     beta: float = 5.0  # adversarial term; 0 switches it off

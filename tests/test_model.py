@@ -162,3 +162,21 @@ def test_postprocessing_chain_is_switchable():
     assert np.allclose(exact[20:25], target[20:25], atol=1e-6)
     with pytest.raises(ValueError, match="unknown smoothing"):
         postprocess.finish(noisy, target, mask, smoothing="gauss")
+
+
+def test_training_keeps_the_best_validation_epoch_and_decays_the_rate(weights):
+    """generator.pt is the epoch with the lowest selection score; last.pt the last epoch."""
+    import json
+
+    from model.train import learning_rate, selection_score
+
+    rows = [json.loads(line) for line in (weights.parent / "metrics.jsonl").read_text().splitlines()]
+    assert [r["epoch"] for r in rows] == list(range(1, len(rows) + 1))
+    best = min(rows, key=selection_score)
+    assert load_weights(weights)[1]["meta"]["epochs_done"] == best["epoch"]
+    assert load_weights(weights.parent / "last.pt")[1]["meta"]["epochs_done"] == rows[-1]["epoch"]
+    assert sum(r["best"] for r in rows) >= 1 and rows[0]["best"]
+    cfg = TrainConfig(epochs=10, steps_per_epoch=10, lr=1e-3, lr_floor=0.1)
+    rates = [learning_rate(cfg, s) for s in range(101)]
+    assert rates[0] == pytest.approx(1e-3) and rates[-1] == pytest.approx(1e-4)
+    assert all(a >= b for a, b in zip(rates, rates[1:]))

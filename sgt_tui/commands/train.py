@@ -7,10 +7,12 @@ import argparse
 HELP = "train the gesture generator on a corpus"
 DESCRIPTION = """\
 Train the controllable generator (SGToolkit Eq. 7: Huber pose term, adversarial term,
-style-consistency term) on a corpus made by 'sgt corpus'. Checkpoints after every
-epoch; running the same command again resumes. Per-epoch metrics go to
-OUT/metrics.jsonl and the weights to OUT/generator.pt (copy them to
-model/weights/generator.pt to ship them)."""
+style-consistency term) on a corpus made by 'sgt corpus', or on your own BVH takes
+(--data). The learning rate follows a cosine decay over the epochs. Checkpoints after
+every epoch; running the same command again resumes. Per-epoch losses and validation
+figures go to OUT/metrics.jsonl; OUT/generator.pt holds the weights of the epoch with the
+best validation score (PCS/0.014 + SCS/0.249), OUT/last.pt the last epoch's. Copy
+OUT/generator.pt to model/weights/generator.pt to ship it."""
 
 
 def register(sub) -> None:
@@ -76,7 +78,8 @@ def run(args) -> int:
     except ValueError as exc:  # e.g. no clip as long as a training window
         print(f"sgt train: error: {exc}", file=sys.stderr)
         return 1
-    print(f"weights: {Path(args.out) / 'generator.pt'}", file=sys.stderr)
+    print(f"weights: {Path(args.out) / 'generator.pt'} (best validation epoch); last epoch: {Path(args.out) / 'last.pt'}",
+          file=sys.stderr)
     return 0
 
 
