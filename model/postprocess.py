@@ -35,7 +35,14 @@ def moving_average(poses: np.ndarray, window: int = 5) -> np.ndarray:
     return normalize_pose(out)
 
 
-def one_euro(poses: np.ndarray, min_cutoff: float = 1.5, beta: float = 0.3, d_cutoff: float = 1.0, fps: float = FPS) -> np.ndarray:
+#: 1-euro settings of the shipped engine, chosen on the validation split with
+#: scripts/tune_smoothing.py (jerk within 25% of the reference while keeping style; docs/model.md).
+ONE_EURO_MIN_CUTOFF = 4.0
+ONE_EURO_BETA = 0.5
+
+
+def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: float = ONE_EURO_BETA,
+             d_cutoff: float = 1.0, fps: float = FPS) -> np.ndarray:
     """The 1-euro filter on every coordinate (cutoffs in Hz)."""
     x = np.asarray(poses, np.float64)
     if len(x) < 2:
