@@ -180,3 +180,32 @@ def test_training_keeps_the_best_validation_epoch_and_decays_the_rate(weights):
     rates = [learning_rate(cfg, s) for s in range(101)]
     assert rates[0] == pytest.approx(1e-3) and rates[-1] == pytest.approx(1e-4)
     assert all(a >= b for a, b in zip(rates, rates[1:]))
+
+
+def test_audio_features_equal_librosa_and_do_not_import_it():
+    """The numpy log-mel + energy give librosa's numbers (the shipped model was trained on
+    them), on noise and on recorded speech, with and without an offset; librosa is not imported."""
+    import subprocess
+    import sys
+
+    import librosa
+
+    from model.features import HOP, N_FFT, N_MELS, audio_features
+
+    def reference(audio, n_frames, offset_frames):
+        y = np.concatenate([np.zeros(offset_frames * HOP, np.float32), audio])
+        y = np.pad(y, (0, max(0, n_frames * HOP - len(y))))[: n_frames * HOP]
+        mel = librosa.feature.melspectrogram(y=y, sr=16000, n_fft=N_FFT, hop_length=HOP, win_length=2 * HOP,
+                                             n_mels=N_MELS, center=True)
+        rms = librosa.feature.rms(y=y, frame_length=2 * HOP, hop_length=HOP, center=True)
+        f = np.concatenate([np.log(mel + 1e-6)[:, :n_frames], np.log(rms**2 + 1e-8)[:, :n_frames]]).T
+        return (f - f.mean(0)) / (f.std(0) + 1e-3)
+
+    rng = np.random.default_rng(3)
+    tone = np.sin(2 * np.pi * 220 * np.arange(16000 * 2) / 16000) * np.linspace(0, 1, 16000 * 2)
+    for audio, n, off in ((0.1 * rng.standard_normal(16000 * 3), 50, 0), (tone, 40, 4), (tone[:5000], 30, 2)):
+        audio = audio.astype(np.float32)
+        assert np.allclose(audio_features(audio, n, off), reference(audio, n, off), atol=1e-4)
+    code = ("import sys, numpy as np; from model.features import audio_features; "
+            "audio_features(np.zeros(16000, np.float32), 15); sys.exit('librosa' in sys.modules)")
+    assert subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).resolve().parent.parent).returncode == 0
