@@ -114,3 +114,24 @@ def test_save_is_atomic_on_error(tmp_path):
         save_motion(path, bad)
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json"]
+
+
+def test_atomic_write_keeps_usual_permissions(tmp_path):
+    """A new file gets 0o666 less the umask (not mkstemp's 0o600); a replaced file keeps its mode."""
+    import os
+    import stat
+
+    from model.fileio import atomic_write
+
+    old = os.umask(0o022)
+    try:
+        new = tmp_path / "new.txt"
+        atomic_write(new, b"x")
+        assert stat.S_IMODE(new.stat().st_mode) == 0o644
+        kept = tmp_path / "script.sgt"
+        kept.write_text("a")
+        kept.chmod(0o640)
+        atomic_write(kept, b"b")
+        assert stat.S_IMODE(kept.stat().st_mode) == 0o640 and kept.read_bytes() == b"b"
+    finally:
+        os.umask(old)
