@@ -8,10 +8,11 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 PY="${PYTHON:-python3}"
 
-echo "==> system packages (espeak-ng: speech; EGL/OSMesa: offscreen rendering; fortunes: training sentences; tmux: terminal tests)"
+echo "==> system packages (espeak-ng: speech; EGL/OSMesa: offscreen rendering; fortunes: training sentences;"
+echo "    tmux: terminal tests; alsa-utils: recorded human speech for scripts/real_speech_check.py)"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-    espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min >/dev/null
+    espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min alsa-utils >/dev/null
 
 echo "==> PyTorch (CPU build)"
 "$PY" -m pip install -q torch==2.13.0
@@ -19,8 +20,10 @@ echo "==> PyTorch (CPU build)"
 echo "==> sgt and its Python dependencies"
 "$PY" -m pip install -q -e '.[dev]'
 
-echo "==> main job: check and compile examples/mall_guide.sgt"
+echo "==> main job: check examples/mall_guide.sgt, generate its motion, render a preview GIF and a contact sheet"
 mkdir -p out
 sgt check examples/*.sgt
-sgt compile examples/mall_guide.sgt -o out/mall_guide.plan.json --npz out/mall_guide.controls.npz
-echo "done: see out/mall_guide.plan.json"
+sgt generate examples/mall_guide.sgt -o out/mall_guide.json
+sgt render out/mall_guide.json -o out/mall_guide.gif --sheet out/mall_guide.png
+sgt export out/mall_guide.json -o out/mall_guide.bvh
+echo "done: open out/mall_guide.gif (preview) and out/mall_guide.png (contact sheet); out/mall_guide.bvh for Blender"
