@@ -34,6 +34,8 @@ def register(sub) -> None:
     p.add_argument("--no-gan", action="store_true", help="switch the adversarial term off")
     p.add_argument("--ctrl-weight", type=float, default=TrainConfig.ctrl,
                    help=f"weight of the L1 term on pose-controlled frames, 0 = off (default {TrainConfig.ctrl:g})")
+    p.add_argument("--style-weight", type=float, default=TrainConfig.gamma,
+                   help=f"weight of the style-consistency term (Eq. 7 gamma; default {TrainConfig.gamma:g})")
     p.add_argument("--vel-weight", type=float, default=TrainConfig.vel,
                    help=f"weight of the L1 velocity term, 0 = off (default {TrainConfig.vel:g})")
     p.add_argument("--seed", type=int, default=0)
@@ -70,7 +72,7 @@ def run(args) -> int:
             return 1
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
-                      threads=args.threads, ctrl=args.ctrl_weight, vel=args.vel_weight,
+                      threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight,
                       net={"hidden": args.hidden, "gru": not args.no_gru, "smooth": args.smooth})
     try:
         train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
