@@ -1,0 +1,54 @@
+"""The shipped weights (model/weights/generator.pt): they load, fit this code's data layout, and
+behave on the shipped example: pose controls followed by the network itself, exactly after the
+blend, motion that moves, the same take for the same seed."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+
+from dsl.compiler import compile_file  # noqa: E402
+from model import neural  # noqa: E402
+from model.generate import EngineInputs  # noqa: E402
+from model.metrics import group_statistics, pcs  # noqa: E402
+from model.skeleton import REST_POSE  # noqa: E402
+from model.weights import DEFAULT_WEIGHTS, load_weights  # noqa: E402
+
+EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "mall_guide.sgt"
+
+
+@pytest.fixture(scope="module")
+def utterances():
+    result = compile_file(EXAMPLE)
+    assert result.plan is not None
+    return [EngineInputs.from_plan(u) for u in result.plan.utterances]
+
+
+def test_shipped_weights_load_with_their_card():
+    model, info = load_weights(DEFAULT_WEIGHTS)
+    assert sum(p.numel() for p in model.parameters()) > 100_000
+    meta = info["meta"]
+    assert meta["epochs_done"] >= 1 and "val_pcs" in meta["validation"]
+
+
+def test_shipped_model_follows_pose_controls_and_moves(utterances):
+    raw_opts = neural.Options(smoothing="none", blend=False)
+    controlled = 0
+    for inputs in utterances:
+        a = inputs.arrays
+        raw = neural.generate(inputs, seed=0, options=raw_opts)
+        out = neural.generate(inputs, seed=0)
+        assert out.shape == (inputs.n_frames, 27) and np.isfinite(out).all()
+        assert np.allclose(np.linalg.norm(out.reshape(-1, 9, 3), axis=-1), 1, atol=1e-4)
+        assert np.array_equal(out, neural.generate(inputs, seed=0))
+        assert group_statistics([out], "wrists").speed > 0.05  # m/s: it gestures, it is not a statue
+        if a.pose_mask.sum() == 0:
+            continue
+        controlled += 1
+        still = np.repeat(np.asarray(REST_POSE, np.float32)[None], inputs.n_frames, axis=0)
+        assert pcs(a.pose, raw, a.pose_mask) < 0.5 * pcs(a.pose, still, a.pose_mask)
+        assert pcs(a.pose, raw, a.pose_mask) < 0.05
+        assert pcs(a.pose, out, a.pose_mask) < 1e-6
+    assert controlled >= 3
