@@ -275,12 +275,14 @@ def test_cli_render_bad_inputs(tmp_path, motion_file, capsys):
     assert not (tmp_path / "o.gif").exists()
 
 
-def test_help_does_not_import_gl():
+def test_help_does_not_import_heavy_libraries():
+    """`sgt --help` builds every subcommand's parser without GL, torch, librosa, textual or scipy."""
     import subprocess
     import sys
 
     code = ("import sys; from sgt_tui.cli import build_parser; build_parser(); "
-            "bad = [m for m in ('pyrender', 'OpenGL', 'trimesh', 'PIL') if m in sys.modules]; "
+            "bad = [m for m in ('pyrender', 'OpenGL', 'trimesh', 'PIL', 'torch', 'librosa', 'textual', 'scipy') "
+            "if m in sys.modules]; "
             "print(bad); sys.exit(1 if bad else 0)")
     from pathlib import Path
 
