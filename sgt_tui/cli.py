@@ -14,6 +14,8 @@ import argparse
 import importlib
 import sys
 
+from sgt_tui.errors import UsageError
+
 #: Subcommand modules, in the order ``sgt --help`` lists them.
 COMMANDS = ("check", "compile", "say", "library_cmd", "generate", "train", "render", "export", "corpus", "eval", "edit")
 
@@ -23,10 +25,6 @@ exit status: 0 when clean, 1 when the input has errors (diagnostics are printed)
 
 Run 'sgt COMMAND --help' for the options of one command.
 The script language is documented in docs/language.md."""
-
-
-class UsageError(Exception):
-    """A problem with how the command was called (exit status 2)."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -72,8 +70,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    # Run through the imported module, not this __main__ copy: the commands raise
-    # sgt_tui.cli.UsageError, which a class defined in __main__ would not catch.
-    from sgt_tui.cli import main as _main
-
-    sys.exit(_main())
+    sys.exit(main())

@@ -8,7 +8,7 @@ from pathlib import Path
 
 
 def existing_file(path: str) -> Path:
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
 
     p = Path(path)
     if not p.exists():

@@ -29,7 +29,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from dsl.compiler import compile_file
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
     from sgt_tui.commands.common import existing_file, exit_code, print_diagnostics
     from sgt_tui.progress import ProgressBar
 

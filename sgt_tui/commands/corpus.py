@@ -27,7 +27,7 @@ def run(args) -> int:
     import sys
     import time
 
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
     from sgt_tui.progress import ProgressBar
 
     if args.hours <= 0:

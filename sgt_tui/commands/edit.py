@@ -31,7 +31,7 @@ def run(args) -> int:
 
     from pathlib import Path
 
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
     from sgt_tui.editor.files import FileError, ScriptFile
 
     if Path(args.file).is_dir():

@@ -35,7 +35,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from pathlib import Path
 
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
     from sgt_tui.commands.render import InputError, load_clips, report_input_error
 
     suffix = Path(args.output).suffix.lower()

@@ -37,7 +37,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
 
     cmd = getattr(args, "library_command", None)
     if cmd == "list":
@@ -151,7 +151,7 @@ def _show(args) -> int:
 
 
 def _parse_span(text: str, n: int) -> tuple[int, int]:
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
 
     try:
         a_txt, b_txt = text.split(":")

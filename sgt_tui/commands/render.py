@@ -41,7 +41,7 @@ def add_script_options(p) -> None:
 
 
 def parse_size(text: str) -> tuple[int, int]:
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
 
     parts = text.lower().replace("×", "x").split("x")
     try:
@@ -58,7 +58,7 @@ def parse_size(text: str) -> tuple[int, int]:
 def _check_suffix(path: str, allowed: tuple[str, ...], option: str) -> None:
     from pathlib import Path
 
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
 
     if Path(path).suffix.lower() not in allowed:
         raise UsageError(f"{option} {path}: expected a {' or '.join(allowed)} file")
@@ -77,7 +77,7 @@ def load_clips(path_text: str, utterance: int | None, engine: str | None = None,
 
     Raises UsageError (missing file, unknown type, no such utterance) or InputError.
     """
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
     from sgt_tui.commands.common import existing_file
 
     path = existing_file(path_text)
@@ -128,7 +128,7 @@ def report_input_error(command: str, exc: InputError) -> int:
 def run(args) -> int:
     from pathlib import Path
 
-    from sgt_tui.cli import UsageError
+    from sgt_tui.errors import UsageError
 
     _check_suffix(args.output, (".gif",), "-o")
     if args.sheet:
