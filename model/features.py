@@ -17,6 +17,7 @@ on the first call of every process.
 from __future__ import annotations
 
 import zlib
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +63,13 @@ def _mel_to_hz(m):
     return np.where(m >= 15.0, log, lin)
 
 
+@lru_cache(maxsize=1)
+def _analysis() -> tuple[np.ndarray, np.ndarray]:
+    """The STFT window (periodic Hann) and the mel filters, transposed for ``power @ filters``."""
+    window = 0.5 - 0.5 * np.cos(2 * np.pi * np.arange(N_FFT) / N_FFT)
+    return window.astype(np.float32), _mel_filters().T.astype(np.float32)
+
+
 def _mel_filters(sr: int = SAMPLE_RATE, n_fft: int = N_FFT, n_mels: int = N_MELS) -> np.ndarray:
     """(n_mels, n_fft // 2 + 1) triangular filters, area-normalised (Slaney), 0 Hz to sr / 2."""
     freqs = np.fft.rfftfreq(n_fft, 1.0 / sr)
@@ -90,10 +98,9 @@ def audio_features(audio: np.ndarray, n_frames: int, offset_frames: int = 0) -> 
     y = np.concatenate([pad, np.asarray(audio, np.float32)])
     need = n_frames * HOP
     y = np.pad(y, (0, max(0, need - len(y))))[:need]
-    frames = _frames(y, N_FFT, HOP)
-    window = 0.5 - 0.5 * np.cos(2 * np.pi * np.arange(N_FFT) / N_FFT)  # periodic Hann
-    power = np.abs(np.fft.rfft(frames * window.astype(np.float32), axis=1)) ** 2
-    logmel = np.log(power @ _mel_filters().T.astype(np.float32) + 1e-6)[:n_frames]
+    window, mel_filters = _analysis()
+    power = np.abs(np.fft.rfft(_frames(y, N_FFT, HOP) * window, axis=1)) ** 2
+    logmel = np.log(power @ mel_filters + 1e-6)[:n_frames]
     rms2 = np.mean(_frames(y, 2 * HOP, HOP).astype(np.float64) ** 2, axis=1)
     energy = np.log(rms2 + 1e-8)[:n_frames, None]
     feats = np.concatenate([logmel, energy], axis=1)  # (T, AUDIO_DIM)

@@ -188,9 +188,8 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
         sums = {"loss": 0.0, "huber": 0.0, "ctrl": 0.0, "vel": 0.0, "style": 0.0, "gan": 0.0, "disc": 0.0}
         for step in range(cfg.steps_per_epoch):
             lr = learning_rate(cfg, epoch * cfg.steps_per_epoch + step)
-            for o in (opt, opt_d):
-                for group in (o.param_groups if o is not None else ()):
-                    group["lr"] = lr
+            for group in opt.param_groups + (opt_d.param_groups if opt_d else []):
+                group["lr"] = lr
             batch = data.sample(rng, cfg.batch)
             audio, ids, onsets, ref = _tensors(batch, torch)
             with torch.no_grad():

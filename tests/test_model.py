@@ -184,7 +184,8 @@ def test_training_keeps_the_best_validation_epoch_and_decays_the_rate(weights):
 
 def test_audio_features_equal_librosa_and_do_not_import_it():
     """The numpy log-mel + energy give librosa's numbers (the shipped model was trained on
-    them), on noise and on recorded speech, with and without an offset; librosa is not imported."""
+    them), on noise, a rising tone and a clip shorter than the motion, with and without an
+    offset; librosa is not imported."""
     import subprocess
     import sys
 
