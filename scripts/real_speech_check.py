@@ -44,18 +44,21 @@ def join_recordings(out_wav: Path) -> str:
     return ". ".join(p.replace("_", " ").lower() for p in PHRASES).capitalize() + "."
 
 
-def envelope_speed_correlation(clip, audio_path: Path | None, lead_in: float) -> float:
-    """Pearson correlation of mean wrist speed with the speech energy (both at 15 fps)."""
+def loudness(audio_path: Path, n_frames: int, lead_in: float) -> np.ndarray:
+    """Per-frame log energy of the speech (15 fps), aligned with the motion."""
     from model.features import audio_features, load_audio
-    from model.metrics import joint_speeds
-    from model.skeleton import FPS, JOINTS
+    from model.skeleton import FPS
 
-    if audio_path is None:
-        return float("nan")
-    n = len(clip.poses)
-    energy = audio_features(load_audio(audio_path), n, offset_frames=int(round(lead_in * FPS)))[:, -1]
+    return audio_features(load_audio(audio_path), n_frames, offset_frames=int(round(lead_in * FPS)))[:, -1]
+
+
+def speed_loudness_correlation(poses: np.ndarray, energy: np.ndarray) -> float:
+    """Pearson correlation of mean wrist speed with the speech energy (both at 15 fps)."""
+    from model.metrics import joint_speeds
+    from model.skeleton import JOINTS
+
     wrists = [JOINTS.index("left_wrist"), JOINTS.index("right_wrist")]
-    speed = joint_speeds(clip.poses)[:, wrists].mean(axis=1)
+    speed = joint_speeds(poses)[:, wrists].mean(axis=1)
     e = energy[1:]
     return float(np.corrcoef(e, speed)[0, 1]) if e.std() > 0 and speed.std() > 0 else float("nan")
 
@@ -89,19 +92,21 @@ def main() -> int:
             return 1
         u = result.plan.utterances[0]
         inputs = EngineInputs.from_plan(u)
+        energy = None
         if label == "silence":  # same words and timings, no audio
             inputs = EngineInputs(inputs.arrays, inputs.words, None, inputs.lead_in)
+        else:
+            energy = loudness(u.audio_path, inputs.n_frames, u.lead_in)
         speeds, jerks, corrs = [], [], []
         for seed in range(args.seeds):
-            from model.motion_file import MotionClip
-
             poses = neural.generate(inputs, seed=seed, options=options)
-            clip = MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=[], controls=[])
             stats = group_statistics([poses], ["left_wrist", "right_wrist"])
             speeds.append(stats.speed)
             jerks.append(stats.jerk)
-            corrs.append(envelope_speed_correlation(clip, u.audio_path, u.lead_in))
-        rows.append((label, len(u.words), u.duration, np.mean(speeds), np.mean(jerks), np.nanmean(corrs) if label != "silence" else float("nan")))
+            if energy is not None:
+                corrs.append(speed_loudness_correlation(poses, energy))
+        corr = float(np.nanmean(corrs)) if corrs else float("nan")
+        rows.append((label, len(u.words), u.duration, np.mean(speeds), np.mean(jerks), corr))
     print(f"{'speech':12} {'words':>5} {'dur s':>6} {'wrist m/s':>9} {'jerk m/s3':>9} {'corr(energy, speed)':>20}")
     for label, nw, dur, spd, jerk, corr in rows:
         c = "-" if corr != corr else f"{corr:.2f}"
