@@ -210,3 +210,11 @@ def test_audio_features_equal_librosa_and_do_not_import_it():
     code = ("import sys, numpy as np; from model.features import audio_features; "
             "audio_features(np.zeros(16000, np.float32), 15); sys.exit('librosa' in sys.modules)")
     assert subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).resolve().parent.parent).returncode == 0
+
+
+def test_cli_smoothing_choices_are_the_engines():
+    """The --smoothing choices of sgt generate/eval (kept numpy-free) name the engine's smoothers."""
+    from sgt_tui.commands.common import SMOOTHING_CHOICES
+
+    assert SMOOTHING_CHOICES == postprocess.SMOOTHERS
+    assert neural.Options().smoothing == SMOOTHING_CHOICES[0]

@@ -6,6 +6,11 @@ import os
 import sys
 from pathlib import Path
 
+#: ``--smoothing`` choices of the neural engine, first the default. The same names as
+#: ``model.postprocess.SMOOTHERS`` (a test checks), spelt out here so that building the parser
+#: does not import numpy.
+SMOOTHING_CHOICES = ("one_euro", "moving_average", "none")
+
 
 def existing_file(path: str) -> Path:
     from sgt_tui.errors import UsageError

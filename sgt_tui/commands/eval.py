@@ -15,6 +15,8 @@ all joints, elbows and wrists. See docs/metrics.md."""
 
 
 def register(sub) -> None:
+    from sgt_tui.commands.common import SMOOTHING_CHOICES
+
     p = sub.add_parser("eval", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
     p.add_argument("--split", default="test", choices=("test", "val", "train"))
@@ -23,7 +25,7 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", metavar="JSON", help="also write the rows as JSON")
     p.add_argument("--limit", type=int, help="only the first N clips (quick look)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--smoothing", choices=("one_euro", "moving_average", "none"), default="one_euro",
+    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0],
                    help="the neural engine's post-filter for the model rows (default one_euro, as sgt generate)")
     p.set_defaults(run=run)
 

@@ -19,13 +19,15 @@ ENGINE_HELP = "neural (default: the trained generator), keyframe (splines throug
 
 
 def register(sub) -> None:
+    from sgt_tui.commands.common import SMOOTHING_CHOICES
+
     p = sub.add_parser("generate", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
     p.add_argument("-o", "--output", metavar="OUT", required=True, help="motion file to write (.json or .npz)")
     p.add_argument("--engine", default=None, help=ENGINE_HELP)
     p.add_argument("--utterance", type=int, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
     p.add_argument("--seed", type=int, help="random seed (default: the script's @seed); another seed, another take")
-    p.add_argument("--smoothing", choices=("one_euro", "moving_average", "none"), default="one_euro", help="post-filter of the neural engine (default one_euro)")
+    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0], help="post-filter of the neural engine (default one_euro)")
     p.add_argument("--no-blend", action="store_true", help="neural engine: do not force exact pose following")
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
     p.set_defaults(run=run)
