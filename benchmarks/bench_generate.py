@@ -31,7 +31,7 @@ CHILD = r"""
 import json, resource, sys, time
 import numpy as np
 sys.path.insert(0, {root!r})
-from model.controls import ControlArrays
+from core.controls import ControlArrays
 from model import neural
 from model.net import GestureNet
 from model.features import AUDIO_DIM
@@ -55,7 +55,7 @@ def model_time(weights, repeat: int) -> None:
     import numpy as np
 
     from model import neural, postprocess
-    from model.controls import ControlArrays
+    from core.controls import ControlArrays
     from model.features import AUDIO_DIM
 
     if weights and Path(weights).exists():

@@ -28,8 +28,10 @@ import json, resource, sys, tempfile, time
 sys.path.insert(0, sys.argv[1])
 import numpy as np
 from library import load_library
-from model.motion_file import MotionClip
-from model.skeleton import FPS
+from core.controls import Control
+from core.motion import MotionClip
+from core.words import TimedWord
+from core.skeleton import FPS
 seconds, repeat, size = float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
 lib = load_library(use_config=False)
 names = ["wave", "point_right", "open_arms", "shrug", "point_up", "clap", "beat_both", "stop"]
@@ -40,9 +42,8 @@ while n < want:
     parts.append(p)
     n += len(p)
 poses = np.concatenate(parts)[:want]
-words = [{"word": f"w{i}", "start": i * 0.4, "end": i * 0.4 + 0.3} for i in range(int(seconds / 0.4))]
-controls = [{"kind": "pose" if i % 2 else "style", "start_frame": i * 20, "end_frame": i * 20 + 12}
-            for i in range(want // 20)]
+words = [TimedWord(f"w{i}", i * 0.4, i * 0.4 + 0.3) for i in range(int(seconds / 0.4))]
+controls = [Control("pose" if i % 2 else "style", "w", i * 20, i * 20 + 12) for i in range(want // 20)]
 clip = MotionClip(poses=poses, words=words, controls=controls)
 from renders.animate import render_gif
 times = []

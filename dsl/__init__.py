@@ -25,7 +25,7 @@ def __getattr__(name):
 
         return getattr(compiler, name)
     if name == "Diagnostic":
-        from dsl.diagnostics import Diagnostic
+        from core.diagnostics import Diagnostic
 
         return Diagnostic
     raise AttributeError(name)

@@ -7,7 +7,7 @@
     if result.ok:
         arrays = result.plan.utterances[0].arrays   # pose (T,27), pose_mask (T,), style (T,3), style_mask (T,3)
 
-Every problem is a :class:`~dsl.diagnostics.Diagnostic` in ``result.diagnostics``; nothing a
+Every problem is a :class:`~core.diagnostics.Diagnostic` in ``result.diagnostics``; nothing a
 user writes raises.
 """
 
@@ -18,12 +18,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
+from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
 from dsl.parser import analyse, read_source
 from dsl.plan import ArrayRequests, Control, Plan, UtterancePlan
 from dsl.script import Script, Utterance
 from dsl.timing import Timing, estimate_timing, speech_timing
-from model.skeleton import FPS, frame_count, seconds_to_frame
+from core.skeleton import FPS, frame_count, seconds_to_frame
 
 Progress = Callable[[int, int, str], None]
 

@@ -20,7 +20,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean
+from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean
 from dsl.script import AudioRef, Header, Span
 from dsl.styles import STYLE_ITEM_HELP, parse_style_value
 

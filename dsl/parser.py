@@ -11,7 +11,7 @@ from bisect import bisect_right
 from pathlib import Path
 
 from dsl.body import parse_items
-from dsl.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
+from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
 from dsl.directives import DirectiveContext, apply_directive
 from dsl.lines import Statement, decode_source, split_statements
 from dsl.presets import BUILTIN_PRESETS
@@ -27,7 +27,7 @@ from dsl.script import (
     WordToken,
 )
 from dsl.styles import STYLE_ITEM_HELP, parse_style_value
-from model.controls import STYLE_NAMES
+from core.controls import STYLE_NAMES
 
 #: A spoken word: letters or digits, with inner apostrophes or hyphens ("don't", "left-hand").
 WORD_RE = re.compile(r"[^\W_]+(?:['\u2019\-][^\W_]+)*")

@@ -1,7 +1,7 @@
 """The compiled plan: per utterance its words, controls and the per-frame control arrays.
 
 ``plan.json`` is deterministic and human-readable (reviewable in a diff); ``--npz`` holds the
-arrays the generator consumes (layout owned by :mod:`model.controls`). Both are written
+arrays the generator consumes (layout owned by :mod:`core.controls`). Both are written
 atomically.
 """
 
@@ -14,34 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from dsl.timing import TimedWord
-from model.controls import STYLE_NAMES, ControlArrays
-from model.fileio import atomic_write
+from core.words import TimedWord
+from core.controls import STYLE_NAMES, Control, ControlArrays
+from core.fileio import atomic_write
 
 PLAN_FORMAT = "sgt-plan"
 PLAN_VERSION = 1
-
-
-@dataclass
-class Control:
-    kind: str  # "pose", "style" or "pause"
-    name: str
-    start_frame: int
-    end_frame: int  # exclusive
-    line: int
-    col: int
-    options: dict
-
-    def to_dict(self) -> dict:
-        return {
-            "kind": self.kind,
-            "name": self.name,
-            "start_frame": self.start_frame,
-            "end_frame": self.end_frame,
-            "line": self.line,
-            "col": self.col,
-            "options": self.options,
-        }
 
 
 @dataclass
@@ -80,7 +58,7 @@ class UtterancePlan:
 
     @property
     def arrays(self) -> ControlArrays:
-        """Per-frame control arrays (SGToolkit Eq. 1-3), layout from :mod:`model.controls`."""
+        """Per-frame control arrays (SGToolkit Eq. 1-3), layout from :mod:`core.controls`."""
         if self._arrays is None:
             self._arrays = self.requests.build()
         return self._arrays
@@ -94,7 +72,7 @@ class UtterancePlan:
             "duration": round(self.duration, 3),
             "frames": self.n_frames,
             "speech": self.speech,
-            "words": [{"word": w.word, "start": round(w.start, 3), "end": round(w.end, 3)} for w in self.words],
+            "words": [w.to_dict() for w in self.words],
             "controls": [c.to_dict() for c in self.controls],
         }
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
-from dsl.diagnostics import Diagnostic
+from core.diagnostics import Diagnostic
 
 
 class Span(NamedTuple):

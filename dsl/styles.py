@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from model.controls import STYLE_LIMIT, STYLE_NAMES
+from core.controls import STYLE_LIMIT, STYLE_NAMES
 
 STYLE_ITEM_HELP = (
     "style items are speed:V, space:V and handedness:V with V from -3 to 3 "

@@ -9,20 +9,13 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
 
+from core.words import TimedWord, shift_words
 from dsl.script import Utterance
 
 _SENTENCE_END = re.compile(r"[.!?;:]")
 LEAD_IN = 0.05  # seconds of silence before the first estimated word
 _timed_word = tuple.__new__  # TimedWord(word, start, end) without the NamedTuple call overhead
-
-
-class TimedWord(NamedTuple):
-    word: str
-    start: float  # seconds
-    end: float
-
 
 @dataclass
 class Timing:
@@ -34,8 +27,7 @@ class Timing:
 
     def shifted(self, lead: float) -> Timing:
         """The same timing ``lead`` seconds later."""
-        words = [_timed_word(TimedWord, (w[0], w[1] + lead, w[2] + lead)) for w in self.words]
-        return Timing(words, self.duration + lead, self.source, self.audio_path, self.sample_rate)
+        return Timing(shift_words(self.words, lead), self.duration + lead, self.source, self.audio_path, self.sample_rate)
 
 
 def estimate_timing(utt: Utterance) -> Timing:
@@ -90,5 +82,4 @@ def speech_timing(utt: Utterance, cache_dir: Path | None = None) -> Timing:
         result = speech.synthesize(
             utt.text, utt.word_spans, pauses, voice=v.name, rate=v.rate, pitch=v.pitch, cache_dir=cache_dir
         )
-    words = [TimedWord(w.text, float(w.start), float(w.end)) for w in result.words]
-    return Timing(words, float(result.duration), result.source, Path(result.audio_path), result.sample_rate)
+    return Timing(list(result.words), float(result.duration), result.source, Path(result.audio_path), result.sample_rate)

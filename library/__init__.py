@@ -5,7 +5,7 @@
     from library import load_library
     lib = load_library()
     clip = lib.get("point_right").clip(speed=2, flip=True, hold=0.5)
-    clip.poses        # (T, 27) float32 unit bone directions at model.skeleton.FPS
+    clip.poses        # (T, 27) float32 unit bone directions at core.skeleton.FPS
     clip.stroke_frame # index into clip.poses, or None
 
 Built-in gestures live in ``library/gestures/``; user folders (see :mod:`library.config`
@@ -24,7 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from library.spec import GestureSpec, LibraryProblem, SpecError, read_spec, sample
-from model.skeleton import FPS, frame_count, mirror_pose
+from core.skeleton import FPS, frame_count, mirror_pose
 
 __all__ = ["load_library", "Library", "Gesture", "Clip", "LibraryProblem", "BUILTIN_DIR"]
 

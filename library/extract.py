@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from library.spec import REST_DIRS, parse_spec_text, sample
-from model.skeleton import (
+from core.skeleton import (
     BONE_NAMES,
     FPS,
     JOINT_INDEX,

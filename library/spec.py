@@ -26,7 +26,7 @@ Spec file format (``library/gestures/NAME.toml``, one gesture per file)
     right_elbow = "rest"                 # back to the rest direction
     right_wrist = "rest"
 
-Bones are named after their child joint (see :data:`model.skeleton.BONE_NAMES`):
+Bones are named after their child joint (see :data:`core.skeleton.BONE_NAMES`):
 ``neck`` (spine -> neck, the torso), ``nose`` and ``head_top`` (the head),
 ``left_shoulder``/``right_shoulder`` (neck -> shoulder), ``left_elbow``/``right_elbow``
 (upper arms) and ``left_wrist``/``right_wrist`` (forearms). A bone value is either three
@@ -57,7 +57,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE
+from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE
 
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
 TOP_LEVEL_KEYS = ("name", "description", "tags", "duration", "keyframes")

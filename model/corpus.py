@@ -39,8 +39,9 @@ from pathlib import Path
 
 import numpy as np
 
-from model.fileio import atomic_write, atomic_write_text
-from model.skeleton import FPS, frame_count, mirror_pose
+from core.fileio import atomic_write, atomic_write_text
+from core.skeleton import FPS, frame_count, mirror_pose
+from core.words import TimedWord
 
 FORMAT_VERSION = 1
 FORTUNE_DIR = Path("/usr/share/games/fortunes")
@@ -266,7 +267,7 @@ def make_clip(text: str, seed: int, index: int, voices: list[str], cache_dir: Pa
         pauses = [(int(commas[int(rng.integers(len(commas)))]), round(float(rng.uniform(0.15, 0.8)), 2))]
     speech = synthesize(text, spans, pauses, voice=voice, rate=rate, pitch=pitch, cache_dir=cache_dir)
     y = load_audio(speech.audio_path, SAMPLE_RATE)
-    words = [(w.text, w.start, w.end) for w in speech.words]
+    words = [(w.word, w.start, w.end) for w in speech.words]
 
     arng = _clip_rng(seed, index, 2)
     tempo = 1.0
@@ -286,7 +287,7 @@ def make_clip(text: str, seed: int, index: int, voices: list[str], cache_dir: Pa
     tail = float(rng.uniform(0.3, 1.0))
     lead = lead_frames / FPS
     n = frame_count(lead + len(y) / SAMPLE_RATE + tail)
-    mwords = [{"word": t, "start": round(a + lead, 4), "end": round(b + lead, 4)} for t, a, b in words]
+    mwords = [TimedWord(t, round(a + lead, 4), round(b + lead, 4)) for t, a, b in words]
 
     style = _draw_style(rng)
     mirror = bool(rng.random() < 0.5)
@@ -307,7 +308,7 @@ def make_clip(text: str, seed: int, index: int, voices: list[str], cache_dir: Pa
             "index": index, "text": text, "voice": voice, "rate": rate, "pitch": pitch,
             "pauses": [list(p) for p in pauses], "lead_in": round(lead, 4), "n_frames": n,
             "style": eff_style, "teacher_style": style, "mirror": mirror,
-            "augmentation": aug_info, "words": mwords, "split": clip_split(seed, index),
+            "augmentation": aug_info, "words": [w.to_dict(4) for w in mwords], "split": clip_split(seed, index),
         },
     }
 

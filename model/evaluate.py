@@ -19,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from model.controls import ControlArrays
-from model.skeleton import normalize_pose
+from core.controls import ControlArrays
+from core.skeleton import normalize_pose
+from core.words import TimedWord
 from model.style import style as style_of
 
 PCS_LENGTH = 5
@@ -48,11 +49,11 @@ def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
 
 
 def _rules(clip, seed):
-    from model.skeleton import mirror_pose
+    from core.skeleton import mirror_pose
     from model.teacher import teach
 
     meta = clip["meta"]
-    poses = teach(meta["words"], len(clip["poses"]), style=meta.get("teacher_style") or meta.get("style"),
+    poses = teach([TimedWord.from_dict(w) for w in meta["words"]], len(clip["poses"]), style=meta.get("teacher_style") or meta.get("style"),
                   lead_in=meta.get("lead_in", 0.0), rng=np.random.default_rng(10_000 + seed))
     return mirror_pose(poses) if meta.get("mirror") else poses
 

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model.skeleton import FPS
+from core.skeleton import FPS
 
 SAMPLE_RATE = 16000
 N_MELS = 32
@@ -118,11 +118,11 @@ def word_id(word: str) -> int:
 
 
 def word_features(words, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
-    """(ids (T,) int64, onsets (T,) float32) from words with ``word``, ``start``, ``end`` seconds."""
+    """(ids (T,) int64, onsets (T,) float32) from :class:`~core.words.TimedWord` (seconds)."""
     ids = np.zeros(n_frames, np.int64)
     onsets = np.zeros(n_frames, np.float32)
     for w in words:
-        text, start, end = (w["word"], w["start"], w["end"]) if isinstance(w, dict) else (w[0], w[1], w[2])
+        text, start, end = w
         a = int(np.floor(start * FPS + 1e-6))
         b = max(a + 1, int(np.ceil(end * FPS - 1e-6)))
         if 0 <= a < n_frames:

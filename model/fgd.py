@@ -29,8 +29,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from model.fileio import atomic_write
-from model.skeleton import FPS, JOINTS, POSE_DIM, REST_POSE
+from core.fileio import atomic_write
+from core.skeleton import FPS, JOINTS, POSE_DIM, REST_POSE
 
 FORMAT = "sgt-fgd-extractor"
 VERSION = 1

@@ -19,7 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from model.controls import ControlArrays
+from core.controls import ControlArrays
+from core.words import TimedWord
 
 #: Engine name -> module with ``generate(inputs, *, seed, ...)``.
 ENGINES = {
@@ -35,7 +36,7 @@ class EngineInputs:
     """Everything an engine may use for one utterance, on the motion timeline."""
 
     arrays: ControlArrays  # pose and style controls, T frames
-    words: list  # TimedWord (word, start, end) in seconds, lead-in already added
+    words: list[TimedWord]  # seconds on the motion timeline, lead-in already added
     audio_path: Path | None = None  # speech audio; it starts ``lead_in`` seconds into the motion
     lead_in: float = 0.0
 
@@ -80,8 +81,8 @@ def engine_function(name: str, options=None) -> Callable:
 
 
 def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None, progress=None, options=None) -> list:
-    """One :class:`~model.motion_file.MotionClip` per planned utterance."""
-    from model.motion_file import MotionClip
+    """One :class:`~core.motion.MotionClip` per planned utterance."""
+    from core.motion import MotionClip
 
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     clips = []
@@ -90,9 +91,8 @@ def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None,
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
         poses = fn(EngineInputs.from_plan(u), seed=base_seed + u.index)
-        words = [{"word": w.word, "start": round(w.start, 3), "end": round(w.end, 3)} for w in u.words]
-        clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=words,
-                                controls=[c.to_dict() for c in u.controls]))
+        clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=list(u.words),
+                                controls=list(u.controls)))
     if progress:
         progress(len(plan.utterances), len(plan.utterances), "")
     return clips

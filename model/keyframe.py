@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from model.controls import ControlArrays
-from model.skeleton import REST_POSE, normalize_pose
+from core.controls import ControlArrays
+from core.skeleton import REST_POSE, normalize_pose
 
 NAME = "keyframe"
 

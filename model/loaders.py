@@ -16,8 +16,8 @@ BVH (:func:`read_bvh`): the hierarchy (offsets, channels, any Euler order, End S
 - units: centimetres are detected (or set with ``scale``) and converted to metres;
 - axes: the up axis is found from the zero pose (or given), rotated to +y; a rotation about y
   puts the shoulder line on x with the chest facing +z (the character's left on +x);
-- resampling to :data:`model.skeleton.FPS` (linear interpolation of joint positions);
-- poses (T, 27) via :func:`model.skeleton.pose_from_positions`.
+- resampling to :data:`core.skeleton.FPS` (linear interpolation of joint positions);
+- poses (T, 27) via :func:`core.skeleton.pose_from_positions`.
 """
 
 from __future__ import annotations
@@ -29,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from model.skeleton import FPS, JOINTS, pose_from_positions
+from core.skeleton import FPS, JOINTS, pose_from_positions
+from core.words import TimedWord
 
 
 class LoaderError(Exception):
@@ -408,9 +409,9 @@ def load_take(take: Take, *, features: bool = True, **bvh_kwargs) -> dict:
     words = []
     if take.timings_path is not None:
         timed, _source = read_timings(take.timings_path)
-        words = [{"word": w, "start": float(a), "end": float(b)} for w, a, b in timed]
+        words = [TimedWord(w, float(a), float(b)) for w, a, b in timed]
     clip = {"id": take.name, "poses": poses,
-            "meta": {"text": " ".join(w["word"] for w in words), "words": words, "source": "bvh",
+            "meta": {"text": " ".join(w.word for w in words), "words": [w.to_dict(6) for w in words], "source": "bvh",
                      "bvh": str(take.bvh_path), "audio": str(take.audio_path) if take.audio_path else None,
                      "n_frames": n}}
     if features:

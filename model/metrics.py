@@ -20,8 +20,8 @@ Metrics of Kucherenko et al. ("Moving fast and slow", sections 4.4-5.4, Tables 1
 
 :func:`report` evaluates named conditions into table rows and :func:`format_table` prints them.
 
-Joint positions come from forward kinematics (:func:`model.skeleton.positions_from_pose`) with
-the root joint (``spine``) fixed at :data:`model.skeleton.ROOT_POSITION`, so every position is
+Joint positions come from forward kinematics (:func:`core.skeleton.positions_from_pose`) with
+the root joint (``spine``) fixed at :data:`core.skeleton.ROOT_POSITION`, so every position is
 already root-centred (the equivalent of Kucherenko's hip-centring); the root itself never
 moves and is left out of the "all joints" group. Every motion argument may be poses ``(T, 27)``
 or joint positions ``(T, 10, 3)`` in metres; both are recognised by shape.
@@ -36,7 +36,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from model.skeleton import FPS, JOINT_INDEX, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
+from core.skeleton import FPS, JOINT_INDEX, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 
 # --------------------------------------------------------------------------- constants
 
@@ -119,9 +119,9 @@ def pose_control(reference, start: int = PCS_START, length: int = PCS_LENGTH):
     """The paper's PCS control: the reference poses of frames [start, start+length) requested.
 
     ``reference`` is a (T, 27) window (SGToolkit uses T = 30, frames [10, 15)); returns a
-    :class:`model.controls.ControlArrays` with only that pose control set.
+    :class:`core.controls.ControlArrays` with only that pose control set.
     """
-    from model.controls import ControlArrays
+    from core.controls import ControlArrays
 
     ref = np.asarray(reference, np.float32)
     if ref.ndim != 2 or ref.shape[1] != POSE_DIM:
@@ -135,7 +135,7 @@ def pose_control(reference, start: int = PCS_START, length: int = PCS_LENGTH):
 
 def style_control(reference, stats=None):
     """The paper's SCS control: the reference's own style values requested on every frame."""
-    from model.controls import ControlArrays
+    from core.controls import ControlArrays
     from model.style import style
 
     ref = np.asarray(reference, np.float32)

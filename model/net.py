@@ -24,9 +24,9 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from model.controls import STYLE_NAMES
+from core.controls import STYLE_NAMES
 from model.features import AUDIO_DIM, WORD_BUCKETS
-from model.skeleton import N_BONES, POSE_DIM, REST_POSE
+from core.skeleton import N_BONES, POSE_DIM, REST_POSE
 
 DEFAULT_CONFIG = {
     "hidden": 128,

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from model.skeleton import FPS, normalize_pose
+from core.skeleton import FPS, normalize_pose
 
 
 def moving_average(poses: np.ndarray, window: int = 5) -> np.ndarray:

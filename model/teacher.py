@@ -29,7 +29,7 @@ import re
 
 import numpy as np
 
-from model.skeleton import (
+from core.skeleton import (
     BONE_INDEX,
     FPS,
     N_BONES,
@@ -109,20 +109,8 @@ def _norm_word(w: str) -> str:
 
 
 def _timed_words(words) -> list[tuple[str, float, float]]:
-    """Accepts dicts {word|text, start, end}, objects with .word/.text, or tuples."""
-    out = []
-    for w in words or ():
-        if isinstance(w, dict):
-            text = w.get("word", w.get("text", ""))
-            a, b = w["start"], w["end"]
-        elif isinstance(w, (tuple, list)):
-            text, a, b = w[0], w[1], w[2]
-        else:
-            text = getattr(w, "word", None) or getattr(w, "text", "")
-            a, b = w.start, w.end
-        out.append((str(text), float(a), float(max(a, b))))
-    out.sort(key=lambda x: x[1])
-    return out
+    """:class:`~core.words.TimedWord` list -> (word, start, end) sorted by start, end >= start."""
+    return sorted(((w.word, float(w.start), float(max(w.start, w.end))) for w in words or ()), key=lambda x: x[1])
 
 
 # -- style ----------------------------------------------------------------------------------
@@ -305,8 +293,8 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
           rng: np.random.Generator | None = None, trigger_prob: float | None = None) -> np.ndarray:
     """Poses (n_frames, 27) float32 of unit bone directions for timed ``words``.
 
-    ``words``: timed words (seconds on the motion timeline; dicts, TimedWord/Word objects or
-    tuples). ``audio``: mono float32 at :data:`model.features.SAMPLE_RATE` starting ``lead_in``
+    ``words``: timed words (seconds on the motion timeline; :class:`~core.words.TimedWord`).
+    ``audio``: mono float32 at :data:`model.features.SAMPLE_RATE` starting ``lead_in``
     seconds into the motion, or None. ``style``: dict of speed/space/handedness in [-3, 3],
     scalars (per clip) or arrays (per frame). ``trigger_prob`` overrides the chance that a
     trigger word gets its library gesture. Deterministic given ``rng``'s state.
@@ -553,7 +541,7 @@ def _control_blend(base: np.ndarray, pose: np.ndarray, mask: np.ndarray, min_ble
 
 def generate(inputs, *, seed: int = 0) -> np.ndarray:
     """The ``rules`` engine: teacher motion with the style controls, pose controls exact."""
-    from model.controls import STYLE_NAMES
+    from core.controls import STYLE_NAMES
 
     arrays = inputs.arrays
     n = arrays.n_frames

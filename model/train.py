@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model.fileio import atomic_write
+from core.fileio import atomic_write
 from model.train_config import WINDOW, TrainConfig  # noqa: F401  (re-exported)
 
 # -- data -------------------------------------------------------------------------------------

@@ -12,10 +12,10 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-from model.controls import STYLE_NAMES
+from core.controls import STYLE_NAMES
 from model.features import AUDIO_DIM, N_MELS, SAMPLE_RATE, WORD_BUCKETS
-from model.fileio import atomic_write
-from model.skeleton import FPS, JOINTS, POSE_DIM
+from core.fileio import atomic_write
+from core.skeleton import FPS, JOINTS, POSE_DIM
 
 FORMAT = "sgt-generator"
 VERSION = 1

@@ -3,7 +3,7 @@
 Frames are rendered one at a time with one :class:`~renders.mannequin.Mannequin`,
 decorated (:mod:`renders.overlay`), mapped to one shared palette and streamed into a
 :class:`~renders.gifwriter.GifWriter`, so memory does not grow with the clip length.
-Every output is written with :func:`model.fileio.atomic_write`.
+Every output is written with :func:`core.fileio.atomic_write`.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from model.fileio import atomic_write
-from model.motion_file import MotionClip
-from model.skeleton import FPS
+from core.fileio import atomic_write
+from core.motion import MotionClip
+from core.skeleton import FPS
 from renders import overlay
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
 

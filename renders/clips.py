@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from model.motion_file import MotionClip
-from model.skeleton import FPS
+from core.motion import MotionClip
+from core.skeleton import FPS
+from core.words import shift_words
 
 
 def concat_clips(clips: list[MotionClip]) -> MotionClip:
@@ -17,23 +18,8 @@ def concat_clips(clips: list[MotionClip]) -> MotionClip:
     words, controls, texts = [], [], []
     offset = 0
     for c in clips:
-        shift = offset / FPS
-        for w in c.words:
-            w2 = dict(w)
-            try:
-                w2["start"] = round(float(w["start"]) + shift, 4)
-                w2["end"] = round(float(w["end"]) + shift, 4)
-            except (KeyError, TypeError, ValueError):
-                continue
-            words.append(w2)
-        for k in c.controls:
-            k2 = dict(k)
-            try:
-                k2["start_frame"] = int(k["start_frame"]) + offset
-                k2["end_frame"] = int(k["end_frame"]) + offset
-            except (KeyError, TypeError, ValueError):
-                continue
-            controls.append(k2)
+        words += shift_words(c.words, offset / FPS)
+        controls += [k.shifted(offset) for k in c.controls]
         offset += c.n_frames
     speakers = {c.speaker for c in clips}
     for c in clips:

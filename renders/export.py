@@ -17,7 +17,7 @@ A joint's rotation turns the bone from it to its child: spine -> neck, neck -> n
 nose -> head_top, left_collar -> left_shoulder, left_shoulder -> left_elbow,
 left_elbow -> left_wrist. The collars exist because one BVH rotation can orient only one
 bone, and the neck starts three. OFFSETs are the rest-pose bone vectors
-(:data:`model.skeleton.REST_DIRECTIONS` times the bone lengths) in metres, so all-zero
+(:data:`core.skeleton.REST_DIRECTIONS` times the bone lengths) in metres, so all-zero
 rotations give the rest pose. head_top and the wrists carry zero rotations.
 
 Roll: the skeleton stores bone directions only, so twist about a bone is undefined. The
@@ -34,9 +34,9 @@ import warnings
 
 import numpy as np
 
-from model.fileio import atomic_write
-from model.motion_file import MotionClip
-from model.skeleton import BONE_LENGTHS, FPS, JOINT_INDEX, JOINTS, REST_DIRECTIONS
+from core.fileio import atomic_write
+from core.motion import MotionClip
+from core.skeleton import BONE_LENGTHS, FPS, JOINT_INDEX, JOINTS, REST_DIRECTIONS
 from renders.rotations import shortest_arc
 
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
@@ -74,7 +74,7 @@ BVH_JOINTS = tuple(j for j, _, _, _ in HIERARCHY)
 
 def _parent_bone_joint(name: str) -> str:
     """The skeleton joint at which the bone named ``name`` starts."""
-    from model.skeleton import BONES
+    from core.skeleton import BONES
 
     return dict((c, p) for p, c in BONES)[name]
 

@@ -14,7 +14,7 @@ import struct
 
 import numpy as np
 
-from model.skeleton import FPS
+from core.skeleton import FPS
 
 
 def frame_delays_cs(n_frames: int, fps: int = FPS) -> list[int]:

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from model.skeleton import BONE_LENGTHS
-from model.skeleton import JOINT_INDEX as J
+from core.skeleton import BONE_LENGTHS
+from core.skeleton import JOINT_INDEX as J
 from renders.rotations import align_z, frame_from, transform
 
 BACKGROUND = (236, 239, 243)

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
-from model.skeleton import FPS
+from core.skeleton import FPS
 
 POSE_GREEN = (30, 168, 72)
 STYLE_RED = (216, 44, 44)
@@ -79,20 +79,9 @@ def timeline_geometry(width: int, height: int, n_frames: int) -> Timeline:
 def word_at(words, seconds: float) -> str | None:
     """The word being spoken at ``seconds`` (start <= t < end), or None."""
     for w in words or ():
-        try:
-            if float(w["start"]) <= seconds < float(w["end"]):
-                return str(w["word"])
-        except (KeyError, TypeError, ValueError):
-            continue
+        if w.start <= seconds < w.end:
+            return w.word
     return None
-
-
-def _span(c) -> tuple[int, int] | None:
-    try:
-        a, b = int(c["start_frame"]), int(c["end_frame"])
-    except (KeyError, TypeError, ValueError):
-        return None
-    return (a, b) if b > a else None
 
 
 def draw_timeline(draw, width: int, height: int, frame: int, n_frames: int, controls, *, legend=True) -> None:
@@ -104,13 +93,10 @@ def draw_timeline(draw, width: int, height: int, frame: int, n_frames: int, cont
     for kind in ("pause", "pose", "style"):  # later kinds paint over earlier ones
         top, bottom, color = lanes[kind]
         for c in controls or ():
-            if not isinstance(c, dict) or c.get("kind") != kind:
+            if c.kind != kind or c.end_frame <= c.start_frame:
                 continue
-            span = _span(c)
-            if span is None:
-                continue
-            x0 = round(g.x(max(0, span[0])))
-            x1 = max(x0 + 1, round(g.x(min(n_frames, span[1]))))
+            x0 = round(g.x(max(0, c.start_frame)))
+            x1 = max(x0 + 1, round(g.x(min(n_frames, c.end_frame))))
             draw.rectangle([x0, top, x1 - 1, bottom - 1], fill=color)
     # Playhead.
     x = round(g.x(frame + 0.5))

@@ -1,7 +1,7 @@
 """Stick figures for a terminal: joint positions projected from 3D, drawn with braille dots.
 
 Each character cell holds 2 x 4 braille dots (U+2800..U+28FF), so a 30 x 15 cell panel is a
-60 x 60 dot picture. The skeleton (:mod:`model.skeleton`, y up, metres, facing +z) is turned
+60 x 60 dot picture. The skeleton (:mod:`core.skeleton`, y up, metres, facing +z) is turned
 about the vertical axis by ``yaw`` degrees so that depth shows (a hand reaching forward moves
 sideways on screen), projected orthographically and scaled to a fixed box, so the figure
 does not jump when a hand goes up. Bones are lines, the head a circle with a tick towards
@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from model.skeleton import BONES, JOINT_INDEX
+from core.skeleton import BONES, JOINT_INDEX
 
 BRAILLE_BASE = 0x2800
 #: Bit of the dot at (row % 4, column % 2) inside a braille cell.

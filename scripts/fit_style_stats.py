@@ -20,7 +20,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from library import load_library  # noqa: E402
-from model.skeleton import REST_POSE  # noqa: E402
+from core.skeleton import REST_POSE  # noqa: E402
 from model.style import STATS_PATH, fit_stats  # noqa: E402
 
 
@@ -51,8 +51,8 @@ def main() -> int:
         stats = fit_stats(motions, source=source)
     else:
         stats = fit_stats(library_reference(), source="built-in motion library (scripts/fit_style_stats.py)")
-    from model.controls import STYLE_NAMES
-    from model.fileio import atomic_write_text
+    from core.controls import STYLE_NAMES
+    from core.fileio import atomic_write_text
 
     atomic_write_text(Path(args.output), stats.to_json())
     for name, m, s in zip(STYLE_NAMES, stats.mean, stats.std):

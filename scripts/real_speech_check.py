@@ -47,7 +47,7 @@ def join_recordings(out_wav: Path) -> str:
 def loudness(audio_path: Path, n_frames: int, lead_in: float) -> np.ndarray:
     """Per-frame log energy of the speech (15 fps), aligned with the motion."""
     from model.features import audio_features, load_audio
-    from model.skeleton import FPS
+    from core.skeleton import FPS
 
     return audio_features(load_audio(audio_path), n_frames, offset_frames=int(round(lead_in * FPS)))[:, -1]
 
@@ -55,7 +55,7 @@ def loudness(audio_path: Path, n_frames: int, lead_in: float) -> np.ndarray:
 def speed_loudness_correlation(poses: np.ndarray, energy: np.ndarray) -> float:
     """Pearson correlation of mean wrist speed with the speech energy (both at 15 fps)."""
     from model.metrics import joint_speeds
-    from model.skeleton import JOINTS
+    from core.skeleton import JOINTS
 
     wrists = [JOINTS.index("left_wrist"), JOINTS.index("right_wrist")]
     speed = joint_speeds(poses)[:, wrists].mean(axis=1)

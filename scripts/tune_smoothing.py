@@ -20,7 +20,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from model import metrics, neural, postprocess  # noqa: E402
-from model.controls import ControlArrays  # noqa: E402
+from core.controls import ControlArrays  # noqa: E402
 from model.corpus import load_corpus  # noqa: E402
 from model.evaluate import style_controls  # noqa: E402
 from model.weights import load_weights  # noqa: E402

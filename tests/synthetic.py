@@ -8,7 +8,7 @@ import numpy as np
 
 from library import load_library
 from model.features import AUDIO_DIM, WORD_BUCKETS
-from model.skeleton import REST_POSE, mirror_pose
+from core.skeleton import REST_POSE, mirror_pose
 
 
 def synthetic_clips(n_clips: int = 12, frames: int = 150, seed: int = 0) -> list[dict]:

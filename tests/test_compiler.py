@@ -7,8 +7,8 @@ import pytest
 
 from dsl.compiler import compile_file
 from library import load_library
-from model.controls import STYLE_INDEX
-from model.skeleton import FPS, seconds_to_frame
+from core.controls import STYLE_INDEX
+from core.skeleton import FPS, seconds_to_frame
 from sgt_tui import cli
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from dsl.diagnostics import format_json, format_text
+from core.diagnostics import format_json, format_text
 from dsl.parser import analyse
 
 NAMES = ["open_arms", "point_right", "point_left", "wave", "nod", "beat_both"]

@@ -333,7 +333,7 @@ def test_player_loops_and_clamps():
 
 def test_braille_figure_follows_the_hand():
     from library import load_library
-    from model.skeleton import REST_POSE, positions_from_pose
+    from core.skeleton import REST_POSE, positions_from_pose
     from renders.terminal import stick_figure
 
     def top_dot_row(lines):
@@ -358,7 +358,7 @@ def test_core_packages_never_import_textual():
             src = f.read_text(encoding="utf-8")
             assert "import textual" not in src and "from textual" not in src, f
     modules = ["sgt_tui.editor." + p.stem for p in (ROOT / "sgt_tui" / "editor").glob("*.py") if p.stem != "__init__"]
-    modules += ["dsl.compiler", "library", "model.generate", "model.motion_file", "renders.terminal", "sgt_tui.cli",
+    modules += ["dsl.compiler", "library", "model.generate", "core.motion", "renders.terminal", "sgt_tui.cli",
                 "sgt_tui.commands.edit"]
     code = "import sys\n" + "".join(f"import {m}\n" for m in modules) + "print('textual' in sys.modules, 'rich' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)

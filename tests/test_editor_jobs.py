@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from model.motion_file import load_motion
+from core.motion import load_motion
 from sgt_tui.editor.jobs import CANCELLED, DONE, FAILED, JobRunner
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -49,7 +49,7 @@ def test_generate_one_utterance_then_reuse_the_warm_worker(runner, tmp_path):
     assert job.result["utterances"] == [1] and job.result["motion"] == str(out)
     clips = load_motion(out)
     assert len(clips) == 1 and clips[0].n_frames == job.result["frames"] > 15
-    assert "shelf" in [w["word"] for w in clips[0].words]
+    assert "shelf" in [w.word for w in clips[0].words]
     pid = runner.worker_pid
     again = runner.submit("generate", "gen", path=str(SCRIPT), source=src + "\nguide: one more [pose:nod] line",
                           engine="keyframe", utterances=[4], out=str(out))

@@ -7,8 +7,10 @@ import csv
 import numpy as np
 import pytest
 
-from model.motion_file import MotionClip, load_motion, save_motion
-from model.skeleton import BONE_INDEX, FPS, JOINTS, POSE_DIM, REST_POSE, normalize_pose
+from core.controls import Control
+from core.motion import MotionClip, load_motion, save_motion
+from core.words import TimedWord
+from core.skeleton import BONE_INDEX, FPS, JOINTS, POSE_DIM, REST_POSE, normalize_pose
 
 
 def _library_clip(names=("wave", "point_right", "open_arms", "shrug", "point_up", "clap")) -> MotionClip:
@@ -17,8 +19,8 @@ def _library_clip(names=("wave", "point_right", "open_arms", "shrug", "point_up"
     lib = load_library(use_config=False)
     parts = [lib.get(n).clip().poses for n in names]
     parts.append(lib.get("point_right").clip(flip=True).poses)
-    return MotionClip(poses=np.concatenate(parts), words=[{"word": "hi", "start": 0.0, "end": 0.3}],
-                      controls=[{"kind": "pose", "start_frame": 0, "end_frame": 5}])
+    return MotionClip(poses=np.concatenate(parts), words=[TimedWord("hi", 0.0, 0.3)],
+                      controls=[Control("pose", "wave", 0, 5)])
 
 
 def _hard_poses(n: int = 40) -> np.ndarray:

@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from dsl.compiler import compile_file
-from dsl.diagnostics import Diagnostic
+from core.diagnostics import Diagnostic
 from dsl.parser import analyse
 
 ROOT = Path(__file__).resolve().parent.parent

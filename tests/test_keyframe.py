@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from library import load_library
-from model.controls import ControlArrays
+from core.controls import ControlArrays
 from model.generate import GenerateError, clips_from_plan, engine_function
 from model.keyframe import generate
-from model.skeleton import REST_POSE
+from core.skeleton import REST_POSE
 
 
 def test_passes_through_every_key_and_is_smooth_and_unit():
@@ -44,6 +44,6 @@ def test_clips_from_plan(tmp_path):
     (clip,) = clips_from_plan(plan, engine="keyframe")
     u = plan.utterances[0]
     assert clip.poses.shape == (u.n_frames, 27) and clip.positions.shape == (u.n_frames, 10, 3)
-    assert clip.speaker == "bot" and clip.words[0]["word"] == "look"
+    assert clip.speaker == "bot" and clip.words[0].word == "look"
     mask = u.arrays.pose_mask > 0
     assert np.allclose(clip.poses[mask], u.arrays.pose[mask], atol=1e-6)

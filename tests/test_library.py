@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from library import BUILTIN_DIR, Clip, Gesture, LibraryProblem, load_library
-from model.skeleton import (
+from core.skeleton import (
     JOINT_INDEX,
     N_BONES,
     REST_POSE,

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from library import load_library
-from model.motion_file import MotionClip, save_motion
-from model.skeleton import N_BONES
+from core.motion import MotionClip, save_motion
+from core.skeleton import N_BONES
 from sgt_tui import cli
 
 

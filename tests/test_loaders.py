@@ -17,7 +17,7 @@ from model.loaders import (
     parse_bvh,
     read_bvh,
 )
-from model.skeleton import BONE_INDEX, JOINT_INDEX
+from core.skeleton import BONE_INDEX, JOINT_INDEX
 
 CHAIN = """HIERARCHY
 ROOT A

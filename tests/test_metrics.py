@@ -10,7 +10,7 @@ import pytest
 from library import load_library
 from model import fgd as F
 from model import metrics as M
-from model.skeleton import FPS, JOINT_INDEX, REST_POSE, positions_from_pose
+from core.skeleton import FPS, JOINT_INDEX, REST_POSE, positions_from_pose
 from model.style import style
 
 

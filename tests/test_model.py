@@ -13,9 +13,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 from synthetic import synthetic_clips  # noqa: E402
 
 from model import neural, postprocess  # noqa: E402
-from model.controls import ControlArrays  # noqa: E402
+from core.controls import ControlArrays  # noqa: E402
 from model.generate import EngineInputs  # noqa: E402
-from model.skeleton import REST_POSE  # noqa: E402
+from core.skeleton import REST_POSE  # noqa: E402
 from model.style import raw_style  # noqa: E402
 from model.train import TrainConfig, train  # noqa: E402
 from model.weights import FORMAT, WeightsError, load_weights  # noqa: E402

@@ -7,8 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from model.motion_file import MotionClip, MotionFileError, load_motion, save_motion
-from model.skeleton import (
+from core.controls import Control
+from core.motion import MotionClip, MotionFileError, load_motion, save_motion
+from core.words import TimedWord
+from core.skeleton import (
     FPS,
     JOINTS,
     REST_POSE,
@@ -24,9 +26,8 @@ def _clips():
     b = normalize_pose(mirror_pose(a[:5]))
     return [
         MotionClip(poses=a, speaker="ann", text="hello there",
-                   words=[{"word": "hello", "start": 0.0, "end": 0.4},
-                          {"word": "there", "start": 0.4, "end": 0.8}],
-                   controls=[{"kind": "pose", "gesture": "wave", "frame": 3}]),
+                   words=[TimedWord("hello", 0.0, 0.4), TimedWord("there", 0.4, 0.8)],
+                   controls=[Control("pose", "wave", 3, 9, 1, 5, {"speed": 1, "flip": False})]),
         MotionClip(poses=b),
     ]
 
@@ -109,7 +110,7 @@ def test_save_is_atomic_on_error(tmp_path):
     save_motion(path, _clips())
     before = path.read_bytes()
     bad = _clips()
-    bad[0].words = [{"word": object()}]  # not JSON-serialisable
+    bad[0].words = [TimedWord(object(), 0.0, 0.4)]  # not JSON-serialisable
     with pytest.raises(TypeError):
         save_motion(path, bad)
     assert path.read_bytes() == before
@@ -121,7 +122,7 @@ def test_atomic_write_keeps_usual_permissions(tmp_path):
     import os
     import stat
 
-    from model.fileio import atomic_write
+    from core.fileio import atomic_write
 
     old = os.umask(0o022)
     try:

@@ -5,15 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from model.motion_file import MotionClip, save_motion
-from model.skeleton import FPS
+from core.motion import MotionClip, save_motion
+from core.skeleton import FPS
+from core.controls import Control
+from core.words import TimedWord
 
 SIZE = (96, 96)
-WORDS = [{"word": "hello", "start": 0.0, "end": 0.6}, {"word": "world", "start": 0.8, "end": 1.6}]
-CONTROLS = [
-    {"kind": "pose", "name": "wave", "start_frame": 2, "end_frame": 8},
-    {"kind": "style", "name": "speed", "start_frame": 14, "end_frame": 22},
-]
+WORDS = [TimedWord("hello", 0.0, 0.6), TimedWord("world", 0.8, 1.6)]
+CONTROLS = [Control("pose", "wave", 2, 8), Control("style", "speed", 14, 22)]
 
 
 def _clip(name: str = "wave", **kw) -> MotionClip:
@@ -173,7 +172,6 @@ def test_word_at():
     assert word_at(WORDS, 0.3) == "hello"
     assert word_at(WORDS, 0.7) is None
     assert word_at(WORDS, 1.0) == "world"
-    assert word_at([{"bad": 1}], 0.1) is None
 
 
 # -- sheet and comparison --------------------------------------------------------------------

@@ -70,7 +70,7 @@ def test_textgrid_long_format(tmp_path):
     tg.write_text(long_textgrid(WORDS), encoding="utf-8")
     s = load_recording(audio, TEXT, spans_of(TEXT), timings_path=tg, cache_dir=tmp_path / "c")
     assert s.source == "textgrid"
-    assert [(w.text, w.start, w.end) for w in s.words] == WORDS
+    assert [(w.word, w.start, w.end) for w in s.words] == WORDS
     assert s.audio_path == audio and s.sample_rate == 16000 and abs(s.duration - 2.2) < 1e-9
 
 
@@ -82,7 +82,7 @@ def test_textgrid_short_format_utf16_quotes(tmp_path):
     content = short_textgrid([(w.replace('"', '""'), a, b) for w, a, b in words], xmax=1.2)
     tg.write_bytes(content.encode("utf-16"))  # Praat writes UTF-16 when the text is not ASCII
     s = load_recording(audio, text, spans_of(text), timings_path=tg, cache_dir=tmp_path / "c")
-    assert [w.text for w in s.words] == ["Say", "hi", "café"]
+    assert [w.word for w in s.words] == ["Say", "hi", "café"]
     assert [w.start for w in s.words] == [0.1, 0.3, 0.6]
 
 

@@ -11,12 +11,12 @@ import wave
 import pytest
 
 from dsl import speech
-from dsl.speech import Speech, SpeechError, Word, synthesize
+from dsl.speech import Speech, SpeechError, synthesize
 from dsl.speech import _espeak
 
 pytestmark = pytest.mark.skipif(_espeak.find_library() is None, reason="libespeak-ng not installed")
 
-FRAME = 1 / 15  # model.skeleton.FPS
+FRAME = 1 / 15  # core.skeleton.FPS
 
 
 def spans_of(text: str) -> list[tuple[int, int]]:
@@ -25,7 +25,7 @@ def spans_of(text: str) -> list[tuple[int, int]]:
 
 def check_invariants(s: Speech, text: str, spans) -> None:
     assert len(s.words) == len(spans)
-    assert [w.text for w in s.words] == [text[a:b] for a, b in spans]
+    assert [w.word for w in s.words] == [text[a:b] for a, b in spans]
     prev = 0.0
     for w in s.words:
         assert 0.0 <= w.start <= w.end <= s.duration + 1e-9
@@ -55,7 +55,7 @@ def test_merged_words_numbers_contractions(tmp_path):
     spans = spans_of(text)
     s = synthesize(text, spans, cache_dir=tmp_path)
     check_invariants(s, text, spans)
-    w = {x.text: x for x in s.words}
+    w = {x.word: x for x in s.words}
     starts = [x.start for x in s.words]
     assert all(b > a for a, b in zip(starts, starts[1:])), starts
     # "1999" is read as several engine words: it must take a long time, and "and" comes after
@@ -88,7 +88,7 @@ def test_pause_lengthens_and_shifts(tmp_path):
     check_invariants(p, text, spans)
     assert abs((p.duration - base.duration) - 0.7) < FRAME
     for a, b in zip(base.words, p.words):
-        if a.text in ("I", "think"):
+        if a.word in ("I", "think"):
             assert abs(a.start - b.start) < 1e-3
         else:
             assert abs((b.start - a.start) - 0.7) < FRAME

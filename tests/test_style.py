@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from library import load_library
-from model.skeleton import REST_POSE, mirror_pose
+from core.skeleton import REST_POSE, mirror_pose
 from model.style import WINDOW, StyleStats, fit_stats, load_stats, raw_style, style
 
 

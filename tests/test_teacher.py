@@ -5,15 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from model.controls import ControlArrays
+from core.controls import ControlArrays
+from core.words import TimedWord
 from model.generate import EngineInputs, engine_function
-from model.skeleton import BONE_INDEX, N_BONES, REST_POSE, mirror_pose
+from core.skeleton import BONE_INDEX, N_BONES, REST_POSE, mirror_pose
 from model.style import raw_style
 from model.teacher import MAX_STEP_DEG, generate, teach
 
-SENTENCE = [("so", 0.3, 0.45), ("we", 0.45, 0.6), ("went", 0.6, 0.9), ("to", 0.9, 1.0), ("the", 1.0, 1.1),
-            ("market", 1.1, 1.6), ("and", 1.7, 1.8), ("bought", 1.8, 2.1), ("fresh", 2.1, 2.4),
-            ("bread", 2.4, 2.8), ("for", 2.9, 3.0), ("dinner", 3.0, 3.5), ("tonight", 3.6, 4.1)]
+SENTENCE = [TimedWord("so", 0.3, 0.45), TimedWord("we", 0.45, 0.6), TimedWord("went", 0.6, 0.9), TimedWord("to", 0.9, 1.0), TimedWord("the", 1.0, 1.1),
+            TimedWord("market", 1.1, 1.6), TimedWord("and", 1.7, 1.8), TimedWord("bought", 1.8, 2.1), TimedWord("fresh", 2.1, 2.4),
+            TimedWord("bread", 2.4, 2.8), TimedWord("for", 2.9, 3.0), TimedWord("dinner", 3.0, 3.5), TimedWord("tonight", 3.6, 4.1)]
 N = 75
 
 
@@ -54,7 +55,7 @@ def test_with_audio():
     for t in (0.5, 1.2, 2.0):  # three loud syllables
         a = int(t * SAMPLE_RATE)
         y[a:a + 2000] = rng.normal(0, 0.3, 2000)
-    words = [("alpha", 0.4, 0.9), ("beta", 1.1, 1.6), ("gamma", 1.9, 2.5)]
+    words = [TimedWord("alpha", 0.4, 0.9), TimedWord("beta", 1.1, 1.6), TimedWord("gamma", 1.9, 2.5)]
     p = teach(words, 60, audio=y, lead_in=0.2, rng=np.random.default_rng(1))
     assert p.shape == (60, 27) and np.isfinite(p).all() and steps_deg(p).max() < 25
 
@@ -65,7 +66,7 @@ def upper_arm_height(p):
 
 
 def test_deictic_word_makes_a_pointing_arm():
-    words = [("look", 0.5, 0.8), ("over", 0.8, 1.0), ("there", 1.0, 1.4), ("please", 1.5, 2.0)]
+    words = [TimedWord("look", 0.5, 0.8), TimedWord("over", 0.8, 1.0), TimedWord("there", 1.0, 1.4), TimedWord("please", 1.5, 2.0)]
     onset = 15
     for seed in range(5):
         p = teach(words, 45, rng=np.random.default_rng(seed), trigger_prob=1.0)
@@ -73,13 +74,13 @@ def test_deictic_word_makes_a_pointing_arm():
         # an arm is raised (upper arm near horizontal) around the word, not before the speech
         assert h[onset - 3:onset + 6].max() > -0.6, seed
         assert h[:3].max() < -0.8, seed
-        plain = teach([("look", 0.5, 0.8), ("over", 0.8, 1.0), ("the", 1.0, 1.4), ("hill", 1.5, 2.0)], 45,
+        plain = teach([TimedWord("look", 0.5, 0.8), TimedWord("over", 0.8, 1.0), TimedWord("the", 1.0, 1.4), TimedWord("hill", 1.5, 2.0)], 45,
                       rng=np.random.default_rng(seed), trigger_prob=1.0)
         assert upper_arm_height(plain).max() < -0.6, seed
 
 
 def test_trigger_probability_zero_gives_no_library_gesture():
-    words = [("look", 0.5, 0.8), ("over", 0.8, 1.0), ("there", 1.0, 1.4)]
+    words = [TimedWord("look", 0.5, 0.8), TimedWord("over", 0.8, 1.0), TimedWord("there", 1.0, 1.4)]
     p = teach(words, 45, rng=np.random.default_rng(0), trigger_prob=0.0)
     assert upper_arm_height(p).max() < -0.6
 

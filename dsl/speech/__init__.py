@@ -7,7 +7,7 @@ loaded when a function needs them.
 from __future__ import annotations
 
 from .cache import default_cache_dir
-from .types import Speech, SpeechError, Word
+from .types import Speech, SpeechError
 
 
 def synthesize(text, word_spans, pauses=(), *, voice="en-us", rate=175, pitch=50, cache_dir=None):
@@ -31,4 +31,4 @@ def list_voices():
     return _list_voices()
 
 
-__all__ = ["Word", "Speech", "SpeechError", "synthesize", "load_recording", "default_cache_dir", "list_voices"]
+__all__ = ["Speech", "SpeechError", "synthesize", "load_recording", "default_cache_dir", "list_voices"]

@@ -7,7 +7,7 @@ import json
 import os
 from pathlib import Path
 
-from model.fileio import atomic_write
+from core.fileio import atomic_write
 
 #: Bump when the timing algorithm changes so that old cache entries are not reused.
 ALGORITHM_VERSION = 1

@@ -27,11 +27,13 @@ from typing import Sequence
 
 import numpy as np
 
-from model.fileio import atomic_write
+from core.fileio import atomic_write
 
 from . import audio, cache
 from .synth import check_pauses, check_spans, pause_boundaries
-from .types import Speech, SpeechError, Word
+from core.words import TimedWord
+
+from .types import Speech, SpeechError
 
 SKIP_LABELS = {"", "sil", "sp", "spn", "<eps>", "<sil>", "sil1"}
 #: Timed words may run this far past the end of the audio (rounding in aligners) before it is an error.
@@ -304,7 +306,7 @@ def load_recording(audio_path: Path, text: str, word_spans: list[tuple[int, int]
     words = []
     for (s, e), a, b in zip(spans, starts, ends):
         a = min(max(a, 0.0), duration)
-        words.append(Word(text[s:e], a, min(max(b, a), duration)))
+        words.append(TimedWord(text[s:e], a, min(max(b, a), duration)))
     return Speech(out_path, sr, duration, words, source)
 
 

@@ -34,10 +34,12 @@ from typing import Sequence
 
 import numpy as np
 
-from model.fileio import atomic_write
+from core.fileio import atomic_write
 
 from . import _espeak, audio, cache
-from .types import Speech, SpeechError, Word
+from core.words import TimedWord
+
+from .types import Speech, SpeechError
 
 #: Silence kept before the first voiced sample, seconds.
 LEAD_IN = 0.05
@@ -271,14 +273,14 @@ def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float],
     return out, starts, ends
 
 
-def _build_words(text, spans, starts, ends, sample_rate, n_samples) -> list[Word]:
+def _build_words(text, spans, starts, ends, sample_rate, n_samples) -> list[TimedWord]:
     dur = n_samples / sample_rate
     words = []
     prev = 0.0
     for (s, e), a, b in zip(spans, starts, ends):
         st = min(max(a / sample_rate, prev), dur)
         en = min(max(b / sample_rate, st), dur)
-        words.append(Word(text[s:e], st, en))
+        words.append(TimedWord(text[s:e], st, en))
         prev = st
     return words
 
@@ -340,7 +342,7 @@ def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tu
     cdir.mkdir(parents=True, exist_ok=True)
     atomic_write(wav_path, audio.wav_bytes(out, sr))
     meta = {"key": key, "source": "espeak-ng", "sample_rate": sr, "duration": len(out) / sr,
-            "words": [[w.text, w.start, w.end] for w in words]}
+            "words": [[w.word, w.start, w.end] for w in words]}
     cache.write_json(meta_path, meta)
     return Speech(wav_path, sr, len(out) / sr, words, "espeak-ng")
 
@@ -352,7 +354,7 @@ def _load_cached(wav_path: Path, meta_path: Path, key: str, n_words: int) -> Spe
     try:
         if meta is None or meta.get("key") != key or len(meta["words"]) != n_words:
             return None
-        words = [Word(str(t), float(a), float(b)) for t, a, b in meta["words"]]
+        words = [TimedWord(str(t), float(a), float(b)) for t, a, b in meta["words"]]
         return Speech(wav_path, int(meta["sample_rate"]), float(meta["duration"]), words, str(meta["source"]))
     except (KeyError, TypeError, ValueError):
         return None

@@ -5,19 +5,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-
-@dataclass(frozen=True)
-class Word:
-    """One word token of the utterance and when it is spoken, in seconds from the audio start."""
-
-    text: str
-    start: float
-    end: float
+from core.words import TimedWord
 
 
 @dataclass
 class Speech:
-    """Audio of an utterance plus one :class:`Word` per requested word span, in order.
+    """Audio of an utterance plus one :class:`~core.words.TimedWord` per requested word span, in order.
 
     Invariants: ``0 <= start <= end <= duration`` for every word, and starts are non-decreasing.
     """
@@ -25,7 +18,7 @@ class Speech:
     audio_path: Path
     sample_rate: int
     duration: float
-    words: list[Word] = field(default_factory=list)
+    words: list[TimedWord] = field(default_factory=list)
     source: str = ""
 
 

@@ -27,7 +27,7 @@ from textual.message import Message
 from textual.screen import Screen
 from textual.widgets import Footer, TextArea
 
-from model.skeleton import FPS
+from core.skeleton import FPS
 from sgt_tui.app.panels import JobBar, MessageLine, PreviewPanel, StatusLine, TimelinePanel
 from sgt_tui.app.screens import SEVERITY_MARK, ChoiceScreen, KeysScreen, LibraryScreen, ProblemsScreen, StyleScreen
 from sgt_tui.app.script_area import ScriptArea
@@ -255,7 +255,7 @@ class EditorApp(App):
             name = "…/" + self.script.path.name
         parts = [name + (" [+]" if self.doc.modified else "") + (" (new)" if self.script.is_new else "")]
         if a is not None:
-            from dsl.diagnostics import summary
+            from core.diagnostics import summary
 
             parts.append(summary(a.diagnostics) if a.diagnostics else "ok")
             if self.current_index is not None and a.utterances:
@@ -329,7 +329,7 @@ class EditorApp(App):
         if hit is None:
             from model.generate import EngineInputs
             from model.keyframe import generate
-            from model.skeleton import positions_from_pose
+            from core.skeleton import positions_from_pose
 
             hit = positions_from_pose(generate(EngineInputs.from_plan(info.plan)))
             if len(self._drafts) > 256:
@@ -645,7 +645,7 @@ class EditorApp(App):
             self.say(f"{job.label}: cancelled")
 
     def _job_done(self, job: Job) -> None:
-        from model.motion_file import MotionFileError, load_motion
+        from core.motion import MotionFileError, load_motion
 
         result = job.result or {}
         keys = job.request.get("keys") or []

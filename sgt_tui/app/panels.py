@@ -15,7 +15,7 @@ from textual.message import Message
 from textual.widget import Widget
 from textual.widgets import Label, ProgressBar, Static
 
-from model.skeleton import FPS
+from core.skeleton import FPS
 from renders.terminal import stick_figure
 from sgt_tui.editor.player import Player
 from sgt_tui.editor.timeline import TimelineData, layout

@@ -16,8 +16,8 @@ from textual.widgets import Button, OptionList, Static
 from textual.widgets.option_list import Option
 
 from dsl.presets import BUILTIN_PRESETS
-from model.controls import STYLE_LIMIT, STYLE_NAMES
-from model.skeleton import positions_from_pose
+from core.controls import STYLE_LIMIT, STYLE_NAMES
+from core.skeleton import positions_from_pose
 from sgt_tui.app.panels import PreviewPanel
 from sgt_tui.editor.edits import pose_tag
 from sgt_tui.editor.player import Player

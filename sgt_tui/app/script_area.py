@@ -16,7 +16,7 @@ from textual.strip import Strip
 from textual.widgets import TextArea
 from textual.widgets.text_area import Edit, EditHistory, TextAreaTheme
 
-from dsl.diagnostics import ERROR
+from core.diagnostics import ERROR
 from sgt_tui.editor.document import Document, normalise_newlines
 from sgt_tui.editor.highlight import line_spans
 

@@ -28,7 +28,7 @@ def use_color(stream) -> bool:
 
 
 def print_diagnostics(diags, sources: dict[str, str], fmt: str = "text", stream=None) -> None:
-    from dsl.diagnostics import format_json, format_text, summary
+    from core.diagnostics import format_json, format_text, summary
 
     stream = stream or sys.stderr
     if fmt == "json":

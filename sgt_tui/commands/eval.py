@@ -53,7 +53,7 @@ def run(args) -> int:
         return 1
     print(format_table(rows))
     if args.output:
-        from model.fileio import atomic_write_text
+        from core.fileio import atomic_write_text
 
         clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()} for r in rows]
         atomic_write_text(Path(args.output), json.dumps(clean, indent=2) + "\n")

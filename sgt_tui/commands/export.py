@@ -48,7 +48,7 @@ def run(args) -> int:
     except InputError as exc:
         return report_input_error("export", exc)
 
-    from model.motion_file import MotionFileError, save_motion
+    from core.motion import MotionFileError, save_motion
     from renders.clips import concat_clips
     from renders.export import write_bvh, write_csv
 

@@ -37,7 +37,7 @@ def run(args) -> int:
     from pathlib import Path
 
     from model.generate import GenerateError, generate_clips
-    from model.motion_file import MotionFileError, save_motion
+    from core.motion import MotionFileError, save_motion
     from model.neural import Options
     from sgt_tui.errors import UsageError
     from sgt_tui.commands.common import existing_file, print_diagnostics

@@ -173,7 +173,7 @@ def _add(args) -> int:
     from pathlib import Path
 
     from library.extract import spec_text_from_poses
-    from model.motion_file import MotionFileError, load_motion
+    from core.motion import MotionFileError, load_motion
 
     if not re.fullmatch(r"[a-z][a-z0-9_]*", args.name):
         print(f"sgt library add: name '{args.name}' must be lower-case letters, digits and "
@@ -208,7 +208,7 @@ def _add(args) -> int:
     stroke = None if args.stroke is None else args.stroke - a
     text, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
                                      stroke=stroke)
-    from model.fileio import atomic_write_text
+    from core.fileio import atomic_write_text
 
     atomic_write_text(target, text)
     print(f"wrote {target} ({b - a} frames; max error {err:.1f} degrees on re-load)")

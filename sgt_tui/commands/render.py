@@ -83,7 +83,7 @@ def load_clips(path_text: str, utterance: int | None, engine: str | None = None,
     path = existing_file(path_text)
     suffix = path.suffix.lower()
     if suffix in MOTION_SUFFIXES:
-        from model.motion_file import MotionFileError, load_motion
+        from core.motion import MotionFileError, load_motion
 
         try:
             clips = load_motion(path)

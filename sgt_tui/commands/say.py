@@ -47,7 +47,7 @@ def run(args) -> int:
         lead = u.lead_in
         speech_end = u.duration - u.speech.get("tail", 0.0) - lead
         report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav), "duration": round(speech_end, 3),
-                       "words": [{"word": w.word, "start": round(w.start - lead, 3), "end": round(w.end - lead, 3)} for w in u.words]})
+                       "words": [w.shifted(-lead).to_dict() for w in u.words]})
     if args.json:
         print(json.dumps(report, indent=2, ensure_ascii=False))
         return exit_code(result.diagnostics)

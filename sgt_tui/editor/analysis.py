@@ -28,7 +28,7 @@ from bisect import bisect_right
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from dsl.diagnostics import ERROR, WARNING, Diagnostic, sort_key
+from core.diagnostics import ERROR, WARNING, Diagnostic, sort_key
 from dsl.lines import split_statements
 
 STAND_IN = "x"  # the stand-in utterance put before a chunk (its diagnostics are dropped)

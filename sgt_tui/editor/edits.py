@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 from dsl.lines import strip_comment, split_statements
 from dsl.presets import BUILTIN_PRESETS
-from model.controls import STYLE_LIMIT, STYLE_NAMES
+from core.controls import STYLE_LIMIT, STYLE_NAMES
 from sgt_tui.editor.document import Document, Location, Replacement
 
 _WORD_CHAR = re.compile(r"[^\W_]|['\u2019\-]")

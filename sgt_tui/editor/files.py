@@ -1,7 +1,7 @@
 """Opening and saving scripts: UTF-8 checks, line ends kept, atomic saves, changes on disk.
 
 A script that does not exist opens as a new, empty document (created on the first save).
-Saving goes through :func:`model.fileio.atomic_write`, so a reader (or a crash) sees the old
+Saving goes through :func:`core.fileio.atomic_write`, so a reader (or a crash) sees the old
 file or the new one, never half of either. The file's state on disk when it was read or last
 saved is remembered (:class:`DiskState`); a save refuses to overwrite a file that someone else
 changed since (:class:`ChangedOnDisk`) unless told to.
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from dsl.lines import decode_source
-from model.fileio import atomic_write
+from core.fileio import atomic_write
 from sgt_tui.editor.document import Document
 
 BOM = b"\xef\xbb\xbf"

@@ -1,6 +1,6 @@
 """Preview playback: which frame of which motion is shown, and whether it is playing.
 
-The widget owns the timer and calls :meth:`Player.tick` at :data:`model.skeleton.FPS` only
+The widget owns the timer and calls :meth:`Player.tick` at :data:`core.skeleton.FPS` only
 while playing and visible; this object just counts frames.
 """
 
@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.skeleton import FPS
+from core.skeleton import FPS
 
 
 @dataclass

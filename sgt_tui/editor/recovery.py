@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from model.fileio import atomic_write
+from core.fileio import atomic_write
 
 FORMAT = "sgt-recovery"
 VERSION = 1

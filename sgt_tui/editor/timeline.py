@@ -11,14 +11,15 @@ Pose-control spans are ``[name ...]`` filled with ``=``, style spans ``<name ...
 with ``~``, pauses ``‥pause‥`` in the words row. Overlapping spans go to extra rows. The
 playhead column is reported separately so the view can draw it (reverse video) on every row.
 Data comes from an estimated plan (:class:`dsl.plan.UtterancePlan`) or from a generated
-motion clip (:class:`model.motion_file.MotionClip`, which carries the real speech timing).
+motion clip (:class:`core.motion.MotionClip`, which carries the real speech timing).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from model.skeleton import FPS
+from core.skeleton import FPS
+from core.words import TimedWord
 
 LANE_WIDTH = 6  # "words " etc.
 
@@ -34,7 +35,7 @@ class Span:
 
 @dataclass
 class TimelineData:
-    words: list[tuple[str, float, float]]
+    words: list[TimedWord]
     spans: list[Span]
     n_frames: int
     timing: str = "estimate"  # where the word times come from
@@ -78,27 +79,17 @@ def _label(kind: str, name: str, options: dict) -> str:
 
 def from_plan(plan) -> TimelineData:
     """From an :class:`~dsl.plan.UtterancePlan`."""
-    words = [(w.word, float(w.start), float(w.end)) for w in plan.words]
-    spans = [Span(c.kind, c.name, c.start_frame, c.end_frame, _label(c.kind, c.name, c.options)) for c in plan.controls]
-    return TimelineData(words, spans, plan.n_frames, plan.speech.get("engine", "estimate"))
+    return _data(plan.words, plan.controls, plan.n_frames, plan.speech.get("engine", "estimate"))
 
 
 def from_clip(clip, timing: str = "speech") -> TimelineData:
-    """From a generated :class:`~model.motion_file.MotionClip` (words and controls as dicts)."""
-    words = []
-    for w in clip.words:
-        try:
-            words.append((str(w["word"]), float(w["start"]), float(w["end"])))
-        except (KeyError, TypeError, ValueError):
-            continue
-    spans = []
-    for c in clip.controls:
-        try:
-            kind, name = str(c["kind"]), str(c["name"])
-            spans.append(Span(kind, name, int(c["start_frame"]), int(c["end_frame"]), _label(kind, name, c.get("options") or {})))
-        except (KeyError, TypeError, ValueError):
-            continue
-    return TimelineData(words, spans, clip.n_frames, timing)
+    """From a generated :class:`~core.motion.MotionClip` (it carries the real speech timing)."""
+    return _data(clip.words, clip.controls, clip.n_frames, timing)
+
+
+def _data(words, controls, n_frames: int, timing: str) -> TimelineData:
+    spans = [Span(c.kind, c.name, c.start_frame, c.end_frame, _label(c.kind, c.name, c.options)) for c in controls]
+    return TimelineData(list(words), spans, n_frames, timing)
 
 
 def _put(buf: list[str], col: int, text: str) -> None:

@@ -71,7 +71,7 @@ def handle(req: dict, emit) -> dict:
         return {"pong": True, "pid": os.getpid()}
     if op not in ("generate", "render"):
         raise ValueError(f"unknown request '{op}'")
-    from model.motion_file import save_motion
+    from core.motion import save_motion
 
     clips, indices, timing = _clips(req, emit)
     result = {"utterances": indices, "frames": sum(c.n_frames for c in clips), "timing": timing}

@@ -10,11 +10,11 @@ compiler fills it, the generator and the metrics read it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.skeleton import POSE_DIM
+from core.skeleton import POSE_DIM
 
 #: Style elements, in array order.
 STYLE_NAMES: tuple[str, ...] = ("speed", "space", "handedness")
@@ -74,3 +74,52 @@ class ControlArrays:
             "style": self.style,
             "style_mask": self.style_mask,
         }
+
+
+#: Kinds of :class:`Control`.
+CONTROL_KINDS = ("pose", "style", "pause")
+
+
+@dataclass
+class Control:
+    """One control of an utterance as written in the script, placed on its frames.
+
+    ``kind`` is "pose", "style" or "pause"; frames are [start_frame, end_frame) on the
+    utterance's motion; ``line``/``col`` point at the tag in the script (0 when unknown).
+    In files: :meth:`to_dict` / :meth:`from_dict`.
+    """
+
+    kind: str
+    name: str
+    start_frame: int
+    end_frame: int  # exclusive
+    line: int = 0
+    col: int = 0
+    options: dict = field(default_factory=dict)
+
+    def shifted(self, frames: int) -> "Control":
+        return Control(self.kind, self.name, self.start_frame + frames, self.end_frame + frames,
+                       self.line, self.col, dict(self.options))
+
+    def to_dict(self) -> dict:
+        return {
+            "kind": self.kind,
+            "name": self.name,
+            "start_frame": self.start_frame,
+            "end_frame": self.end_frame,
+            "line": self.line,
+            "col": self.col,
+            "options": self.options,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Control":
+        """Raises ValueError on a malformed entry."""
+        try:
+            options = d.get("options") or {}
+            if not isinstance(options, dict):
+                raise TypeError("options must be an object")
+            return cls(str(d["kind"]), str(d["name"]), int(d["start_frame"]), int(d["end_frame"]),
+                       int(d.get("line") or 0), int(d.get("col") or 0), dict(options))
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise ValueError(f"a control needs kind, name, start_frame and end_frame, got {d!r}") from exc

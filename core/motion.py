@@ -25,8 +25,10 @@ from typing import Sequence
 
 import numpy as np
 
-from model.fileio import atomic_write
-from model.skeleton import BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
+from core.controls import Control
+from core.fileio import atomic_write
+from core.skeleton import BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
+from core.words import TimedWord
 
 FORMAT = "sgt-motion"
 VERSION = 1
@@ -43,8 +45,8 @@ class MotionClip:
     fps: int = FPS
     speaker: str | None = None
     text: str | None = None
-    words: list[dict] = field(default_factory=list)
-    controls: list[dict] = field(default_factory=list)
+    words: list[TimedWord] = field(default_factory=list)  # seconds from the clip's frame 0
+    controls: list[Control] = field(default_factory=list)
     positions: np.ndarray | None = None
 
     def __post_init__(self):
@@ -52,6 +54,10 @@ class MotionClip:
         if p.ndim != 2 or p.shape[1] != POSE_DIM:
             raise MotionFileError(f"poses must have shape (T, {POSE_DIM}), got {p.shape}")
         self.poses = p
+        if not all(type(w) is TimedWord for w in self.words):
+            raise TypeError("MotionClip.words must be core.words.TimedWord")
+        if not all(isinstance(c, Control) for c in self.controls):
+            raise TypeError("MotionClip.controls must be core.controls.Control")
         if self.positions is None:
             self.positions = positions_from_pose(p).astype(np.float32)
         else:
@@ -81,8 +87,8 @@ def _utterance_meta(c: MotionClip) -> dict:
     return {
         "speaker": c.speaker,
         "text": c.text,
-        "words": [dict(w) for w in c.words],
-        "controls": [dict(x) for x in c.controls],
+        "words": [w.to_dict(4) for w in c.words],
+        "controls": [x.to_dict() for x in c.controls],
     }
 
 
@@ -154,10 +160,10 @@ def _clip(meta: dict, poses, positions, path: Path, i: int) -> MotionClip:
             positions=positions,
             speaker=meta.get("speaker"),
             text=meta.get("text"),
-            words=list(meta.get("words") or []),
-            controls=list(meta.get("controls") or []),
+            words=[TimedWord.from_dict(w) for w in meta.get("words") or []],
+            controls=[Control.from_dict(x) for x in meta.get("controls") or []],
         )
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, AttributeError) as exc:
         raise MotionFileError(f"{path}: utterance {i}: {exc}") from None
 
 
