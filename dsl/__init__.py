@@ -7,25 +7,14 @@ Public API::
     result = compile_file("my.sgt")             # + speech timing + control arrays
     result.diagnostics, result.plan
 
-Importing this package is cheap: Lark, numpy-heavy work and the speech engine load on use.
+Importing this package is cheap: Lark loads only for a body with a syntax error, the
+speech engine on the first synthesis.
 """
 
 from __future__ import annotations
 
+from core.diagnostics import Diagnostic
+from dsl.compiler import CompileResult, compile_file, load_script
+from dsl.parser import analyse
+
 __all__ = ["analyse", "compile_file", "load_script", "CompileResult", "Diagnostic"]
-
-
-def __getattr__(name):
-    if name == "analyse":
-        from dsl.parser import analyse
-
-        return analyse
-    if name in ("compile_file", "load_script", "CompileResult"):
-        from dsl import compiler
-
-        return getattr(compiler, name)
-    if name == "Diagnostic":
-        from core.diagnostics import Diagnostic
-
-        return Diagnostic
-    raise AttributeError(name)

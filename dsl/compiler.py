@@ -19,11 +19,13 @@ from pathlib import Path
 from typing import Callable
 
 from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
+from core.skeleton import FPS, frame_count, seconds_to_frame
 from dsl.parser import analyse, read_source
 from dsl.plan import ArrayRequests, Control, Plan, UtterancePlan
 from dsl.script import Script, Utterance
+from dsl.speech import SpeechError, list_voices
 from dsl.timing import Timing, estimate_timing, speech_timing
-from core.skeleton import FPS, frame_count, seconds_to_frame
+from library import load_library
 
 Progress = Callable[[int, int, str], None]
 
@@ -63,8 +65,6 @@ def load_script(path: Path | str, *, library=None, source: str | None = None):
     holder = {}
 
     def names(header):
-        from library import load_library
-
         lib = library if library is not None else load_library(extra_dirs=header.library_dirs)
         holder["lib"] = lib
         return lib.names()
@@ -72,8 +72,6 @@ def load_script(path: Path | str, *, library=None, source: str | None = None):
     script = analyse(source, str(path), gesture_names=names, base_dir=path.parent)
     lib = holder.get("lib")
     if lib is None:  # no utterance: still load the library so its problems are reported
-        from library import load_library
-
         lib = library if library is not None else load_library(extra_dirs=script.header.library_dirs)
     diags = diags + script.diagnostics + _library_problems(lib, str(path))
     return script, lib, diags
@@ -116,8 +114,6 @@ def compile_file(
 def _timing(script: Script, utt: Utterance, mode: str, cache_dir, diags: list[Diagnostic]) -> Timing | None:
     if mode == "estimate":
         return estimate_timing(utt)
-    from dsl.speech import SpeechError
-
     try:
         t = speech_timing(utt, cache_dir)
     except SpeechError as exc:
@@ -143,8 +139,6 @@ def _speech_diagnostic(script: Script, utt: Utterance, exc) -> Diagnostic:
         if where is not None:
             line, col, length = where.line, where.col, where.length
         try:
-            from dsl.speech import list_voices
-
             hint, sugg = did_you_mean(utt.voice.name, list_voices())
         except Exception:  # the engine itself is missing: the message already says so
             pass

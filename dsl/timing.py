@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from core.words import TimedWord, shift_words
+from dsl import speech
 from dsl.script import Utterance
 
 _SENTENCE_END = re.compile(r"[.!?;:]")
@@ -70,8 +71,6 @@ def speech_timing(utt: Utterance, cache_dir: Path | None = None) -> Timing:
 
     Raises :class:`dsl.speech.SpeechError` with a user-facing message on failure.
     """
-    from dsl import speech
-
     pauses = [(p.offset, p.seconds) for p in utt.pauses]
     if utt.audio is not None:
         result = speech.load_recording(

@@ -23,8 +23,9 @@ from typing import Sequence
 
 import numpy as np
 
-from library.spec import GestureSpec, LibraryProblem, SpecError, read_spec, sample
 from core.skeleton import FPS, frame_count, mirror_pose
+from library.config import configured_paths
+from library.spec import GestureSpec, LibraryProblem, SpecError, read_spec, sample
 
 __all__ = ["load_library", "Library", "Gesture", "Clip", "LibraryProblem", "BUILTIN_DIR"]
 
@@ -168,8 +169,6 @@ def load_library(extra_dirs: Sequence[Path] = (), *, use_config: bool = True) ->
     lib = Library()
     folders: list[tuple[str, Path]] = [(BUILTIN, BUILTIN_DIR)]
     if use_config:
-        from library.config import configured_paths
-
         user, probs = configured_paths()
         lib.problems += probs
         folders += [(str(p), Path(p)) for p in user]

@@ -15,12 +15,18 @@ condition) and ``rules`` (the procedural teacher).
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
 from core.controls import ControlArrays
+from core.motion import MotionClip
 from core.words import TimedWord
+from dsl.compiler import compile_file
+from model.neural import _model
+from model.weights import WeightsError
 
 #: Engine name -> module with ``generate(inputs, *, seed, ...)``.
 ENGINES = {
@@ -60,19 +66,11 @@ class GenerateError(Exception):
 
 def engine_function(name: str, options=None) -> Callable:
     """The engine's ``generate`` function; ``options`` (neural only) set post-processing and weights."""
-    import importlib
-
     if name not in ENGINES:
         raise GenerateError(f"unknown engine '{name}': choose one of {', '.join(ENGINES)}")
     fn = importlib.import_module(ENGINES[name]).generate
     if name == "neural":
-        from functools import partial
-
-        from model.weights import WeightsError
-
         try:  # fail early, with the fix, when the weights are missing or unusable
-            from model.neural import _model
-
             _model(getattr(options, "weights", None))
         except WeightsError as exc:
             raise GenerateError(str(exc)) from None
@@ -82,8 +80,6 @@ def engine_function(name: str, options=None) -> Callable:
 
 def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None, progress=None, options=None) -> list:
     """One :class:`~core.motion.MotionClip` per planned utterance."""
-    from core.motion import MotionClip
-
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     clips = []
     base_seed = plan.seed if seed is None else seed
@@ -101,8 +97,6 @@ def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None,
 def generate_clips(script_path, *, engine: str | None = None, utterances=None, seed: int | None = None,
                    progress=None, timing: str = "speech", options=None) -> list:
     """Compile ``script_path`` and generate motion; raises :class:`GenerateError` on script errors."""
-    from dsl.compiler import compile_file
-
     engine_function(engine or DEFAULT_ENGINE, options)  # fail fast on a bad engine or missing weights
     result = compile_file(Path(script_path), timing=timing, utterances=utterances)
     if result.plan is None:

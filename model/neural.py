@@ -21,7 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from model.features import audio_features, load_audio, word_features
+from model import postprocess
+from model.features import AUDIO_DIM, FPS, audio_features, load_audio, word_features
+from model.weights import load_weights
 
 NAME = "neural"
 WINDOW = 60
@@ -39,15 +41,11 @@ class Options:
 
 @lru_cache(maxsize=4)
 def _model(weights: str | None):
-    from model.weights import load_weights
-
     return load_weights(weights)[0]
 
 
 def speech_inputs(inputs, n_frames: int):
     """(audio features, word ids, onsets) for an EngineInputs on the motion timeline."""
-    from model.features import AUDIO_DIM, FPS
-
     if inputs.audio_path is not None and Path(inputs.audio_path).exists():
         audio = audio_features(load_audio(inputs.audio_path), n_frames, offset_frames=int(round(inputs.lead_in * FPS)))
     else:
@@ -104,8 +102,6 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
 
 def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.ndarray:
     """Poses (T, 27) for one utterance (an :class:`~model.generate.EngineInputs`)."""
-    from model import postprocess
-
     opts = options or Options()
     model = _model(opts.weights)
     n = inputs.n_frames

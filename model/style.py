@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from core.controls import STYLE_LIMIT, STYLE_NAMES
-from core.skeleton import BONE_LENGTH_ARRAY, BONES, JOINT_INDEX, N_BONES, ROOT_POSITION
+from core.skeleton import BONE_LENGTH_ARRAY, BONES, JOINT_INDEX, JOINTS, N_BONES, ROOT_POSITION, positions_from_pose
 
 #: Window of the style statistics, in frames (2 s at 15 fps), as in the paper.
 WINDOW = 30
@@ -67,8 +67,6 @@ def _window_mean(x, window: int):
 def _positions(poses):
     """FK for numpy or torch poses (..., T, 27) -> (..., T, 10, 3)."""
     if not _is_torch(poses):
-        from core.skeleton import positions_from_pose
-
         return positions_from_pose(poses)
     import torch
 
@@ -77,8 +75,6 @@ def _positions(poses):
     joints = {"spine": torch.as_tensor(ROOT_POSITION, dtype=poses.dtype, device=poses.device).expand(*poses.shape[:-1], 3)}
     for i, (parent, child) in enumerate(BONES):
         joints[child] = joints[parent] + dirs[..., i, :] * lengths[i]
-    from core.skeleton import JOINTS
-
     return torch.stack([joints[j] for j in JOINTS], dim=-2)
 
 

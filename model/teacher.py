@@ -1,6 +1,6 @@
 """The rule-based teacher: words (and optionally audio) -> plausible co-speech motion.
 
-It makes the procedural training corpus (:mod:`model.corpus`) and ships as the ``rules``
+It makes the procedural training corpus (:mod:`model.training.corpus`) and ships as the ``rules``
 engine (:func:`generate`). The motion is built in layers:
 
 1. **Arm holds** (parametric): rest while silent, a "talking" hold with the forearms raised in
@@ -29,6 +29,7 @@ import re
 
 import numpy as np
 
+from core.controls import STYLE_NAMES
 from core.skeleton import (
     BONE_INDEX,
     FPS,
@@ -37,6 +38,8 @@ from core.skeleton import (
     REST_POSE,
     normalize_pose,
 )
+from library import load_library
+from model.features import HOP, SAMPLE_RATE, load_audio
 
 NAME = "rules"
 #: The largest per-frame rotation of any bone direction in the teacher's output, degrees.
@@ -220,25 +223,21 @@ def _accents(words, n: int, audio, lead_in: float, rng) -> list[tuple[int, float
     """(frame, strength in [0, 1]) of accented syllables, at most one per content word."""
     strength = None
     if audio is not None and len(audio) > 0:
-        try:
-            from model.features import HOP, SAMPLE_RATE
-
-            y = np.asarray(audio, np.float32)
-            off = int(round(lead_in * SAMPLE_RATE))
-            y = np.concatenate([np.zeros(max(0, off), np.float32), y[max(0, -off):]])
-            y = np.pad(y, (0, max(0, n * HOP - len(y))))[: n * HOP]
-            frames = y[: n * HOP].reshape(n, HOP)
-            rms = np.sqrt((frames.astype(np.float64) ** 2).mean(1) + 1e-12)
-            # onset strength: positive change of the log energy in 4 sub-bands of each frame
-            sub = frames.reshape(n, 4, HOP // 4 if HOP % 4 == 0 else -1)
-            loge = np.log(np.sqrt((sub.astype(np.float64) ** 2).mean(-1)) + 1e-5).mean(1)
-            flux = np.maximum(np.diff(loge, prepend=loge[:1]), 0.0)
-            s = np.log(rms + 1e-5)
-            s = (s - s.min()) / max(1e-6, s.max() - s.min())
-            f = flux / max(1e-6, np.percentile(flux, 99))
-            strength = np.clip(0.6 * s + 0.4 * np.clip(f, 0, 1), 0.0, 1.0)
-        except Exception:  # pragma: no cover - a broken audio array: fall back to words
-            strength = None
+        y = np.asarray(audio, np.float32)
+        off = int(round(lead_in * SAMPLE_RATE))
+        y = np.concatenate([np.zeros(max(0, off), np.float32), y[max(0, -off):]])
+        y = np.pad(y, (0, max(0, n * HOP - len(y))))[: n * HOP]
+        frames = y.reshape(n, HOP).astype(np.float64)
+        rms = np.sqrt((frames**2).mean(1) + 1e-12)
+        # onset strength: positive change of the log energy in 4 sub-bands (quarters) of each frame
+        quarter = HOP // 4
+        sub = frames[:, : 4 * quarter].reshape(n, 4, quarter)
+        loge = np.log(np.sqrt((sub**2).mean(-1)) + 1e-5).mean(1)
+        flux = np.maximum(np.diff(loge, prepend=loge[:1]), 0.0)
+        s = np.log(rms + 1e-5)
+        s = (s - s.min()) / max(1e-6, s.max() - s.min())
+        f = flux / max(1e-6, np.percentile(flux, 99))
+        strength = np.clip(0.6 * s + 0.4 * np.clip(f, 0, 1), 0.0, 1.0)
     out = []
     for text, a, b in words:
         w = _norm_word(text)
@@ -269,8 +268,6 @@ _library = None
 def _lib():
     global _library
     if _library is None:
-        from library import load_library
-
         _library = load_library(use_config=False)
     return _library
 
@@ -541,8 +538,6 @@ def _control_blend(base: np.ndarray, pose: np.ndarray, mask: np.ndarray, min_ble
 
 def generate(inputs, *, seed: int = 0) -> np.ndarray:
     """The ``rules`` engine: teacher motion with the style controls, pose controls exact."""
-    from core.controls import STYLE_NAMES
-
     arrays = inputs.arrays
     n = arrays.n_frames
     style = {}
@@ -550,14 +545,9 @@ def generate(inputs, *, seed: int = 0) -> np.ndarray:
         mask = arrays.style_mask[:, k] > 0.5
         style[name] = np.where(mask, arrays.style[:, k], 0.0).astype(np.float64)
     audio = None
-    if getattr(inputs, "audio_path", None):
-        from model.features import load_audio
-
-        try:
-            audio = load_audio(inputs.audio_path)
-        except Exception:
-            audio = None
-    base = teach(inputs.words, n, audio=audio, lead_in=float(getattr(inputs, "lead_in", 0.0) or 0.0),
+    if inputs.audio_path is not None:
+        audio = load_audio(inputs.audio_path)
+    base = teach(inputs.words, n, audio=audio, lead_in=inputs.lead_in,
                  style=style, rng=np.random.default_rng(seed))
     out = _control_blend(base, arrays.pose, arrays.pose_mask)
     return normalize_pose(out).astype(np.float32)

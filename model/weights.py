@@ -13,9 +13,10 @@ import io
 from pathlib import Path
 
 from core.controls import STYLE_NAMES
-from model.features import AUDIO_DIM, N_MELS, SAMPLE_RATE, WORD_BUCKETS
 from core.fileio import atomic_write
 from core.skeleton import FPS, JOINTS, POSE_DIM
+from model.features import AUDIO_DIM, N_MELS, SAMPLE_RATE, WORD_BUCKETS
+from model.style import load_stats
 
 FORMAT = "sgt-generator"
 VERSION = 1
@@ -36,8 +37,6 @@ def layout() -> dict:
 def save_weights(path: Path | str, model, meta: dict | None = None) -> None:
     import torch
 
-    from model.style import load_stats
-
     stats = load_stats()
     blob = {
         "format": FORMAT, "version": VERSION, "layout": layout(), "config": dict(model.config),
@@ -54,7 +53,7 @@ def load_weights(path: Path | str | None = None):
     """(GestureNet in eval mode, the file's dict without the state_dict)."""
     import torch
 
-    from model.net import GestureNet
+    from model.net import GestureNet  # lazy: torch
 
     path = Path(path) if path is not None else DEFAULT_WEIGHTS
     fix = "run 'sgt train' to make new weights, or restore the shipped file with 'git checkout model/weights/generator.pt'"

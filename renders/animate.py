@@ -18,6 +18,7 @@ from core.motion import MotionClip
 from core.skeleton import FPS
 from renders import overlay
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
+from renders.mannequin import Mannequin
 
 DEFAULT_SIZE = (320, 320)
 PALETTE_SAMPLES = 6
@@ -65,8 +66,6 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform.
     """
-    from renders.mannequin import Mannequin
-
     width, height = size
     own = mannequin is None
     m = mannequin or Mannequin(width, height)
@@ -121,8 +120,6 @@ def render_sheet(clip: MotionClip, path, *, size=DEFAULT_SIZE, n_samples: int = 
                  mannequin=None) -> dict:
     """A PNG contact sheet: frames sampled along ``clip`` with the spoken word under each."""
     from PIL import Image, ImageDraw
-
-    from renders.mannequin import Mannequin
 
     width, height = size
     frames = sheet_frames(clip.n_frames, n_samples)

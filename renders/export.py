@@ -36,7 +36,7 @@ import numpy as np
 
 from core.fileio import atomic_write
 from core.motion import MotionClip
-from core.skeleton import BONE_LENGTHS, FPS, JOINT_INDEX, JOINTS, REST_DIRECTIONS
+from core.skeleton import BONE_LENGTHS, BONES, FPS, JOINT_INDEX, JOINTS, REST_DIRECTIONS
 from renders.rotations import shortest_arc
 
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
@@ -74,8 +74,6 @@ BVH_JOINTS = tuple(j for j, _, _, _ in HIERARCHY)
 
 def _parent_bone_joint(name: str) -> str:
     """The skeleton joint at which the bone named ``name`` starts."""
-    from core.skeleton import BONES
-
     return dict((c, p) for p, c in BONES)[name]
 
 

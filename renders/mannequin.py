@@ -11,6 +11,7 @@ import numpy as np
 
 from core.skeleton import BONE_LENGTHS
 from core.skeleton import JOINT_INDEX as J
+from renders import gl
 from renders.rotations import align_z, frame_from, transform
 
 BACKGROUND = (236, 239, 243)
@@ -60,8 +61,6 @@ class Mannequin:
     """Offscreen renderer of skeleton positions (10, 3) to RGB images (H, W, 3) uint8."""
 
     def __init__(self, width: int = 320, height: int = 320) -> None:
-        from renders import gl
-
         self.width, self.height = int(width), int(height)
         self.pyrender, self.renderer, self.platform = gl.start(self.width, self.height)
         import trimesh

@@ -19,8 +19,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from library import load_library  # noqa: E402
 from core.skeleton import REST_POSE  # noqa: E402
+from library import load_library  # noqa: E402
 from model.style import STATS_PATH, fit_stats  # noqa: E402
 
 
@@ -43,7 +43,7 @@ def main() -> int:
     ap.add_argument("--corpus", help="fit on the train split of this corpus")
     args = ap.parse_args()
     if args.corpus:
-        from model.corpus import load_corpus, load_manifest
+        from model.training.corpus import load_corpus, load_manifest
 
         manifest = load_manifest(args.corpus)
         motions = [c["poses"] for c in load_corpus(args.corpus, "train")]

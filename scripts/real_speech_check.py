@@ -46,16 +46,16 @@ def join_recordings(out_wav: Path) -> str:
 
 def loudness(audio_path: Path, n_frames: int, lead_in: float) -> np.ndarray:
     """Per-frame log energy of the speech (15 fps), aligned with the motion."""
-    from model.features import audio_features, load_audio
     from core.skeleton import FPS
+    from model.features import audio_features, load_audio
 
     return audio_features(load_audio(audio_path), n_frames, offset_frames=int(round(lead_in * FPS)))[:, -1]
 
 
 def speed_loudness_correlation(poses: np.ndarray, energy: np.ndarray) -> float:
     """Pearson correlation of mean wrist speed with the speech energy (both at 15 fps)."""
-    from model.metrics import joint_speeds
     from core.skeleton import JOINTS
+    from model.training.metrics import joint_speeds
 
     wrists = [JOINTS.index("left_wrist"), JOINTS.index("right_wrist")]
     speed = joint_speeds(poses)[:, wrists].mean(axis=1)
@@ -75,7 +75,7 @@ def main() -> int:
     from dsl.compiler import compile_file
     from model import neural
     from model.generate import EngineInputs
-    from model.metrics import group_statistics
+    from model.training.metrics import group_statistics
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

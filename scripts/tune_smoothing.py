@@ -19,10 +19,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from model import metrics, neural, postprocess  # noqa: E402
 from core.controls import ControlArrays  # noqa: E402
-from model.corpus import load_corpus  # noqa: E402
-from model.evaluate import style_controls  # noqa: E402
+from model import neural, postprocess  # noqa: E402
+from model.training import metrics  # noqa: E402
+from model.training.corpus import load_corpus  # noqa: E402
+from model.training.evaluate import style_controls  # noqa: E402
 from model.weights import load_weights  # noqa: E402
 
 GRID = [(1.5, 0.3), (2.0, 0.3), (3.0, 0.3), (4.0, 0.5), (5.0, 0.5), (6.0, 0.5), (8.0, 0.5)]

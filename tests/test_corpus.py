@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from model.corpus import FORTUNE_DIR, CorpusError, build_corpus, load_corpus, load_manifest, load_sentences
 from model.features import AUDIO_DIM
+from model.training.corpus import FORTUNE_DIR, CorpusError, build_corpus, load_corpus, load_manifest, load_sentences
 
 FORTUNES = """\
 Look over there, the big red house is where I grew up.
@@ -119,7 +119,7 @@ def test_different_seed_differs(tmp_path, fortunes):
 
 
 def test_cli(tmp_path, fortunes, monkeypatch, capsys):
-    import model.corpus as corpus
+    import model.training.corpus as corpus
     from sgt_tui.cli import main
 
     monkeypatch.setattr(corpus, "FORTUNE_DIR", fortunes)

@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from model.loaders import (
+from core.skeleton import BONE_INDEX, JOINT_INDEX
+from model.training.loaders import (
     LoaderError,
     bvh_positions,
     bvh_to_poses,
@@ -17,7 +18,6 @@ from model.loaders import (
     parse_bvh,
     read_bvh,
 )
-from core.skeleton import BONE_INDEX, JOINT_INDEX
 
 CHAIN = """HIERARCHY
 ROOT A

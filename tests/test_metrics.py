@@ -7,11 +7,11 @@ import sys
 import numpy as np
 import pytest
 
-from library import load_library
-from model import fgd as F
-from model import metrics as M
 from core.skeleton import FPS, JOINT_INDEX, REST_POSE, positions_from_pose
+from library import load_library
 from model.style import style
+from model.training import fgd as F
+from model.training import metrics as M
 
 
 @pytest.fixture(scope="module")
@@ -222,7 +222,7 @@ def test_bad_extractor_files_give_clear_errors(tmp_path, extractor):
 
 
 def test_importing_metrics_does_not_import_torch():
-    code = "import sys, model.metrics, model.fgd; print('torch' in sys.modules)"
+    code = "import sys, model.training.metrics, model.training.fgd; print('torch' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 

@@ -12,12 +12,12 @@ torch = pytest.importorskip("torch")
 sys.path.insert(0, str(Path(__file__).parent))
 from synthetic import synthetic_clips  # noqa: E402
 
-from model import neural, postprocess  # noqa: E402
 from core.controls import ControlArrays  # noqa: E402
-from model.generate import EngineInputs  # noqa: E402
 from core.skeleton import REST_POSE  # noqa: E402
+from model import neural, postprocess  # noqa: E402
+from model.generate import EngineInputs  # noqa: E402
 from model.style import raw_style  # noqa: E402
-from model.train import TrainConfig, train  # noqa: E402
+from model.training.train import TrainConfig, train  # noqa: E402
 from model.weights import FORMAT, WeightsError, load_weights  # noqa: E402
 
 
@@ -168,7 +168,7 @@ def test_training_keeps_the_best_validation_epoch_and_decays_the_rate(weights):
     """generator.pt is the epoch with the lowest selection score; last.pt the last epoch."""
     import json
 
-    from model.train import learning_rate, selection_score
+    from model.training.train import learning_rate, selection_score
 
     rows = [json.loads(line) for line in (weights.parent / "metrics.jsonl").read_text().splitlines()]
     assert [r["epoch"] for r in rows] == list(range(1, len(rows) + 1))

@@ -9,11 +9,11 @@ import pytest
 
 pytest.importorskip("torch")
 
+from core.skeleton import REST_POSE  # noqa: E402
 from dsl.compiler import compile_file  # noqa: E402
 from model import neural  # noqa: E402
 from model.generate import EngineInputs  # noqa: E402
-from model.metrics import group_statistics, pcs  # noqa: E402
-from core.skeleton import REST_POSE  # noqa: E402
+from model.training.metrics import group_statistics, pcs  # noqa: E402
 from model.weights import DEFAULT_WEIGHTS, load_weights  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "mall_guide.sgt"

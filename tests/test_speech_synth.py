@@ -11,8 +11,7 @@ import wave
 import pytest
 
 from dsl import speech
-from dsl.speech import Speech, SpeechError, synthesize
-from dsl.speech import _espeak
+from dsl.speech import Speech, SpeechError, _espeak, synthesize
 
 pytestmark = pytest.mark.skipif(_espeak.find_library() is None, reason="libespeak-ng not installed")
 
@@ -187,6 +186,11 @@ def test_missing_library_message(monkeypatch):
 
 
 def test_import_is_cheap():
-    code = "import sys, dsl.speech; print('ctypes' in sys.modules, 'soundfile' in sys.modules, 'pocketsphinx' in sys.modules)"
+    """Importing the package loads neither the espeak-ng library nor soundfile or pocketsphinx."""
+    code = ("import sys, dsl.speech; maps = open('/proc/self/maps').read(); "
+            "print('espeak' in maps, 'soundfile' in sys.modules, 'pocketsphinx' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False", "False"]
+    loaded = subprocess.run([sys.executable, "-c", "from dsl.speech import _espeak; _espeak.engine(); "
+                             "print('espeak' in open('/proc/self/maps').read())"], capture_output=True, text=True)
+    assert loaded.stdout.split() == ["True"], loaded.stderr  # the check above can see a loaded library

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from core.controls import ControlArrays
+from core.skeleton import BONE_INDEX, N_BONES, REST_POSE, mirror_pose
 from core.words import TimedWord
 from model.generate import EngineInputs, engine_function
-from core.skeleton import BONE_INDEX, N_BONES, REST_POSE, mirror_pose
 from model.style import raw_style
 from model.teacher import MAX_STEP_DEG, generate, teach
 
@@ -58,6 +58,32 @@ def test_with_audio():
     words = [TimedWord("alpha", 0.4, 0.9), TimedWord("beta", 1.1, 1.6), TimedWord("gamma", 1.9, 2.5)]
     p = teach(words, 60, audio=y, lead_in=0.2, rng=np.random.default_rng(1))
     assert p.shape == (60, 27) and np.isfinite(p).all() and steps_deg(p).max() < 25
+
+
+def test_accents_follow_the_loud_syllables_of_the_audio():
+    """With audio, each content word's accent is where its audio is loudest, not its onset.
+
+    The words' audio bursts come 0.25 s after their onsets (motion time: audio starts at the
+    0.2 s lead-in), so an accent on the onset would be 3-4 frames early."""
+    from model.features import SAMPLE_RATE
+    from model.teacher import _accents
+
+    rng = np.random.default_rng(0)
+    y = np.zeros(int(3 * SAMPLE_RATE), np.float32)
+    bursts = (0.62, 1.32, 2.12)  # seconds into the audio
+    for t in bursts:
+        a = int(t * SAMPLE_RATE)
+        y[a:a + 1500] = rng.normal(0, 0.3, 1500)
+    lead = 0.2
+    words = [TimedWord("alpha", 0.4, 0.9), TimedWord("market", 1.1, 1.6), TimedWord("gamma", 1.9, 2.5)]
+    words = [w.shifted(lead) for w in words]
+    got = _accents([(w.word, w.start, w.end) for w in words], 60, y, lead, np.random.default_rng(0))
+    want = [int((t + lead) * 15) for t in bursts]
+    assert [f for f, _ in got] == pytest.approx(want, abs=1)
+    onsets = [int((w.start) * 15) for w in words]
+    assert all(abs(f - o) >= 3 for (f, _), o in zip(got, onsets))
+    no_audio = _accents([(w.word, w.start, w.end) for w in words], 60, None, lead, np.random.default_rng(0))
+    assert [f for f, _ in no_audio] == onsets
 
 
 def upper_arm_height(p):

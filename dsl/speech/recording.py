@@ -28,11 +28,10 @@ from typing import Sequence
 import numpy as np
 
 from core.fileio import atomic_write
-
-from . import audio, cache
-from .synth import check_pauses, check_spans, pause_boundaries
 from core.words import TimedWord
 
+from . import align, audio, cache
+from .synth import check_pauses, check_spans, pause_boundaries
 from .types import Speech, SpeechError
 
 SKIP_LABELS = {"", "sil", "sp", "spn", "<eps>", "<sil>", "sil1"}
@@ -345,8 +344,6 @@ def _insert_pauses(samples, sr, starts, ends, boundaries: dict[int, float]):
 
 
 def _cached_alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Path) -> list[tuple[float, float]]:
-    from . import align
-
     words = [text[s:e] for s, e in spans]
     key = cache.content_hash({"kind": "pocketsphinx-align", "algorithm": cache.ALGORITHM_VERSION,
                               "audio": cache.file_hash(audio_path), "words": words})

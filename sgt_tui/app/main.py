@@ -27,13 +27,18 @@ from textual.message import Message
 from textual.screen import Screen
 from textual.widgets import Footer, TextArea
 
-from core.skeleton import FPS
+from core.diagnostics import summary
+from core.motion import MotionFileError, load_motion
+from core.skeleton import FPS, positions_from_pose
+from model import keyframe
+from model.generate import EngineInputs
+from model.weights import DEFAULT_WEIGHTS
 from sgt_tui.app.panels import JobBar, MessageLine, PreviewPanel, StatusLine, TimelinePanel
 from sgt_tui.app.screens import SEVERITY_MARK, ChoiceScreen, KeysScreen, LibraryScreen, ProblemsScreen, StyleScreen
 from sgt_tui.app.script_area import ScriptArea
 from sgt_tui.editor import edits
 from sgt_tui.editor.analysis import Analyser, Analysis
-from sgt_tui.editor.files import ChangedOnDisk, FileError, ScriptFile, display_name
+from sgt_tui.editor.files import ChangedOnDisk, FileError, ScriptFile, disk_state, display_name
 from sgt_tui.editor.jobs import CANCELLED, DONE, FAILED, Job, JobRunner
 from sgt_tui.editor.player import Player
 from sgt_tui.editor.recovery import INTERVAL, RecoveryFile, editor_cache_dir
@@ -255,8 +260,6 @@ class EditorApp(App):
             name = "…/" + self.script.path.name
         parts = [name + (" [+]" if self.doc.modified else "") + (" (new)" if self.script.is_new else "")]
         if a is not None:
-            from core.diagnostics import summary
-
             parts.append(summary(a.diagnostics) if a.diagnostics else "ok")
             if self.current_index is not None and a.utterances:
                 parts.append(f"utt {self.current_index + 1}/{len(a.utterances)}")
@@ -327,11 +330,7 @@ class EditorApp(App):
     def _draft(self, info):
         hit = self._drafts.get(info.key)
         if hit is None:
-            from model.generate import EngineInputs
-            from model.keyframe import generate
-            from core.skeleton import positions_from_pose
-
-            hit = positions_from_pose(generate(EngineInputs.from_plan(info.plan)))
+            hit = positions_from_pose(keyframe.generate(EngineInputs.from_plan(info.plan)))
             if len(self._drafts) > 256:
                 self._drafts.clear()
             self._drafts[info.key] = hit
@@ -503,8 +502,6 @@ class EditorApp(App):
         with self.doc.group("reload from disk", cursor=self.area.cursor_location):
             self.area.replace(text, (0, 0), self.doc.end)
         self.doc.mark_saved()
-        from sgt_tui.editor.files import disk_state
-
         self.script.disk = disk_state(self.script.path)
         self.disk_warned = False
         self.say(f"reloaded {display_name(self.script.path)} from disk (ctrl+z takes it back)")
@@ -645,8 +642,6 @@ class EditorApp(App):
             self.say(f"{job.label}: cancelled")
 
     def _job_done(self, job: Job) -> None:
-        from core.motion import MotionFileError, load_motion
-
         result = job.result or {}
         keys = job.request.get("keys") or []
         try:
@@ -699,6 +694,4 @@ _ACTION_NAMES = {a.action.partition("(")[0] for a in ACTIONS} - {"command_palett
 
 
 def _weights_exist(path: str | None = None) -> bool:
-    from model.weights import DEFAULT_WEIGHTS
-
     return Path(path).exists() if path else DEFAULT_WEIGHTS.exists()

@@ -34,7 +34,7 @@ def run(args) -> int:
         raise UsageError("--hours must be positive")
     if args.jobs < 1:
         raise UsageError("--jobs must be at least 1")
-    from model.corpus import CorpusError, build_corpus
+    from model.training.corpus import CorpusError, build_corpus
 
     started = time.monotonic()
     try:

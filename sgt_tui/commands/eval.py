@@ -35,9 +35,9 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from model.evaluate import evaluate_corpus
-    from model.fgd import ExtractorError
-    from model.metrics import format_table
+    from model.training.evaluate import evaluate_corpus
+    from model.training.fgd import ExtractorError
+    from model.training.metrics import format_table
     from model.weights import WeightsError
     from sgt_tui.progress import ProgressBar
 

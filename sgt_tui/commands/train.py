@@ -16,7 +16,7 @@ OUT/generator.pt to model/weights/generator.pt to ship it."""
 
 
 def register(sub) -> None:
-    from model.train_config import TrainConfig
+    from model.training.train_config import TrainConfig
 
     p = sub.add_parser("train", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     src = p.add_mutually_exclusive_group()
@@ -51,7 +51,7 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
-    from model.train import TrainConfig, train
+    from model.training.train import TrainConfig, train
     from sgt_tui.progress import ProgressBar
 
     if args.data:
@@ -62,7 +62,7 @@ def run(args) -> int:
     else:
         corpus = Path(args.corpus)
         try:
-            from model.corpus import load_corpus
+            from model.training.corpus import load_corpus
 
             train_clips = load_corpus(corpus, "train")
             val_clips = load_corpus(corpus, "val")
@@ -92,7 +92,7 @@ def _user_data(root):
     import numpy as np
 
     from model.features import AUDIO_DIM
-    from model.loaders import LoaderError, load_folder
+    from model.training.loaders import LoaderError, load_folder
 
     try:
         clips = load_folder(root)

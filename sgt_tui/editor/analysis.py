@@ -29,7 +29,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from core.diagnostics import ERROR, WARNING, Diagnostic, sort_key
+from dsl.compiler import compile_file
 from dsl.lines import split_statements
+from dsl.parser import analyse
+from library import load_library
 
 STAND_IN = "x"  # the stand-in utterance put before a chunk (its diagnostics are dropped)
 
@@ -132,8 +135,6 @@ class Analyser:
         self.chunks_analysed = 0  # how many chunks the last run had to analyse (for tests)
 
     def run(self, text: str) -> Analysis:
-        from library import load_library
-
         lines = text.split("\n")
         statements, _ = split_statements(text)
         utts = [s for s in statements if s.kind == "utterance"]
@@ -206,15 +207,11 @@ class Analyser:
     def _header(self, prefix_text: str):
         hit = self._headers.get(prefix_text)
         if hit is None:
-            from dsl.parser import analyse
-
             hit = analyse(prefix_text, str(self.path), gesture_names=None, base_dir=self.path.parent).header
             self._headers = {prefix_text: hit}
         return hit
 
     def _analyse(self, kind: str, prefix: list[str], body: list[str], lib) -> _Chunk:
-        from dsl.compiler import compile_file
-
         if kind == "first":
             source_lines, start = body, 1
         else:

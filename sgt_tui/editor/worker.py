@@ -26,6 +26,13 @@ import os
 import sys
 from pathlib import Path
 
+from core.motion import save_motion
+from dsl.compiler import compile_file
+from model.generate import DEFAULT_ENGINE, GenerateError, clips_from_plan, engine_function
+from model.neural import Options
+from renders.animate import render_gif
+from renders.clips import concat_clips
+
 
 class _Emitter:
     def __init__(self, stream) -> None:
@@ -45,10 +52,6 @@ def _progress(emit, rid: str, phase: str):
 
 def _clips(req: dict, emit):
     """Compile the request's text and generate motion; raises GenerateError."""
-    from dsl.compiler import compile_file
-    from model.generate import DEFAULT_ENGINE, GenerateError, clips_from_plan, engine_function
-    from model.neural import Options
-
     rid = req["id"]
     engine = req.get("engine") or DEFAULT_ENGINE
     options = Options(weights=req.get("weights"))
@@ -71,17 +74,12 @@ def handle(req: dict, emit) -> dict:
         return {"pong": True, "pid": os.getpid()}
     if op not in ("generate", "render"):
         raise ValueError(f"unknown request '{op}'")
-    from core.motion import save_motion
-
     clips, indices, timing = _clips(req, emit)
     result = {"utterances": indices, "frames": sum(c.n_frames for c in clips), "timing": timing}
     if req.get("out"):
         save_motion(req["out"], clips)
         result["motion"] = req["out"]
     if op == "render":
-        from renders.animate import render_gif
-        from renders.clips import concat_clips
-
         size = tuple(req.get("size") or (320, 320))
         info = render_gif(concat_clips(clips), req["gif"], size=size, progress=_progress(emit, req["id"], "render"))
         result.update(gif=req["gif"], gif_frames=info["frames"], gif_bytes=info["bytes"])

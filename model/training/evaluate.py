@@ -20,9 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from core.controls import ControlArrays
-from core.skeleton import normalize_pose
+from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
+from model import keyframe, neural, postprocess
 from model.style import style as style_of
+from model.teacher import teach
+from model.training import metrics
+from model.training.corpus import load_corpus
+from model.weights import load_weights
 
 PCS_LENGTH = 5
 
@@ -42,16 +47,11 @@ def style_controls(ref: np.ndarray) -> ControlArrays:
 
 
 def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
-    from model import neural, postprocess
-
     raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing, blend=blend)
 
 
 def _rules(clip, seed):
-    from core.skeleton import mirror_pose
-    from model.teacher import teach
-
     meta = clip["meta"]
     poses = teach([TimedWord.from_dict(w) for w in meta["words"]], len(clip["poses"]), style=meta.get("teacher_style") or meta.get("style"),
                   lead_in=meta.get("lead_in", 0.0), rng=np.random.default_rng(10_000 + seed))
@@ -60,14 +60,10 @@ def _rules(clip, seed):
 
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
                     progress=None, limit: int | None = None, smoothing: str = "one_euro") -> list[dict]:
-    """Table rows (see :func:`model.metrics.report`) for every condition on ``split``.
+    """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``.
 
     ``smoothing`` is the neural engine's post-filter for the model rows (``model+pose raw`` is
     always unsmoothed and unblended: the network's own pose following)."""
-    from model import keyframe, metrics
-    from model.corpus import load_corpus
-    from model.weights import load_weights
-
     clips = load_corpus(corpus, split)
     if limit:
         clips = clips[:limit]

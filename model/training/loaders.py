@@ -31,6 +31,8 @@ import numpy as np
 
 from core.skeleton import FPS, JOINTS, pose_from_positions
 from core.words import TimedWord
+from dsl.speech.recording import read_timings
+from model.features import audio_features, load_audio, word_features
 
 
 class LoaderError(Exception):
@@ -402,8 +404,6 @@ def find_takes(root) -> list[Take]:
 
 def load_take(take: Take, *, features: bool = True, **bvh_kwargs) -> dict:
     """One take as a corpus-style clip dict: poses, word timings and (optionally) model features."""
-    from dsl.speech.recording import read_timings
-
     poses = bvh_to_poses(take.bvh_path, **bvh_kwargs)
     n = len(poses)
     words = []
@@ -415,8 +415,6 @@ def load_take(take: Take, *, features: bool = True, **bvh_kwargs) -> dict:
                      "bvh": str(take.bvh_path), "audio": str(take.audio_path) if take.audio_path else None,
                      "n_frames": n}}
     if features:
-        from model.features import audio_features, load_audio, word_features
-
         ids, onsets = word_features(words, n)
         clip["word_ids"], clip["onsets"] = ids, onsets
         if take.audio_path is not None:

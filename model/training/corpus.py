@@ -42,6 +42,10 @@ import numpy as np
 from core.fileio import atomic_write, atomic_write_text
 from core.skeleton import FPS, frame_count, mirror_pose
 from core.words import TimedWord
+from dsl.parser import WORD_RE
+from dsl.speech import list_voices, synthesize
+from model.features import AUDIO_DIM, SAMPLE_RATE, audio_features, load_audio, word_features
+from model.teacher import teach
 
 FORMAT_VERSION = 1
 FORTUNE_DIR = Path("/usr/share/games/fortunes")
@@ -137,8 +141,6 @@ def load_sentences(fortune_dir: Path | str = FORTUNE_DIR) -> list[str]:
 
 
 def _load_sentences(fortune_dir: Path) -> list[str]:
-    from dsl.parser import WORD_RE
-
     d = Path(fortune_dir)
     files = sorted(p for p in d.glob("*") if p.is_file() and p.suffix not in (".dat", ".u8") and not p.is_symlink()) \
         if d.is_dir() else []
@@ -165,8 +167,6 @@ def _load_sentences(fortune_dir: Path) -> list[str]:
 
 
 def available_voices() -> list[str]:
-    from dsl.speech import list_voices
-
     have = set(list_voices())
     return [v for v in BASE_VOICES if v in have] or ["en-us"]
 
@@ -251,11 +251,6 @@ def _draw_style(rng) -> dict[str, float]:
 
 def make_clip(text: str, seed: int, index: int, voices: list[str], cache_dir: Path) -> dict:
     """One corpus clip (arrays + meta), deterministic in (text, seed, index)."""
-    from dsl.parser import WORD_RE
-    from dsl.speech import synthesize
-    from model.features import SAMPLE_RATE, audio_features, load_audio, word_features
-    from model.teacher import teach
-
     rng = _clip_rng(seed, index, 0)
     spans = [(m.start(), m.end()) for m in WORD_RE.finditer(text)]
     voice = voices[int(rng.integers(len(voices)))] + VARIANTS[int(rng.integers(len(VARIANTS)))]
@@ -455,8 +450,6 @@ def build_corpus(out, *, hours: float = 2.0, seed: int = 0, jobs: int = 1, clips
                           "frame_offset": offset, **m})
             offset += m["n_frames"]
         shards.append({"file": shard_path(out, k).name, "clips": len(metas), "frames": done[k]["frames"]})
-    from model.features import AUDIO_DIM
-
     manifest = {
         "format": "sgt-corpus", "version": FORMAT_VERSION, "seed": int(seed), "hours_requested": hours,
         "fps": FPS, "audio_dim": AUDIO_DIM, "clips_per_shard": clips_per_shard,

@@ -27,7 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from core.fileio import atomic_write
-from model.train_config import WINDOW, TrainConfig  # noqa: F401  (re-exported)
+from model.style import style as style_of
+from model.training.train_config import WINDOW, TrainConfig  # noqa: F401  (re-exported)
+from model.weights import save_weights
 
 # -- data -------------------------------------------------------------------------------------
 
@@ -103,8 +105,6 @@ def validate(model, val: Windows, cfg: TrainConfig, count: int = 192) -> dict:
     """Held-out figures: Huber loss without controls, PCS (5 controlled frames mid-window), SCS."""
     import torch
 
-    from model.style import style as style_of
-
     batch = val.fixed(count)
     audio, ids, onsets, ref = _tensors(batch, torch)
     b, t, _ = ref.shape
@@ -146,10 +146,7 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
     weights of the epoch with the best :func:`selection_score` on the validation split)."""
     import torch
 
-    from model.net import Discriminator, GestureNet
-    from model.style import style as style_of
-    from model.weights import save_weights
-
+    from model.net import Discriminator, GestureNet  # lazy: torch
     torch.set_num_threads(max(1, cfg.threads))
     torch.manual_seed(cfg.seed)
     out_dir = Path(out_dir)

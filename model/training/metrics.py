@@ -7,7 +7,7 @@ Metrics of SGToolkit (Yoon et al., UIST 2021, section 5.3, Table 1):
 - :func:`scs`, style compliance score (Eq. 9): mean absolute difference between requested style
   values and the style statistics (:func:`model.style.style`) of the generated motion;
 - :func:`fgd`, Fréchet gesture distance between two feature sets (features from
-  :mod:`model.fgd`, the encoder of a motion autoencoder).
+  :mod:`model.training.fgd`, the encoder of a motion autoencoder).
 
 Metrics of Kucherenko et al. ("Moving fast and slow", sections 4.4-5.4, Tables 1-3):
 
@@ -36,7 +36,10 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from core.controls import ControlArrays
 from core.skeleton import FPS, JOINT_INDEX, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
+from model.style import style
+from model.training import fgd as fgd_module
 
 # --------------------------------------------------------------------------- constants
 
@@ -121,8 +124,6 @@ def pose_control(reference, start: int = PCS_START, length: int = PCS_LENGTH):
     ``reference`` is a (T, 27) window (SGToolkit uses T = 30, frames [10, 15)); returns a
     :class:`core.controls.ControlArrays` with only that pose control set.
     """
-    from core.controls import ControlArrays
-
     ref = np.asarray(reference, np.float32)
     if ref.ndim != 2 or ref.shape[1] != POSE_DIM:
         raise ValueError(f"pose_control: expected a (T, {POSE_DIM}) window, got {ref.shape}")
@@ -135,9 +136,6 @@ def pose_control(reference, start: int = PCS_START, length: int = PCS_LENGTH):
 
 def style_control(reference, stats=None):
     """The paper's SCS control: the reference's own style values requested on every frame."""
-    from core.controls import ControlArrays
-    from model.style import style
-
     ref = np.asarray(reference, np.float32)
     ctrl = ControlArrays.empty(len(ref))
     ctrl.style[:] = style(ref, stats)
@@ -152,8 +150,6 @@ def scs(requested_style, generated_poses, mask, stats=None) -> float:
     of the generated poses (normalised units, range [-3, 3]). ``mask`` is (T, 3) or (T,) (all
     three elements). NaN when nothing is controlled.
     """
-    from model.style import style
-
     req = np.asarray(requested_style, np.float64)
     gen = np.asarray(generated_poses, np.float64)
     m = np.asarray(mask, np.float64) > 0
@@ -351,8 +347,6 @@ def _pcs_scs(generated: list[np.ndarray], controls, stats) -> tuple[float, float
     if len(controls) != len(generated):
         raise ValueError(f"{len(controls)} control entries for {len(generated)} generated clips")
     pose_err, pose_n, style_err, style_n = 0.0, 0, 0.0, 0
-    from model.style import style
-
     for gen, ctrl in zip(generated, controls):
         c = _control_fields(ctrl)
         if c is None:
@@ -441,12 +435,10 @@ def report(conditions: Mapping[str, Any], extractor: Any = "default", stats=None
 
     ``conditions`` maps a name to ``(reference clips, generated clips)`` or ``(reference clips,
     generated clips, controls)``; controls are one ControlArrays/dict per generated clip (or
-    None). ``extractor``: a :class:`model.fgd.FGDExtractor`, a weights path, ``"default"``
+    None). ``extractor``: a :class:`model.training.fgd.FGDExtractor`, a weights path, ``"default"``
     (the shipped ``model/weights/fgd_extractor.pt``; raises if it is missing) or None (no FGD).
     """
     if isinstance(extractor, str) or hasattr(extractor, "__fspath__"):
-        from model import fgd as fgd_module
-
         extractor = fgd_module.load(None if extractor == "default" else extractor)
     rows = []
     cache: dict[int, np.ndarray] = {}

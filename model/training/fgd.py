@@ -3,7 +3,7 @@
 A small 1-D convolutional autoencoder is trained to reconstruct windows of motion
 (:data:`WINDOW` = 30 frames x 27 pose numbers, the window SGToolkit evaluates); the FGD
 features of a window are the encoder's latent vector (:data:`LATENT` = 32 numbers).
-:func:`model.metrics.fgd` fits a Gaussian to each feature set and measures the Fréchet
+:func:`model.training.metrics.fgd` fits a Gaussian to each feature set and measures the Fréchet
 distance between them.
 
 - :func:`train_extractor` trains one on a list of motions (deterministic for a seed);
@@ -31,6 +31,7 @@ import numpy as np
 
 from core.fileio import atomic_write
 from core.skeleton import FPS, JOINTS, POSE_DIM, REST_POSE
+from model.training.corpus import load_corpus
 
 FORMAT = "sgt-fgd-extractor"
 VERSION = 1
@@ -38,8 +39,8 @@ WINDOW = 30
 STRIDE = 10
 LATENT = 32
 CHANNELS = 48
-DEFAULT_PATH = Path(__file__).with_name("weights") / "fgd_extractor.pt"
-DEFAULT_CORPUS = Path(__file__).resolve().parent.parent / "data" / "corpus"
+DEFAULT_PATH = Path(__file__).resolve().parent.parent / "weights" / "fgd_extractor.pt"
+DEFAULT_CORPUS = Path(__file__).resolve().parent.parent.parent / "data" / "corpus"
 
 
 class ExtractorError(Exception):
@@ -197,7 +198,7 @@ def load(path: Path | str | None = None) -> FGDExtractor:
     import torch
 
     path = Path(path) if path is not None else DEFAULT_PATH
-    fix = ("train one with 'python -c \"from model.fgd import train_default_extractor; "
+    fix = ("train one with 'python -c \"from model.training.fgd import train_default_extractor; "
            "train_default_extractor()\"', or restore the shipped file with "
            "'git checkout model/weights/fgd_extractor.pt'")
     if not path.exists():
@@ -322,14 +323,12 @@ def _motions_from_corpus(corpus) -> list[np.ndarray]:
 
 def train_default_extractor(corpus_path: Path | str = DEFAULT_CORPUS, out_path: Path | str = DEFAULT_PATH,
                             *, epochs: int = 40, seed: int = 0, progress=None, max_seconds: float | None = None) -> FGDExtractor:
-    """Train the shipped extractor on the procedural corpus (:func:`model.corpus.load_corpus`).
+    """Train the shipped extractor on the procedural corpus (:func:`model.training.corpus.load_corpus`).
 
     Trains on the corpus's ``train`` split, measures the reconstruction error (mean absolute
     error, pose units) on its ``val`` split when there is one, writes ``out_path`` and returns
     the extractor; ``meta`` holds the corpus path, the training figures and the errors.
     """
-    from model.corpus import load_corpus  # built separately; imported only when training
-
     motions = _motions_from_corpus(load_corpus(corpus_path, "train"))
     if not motions:
         raise ValueError(f"corpus {corpus_path} holds no training motions")
