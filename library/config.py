@@ -2,7 +2,7 @@
 
 Sources, in order (a later folder overrides gestures of an earlier one):
 
-1. ``$XDG_CONFIG_HOME/sgt/config.toml`` (default ``~/.config/sgt/config.toml``),
+1. ``config.toml`` in the user config folder (:func:`core.paths.config_dir`),
 2. ``./sgt.toml`` in the current directory,
 3. the environment variable ``SGT_LIBRARY_PATH`` (folders separated by ``os.pathsep``).
 
@@ -18,16 +18,10 @@ import os
 import tomllib
 from pathlib import Path
 
+from core.paths import LIBRARY_PATH_VAR, config_files
 from library.spec import LibraryProblem
 
-ENV_VAR = "SGT_LIBRARY_PATH"
-
-
-def config_files() -> list[Path]:
-    """The config files that are consulted, in order (whether they exist or not)."""
-    xdg = os.environ.get("XDG_CONFIG_HOME")
-    base = Path(xdg) if xdg else Path.home() / ".config"
-    return [base / "sgt" / "config.toml", Path.cwd() / "sgt.toml"]
+ENV_VAR = LIBRARY_PATH_VAR
 
 
 def _paths_from_file(path: Path) -> tuple[list[Path], list[LibraryProblem]]:

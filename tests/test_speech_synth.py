@@ -6,6 +6,7 @@ import re
 import subprocess
 import sys
 import time
+from pathlib import Path
 import wave
 
 import pytest
@@ -153,10 +154,16 @@ def test_cache_hit_skips_engine(tmp_path, monkeypatch):
 
 
 def test_default_cache_dir_env(monkeypatch, tmp_path):
+    """SGT_CACHE_DIR, else XDG_CACHE_HOME (absolute only, as the XDG spec says), else ~/.cache."""
     monkeypatch.setenv("SGT_CACHE_DIR", str(tmp_path / "x"))
-    assert speech.default_cache_dir() == tmp_path / "x"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert speech.default_cache_dir() == tmp_path / "x" / "speech"
     monkeypatch.delenv("SGT_CACHE_DIR")
+    assert speech.default_cache_dir() == tmp_path / "xdg" / "sgt" / "speech"
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative/dir")
     assert speech.default_cache_dir().parts[-3:] == (".cache", "sgt", "speech")
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    assert speech.default_cache_dir() == Path.home() / ".cache" / "sgt" / "speech"
 
 
 def test_unknown_voice_suggests(tmp_path):

@@ -4,21 +4,19 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from pathlib import Path
 
 from core.fileio import atomic_write
+from core.paths import cache_dir
 
 #: Bump when the timing algorithm changes so that old cache entries are not reused.
 ALGORITHM_VERSION = 1
 
 
 def default_cache_dir() -> Path:
-    """``$SGT_CACHE_DIR`` if set (and non-empty), else ``~/.cache/sgt/speech``."""
-    env = os.environ.get("SGT_CACHE_DIR")
-    if env:
-        return Path(env).expanduser()
-    return Path.home() / ".cache" / "sgt" / "speech"
+    """``speech`` in the sgt cache (:func:`core.paths.cache_dir`: ``$SGT_CACHE_DIR``, else
+    ``$XDG_CACHE_HOME/sgt``, else ``~/.cache/sgt``)."""
+    return cache_dir("speech")
 
 
 def content_hash(payload: dict) -> str:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from core.fileio import atomic_write
+from core.paths import cache_dir
 
 FORMAT = "sgt-recovery"
 VERSION = 1
@@ -26,13 +27,10 @@ INTERVAL = 3.0
 
 
 def editor_cache_dir() -> Path:
-    """Where the editor keeps its files: ``$SGT_EDITOR_CACHE``, else ``$XDG_CACHE_HOME/sgt/editor``
-    (``~/.cache/sgt/editor``)."""
+    """Where the editor keeps its files: ``$SGT_EDITOR_CACHE``, else ``editor`` in the sgt cache
+    (:func:`core.paths.cache_dir`)."""
     env = os.environ.get("SGT_EDITOR_CACHE")
-    if env:
-        return Path(env).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME")
-    return (Path(base).expanduser() if base else Path.home() / ".cache") / "sgt" / "editor"
+    return Path(env).expanduser() if env else cache_dir("editor")
 
 
 def recovery_dir() -> Path:
