@@ -1,8 +1,12 @@
-"""Diagnostics: what is wrong, where (file:line:col) and how to fix it.
+"""Diagnostics as data: what is wrong, where (file:line:col), what else is involved, how to fix it.
 
-Every problem the language front end finds becomes a :class:`Diagnostic`; nothing a user
-types is allowed to surface as a Python exception. The same objects render as compiler-style
-text (with the source line and a caret) or as JSON data for editors.
+Every problem sgt finds in user input becomes a :class:`Diagnostic` (made by a rule of
+:mod:`core.rules`); nothing a user types is allowed to surface as a Python exception. A
+diagnostic carries its rule's code and name, a primary span (file, line, col, length), related
+spans with their own labels (:class:`Related`, never written into the message), and suggested
+fixes as text edits (:class:`Fix`) that an editor or language server can apply. This module is
+the only place that renders them: compiler-style text with the source line and a caret, or
+JSON data.
 """
 
 from __future__ import annotations
@@ -18,8 +22,48 @@ NOTE = "note"
 
 
 @dataclass(frozen=True)
+class Related:
+    """A secondary place involved in a diagnostic ("the span opened here"), with its label."""
+
+    message: str
+    file: str
+    line: int
+    col: int
+    length: int = 1
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class TextEdit:
+    """Replace ``length`` characters at ``line:col`` (1-based, in the diagnostic's file) by ``text``.
+
+    ``length`` 0 inserts; ``text`` "" deletes."""
+
+    line: int
+    col: int
+    length: int
+    text: str
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Fix:
+    """A suggested fix: a title for a menu ("replace with 'wave'") and the edits that make it."""
+
+    title: str
+    edits: tuple[TextEdit, ...]
+
+    def to_dict(self) -> dict:
+        return {"title": self.title, "edits": [e.to_dict() for e in self.edits]}
+
+
+@dataclass(frozen=True)
 class Diagnostic:
-    """One problem. ``line`` and ``col`` are 1-based; ``length`` is the span to underline."""
+    """One problem. ``line`` and ``col`` are 1-based (line 0: the whole file); ``length`` is the span to underline."""
 
     severity: str
     message: str
@@ -28,17 +72,31 @@ class Diagnostic:
     col: int = 0
     length: int = 1
     hint: str | None = None
-    code: str = ""
+    code: str = ""  # the rule's code, e.g. "SGT201" (core.rules)
     suggestions: tuple[str, ...] = field(default=())
+    name: str = ""  # the rule's name, e.g. "unknown-gesture"
+    related: tuple[Related, ...] = field(default=())
+    fixes: tuple[Fix, ...] = field(default=())
 
     @property
     def is_error(self) -> bool:
         return self.severity == ERROR
 
     def to_dict(self) -> dict:
-        d = asdict(self)
-        d["suggestions"] = list(self.suggestions)
-        return d
+        return {
+            "severity": self.severity,
+            "code": self.code,
+            "name": self.name,
+            "message": self.message,
+            "file": self.file,
+            "line": self.line,
+            "col": self.col,
+            "length": self.length,
+            "hint": self.hint,
+            "suggestions": list(self.suggestions),
+            "related": [r.to_dict() for r in self.related],
+            "fixes": [f.to_dict() for f in self.fixes],
+        }
 
 
 def suggest(word: str, choices: Iterable[str], n: int = 3) -> list[str]:
@@ -66,27 +124,41 @@ def sort_key(d: Diagnostic):
 
 
 def format_text(diags: Sequence[Diagnostic], sources: dict[str, str] | None = None, color: bool = False) -> str:
-    """Render diagnostics like a compiler: location, message, source line, caret, hint."""
+    """Render diagnostics like a compiler: location, message, source line, caret, related
+    places (each with its label, source line and caret), hint."""
     out: list[str] = []
     lines_cache: dict[str, list[str]] = {}
+
+    def source_line(file: str, line: int) -> str | None:
+        src = (sources or {}).get(file)
+        if src is None or not line:
+            return None
+        lines = lines_cache.get(file)
+        if lines is None:  # split each file once, not once per diagnostic
+            lines = lines_cache[file] = src.splitlines()
+        return lines[line - 1].replace("\t", " ") if 0 < line <= len(lines) else None
+
+    def excerpt(file: str, line: int, col: int, length: int) -> None:
+        text = source_line(file, line)
+        if text is None:
+            return
+        out.append(f"  {line:>4} | {text}")
+        width = max(1, min(length, max(1, len(text) - col + 1)))
+        out.append(f"       | {' ' * (col - 1)}^{'~' * (width - 1)}")
+
     for d in diags:
         sev = d.severity
         if color:
             code = {ERROR: "1;31", WARNING: "1;33", NOTE: "1;36"}.get(sev, "1")
             sev = f"\x1b[{code}m{sev}\x1b[0m"
         where = f"{d.file}:{d.line}:{d.col}" if d.line else d.file
-        out.append(f"{where}: {sev}: {d.message}")
-        src = (sources or {}).get(d.file)
-        if src is not None and d.line:
-            lines = lines_cache.get(d.file)
-            if lines is None:  # split each file once, not once per diagnostic
-                lines = lines_cache[d.file] = src.splitlines()
-            if 0 < d.line <= len(lines):
-                text = lines[d.line - 1].replace("\t", " ")
-                out.append(f"  {d.line:>4} | {text}")
-                width = max(1, min(d.length, max(1, len(text) - d.col + 1)))
-                caret = "^" + "~" * (width - 1)
-                out.append(f"       | {' ' * (d.col - 1)}{caret}")
+        tag = f"[{d.code}] " if d.code.startswith("SGT") else ""
+        out.append(f"{where}: {sev}: {tag}{d.message}")
+        excerpt(d.file, d.line, d.col, d.length)
+        for r in d.related:
+            rwhere = f"{r.file}:{r.line}:{r.col}" if r.line else r.file
+            out.append(f"       = note: {rwhere}: {r.message}")
+            excerpt(r.file, r.line, r.col, r.length)
         if d.hint:
             out.append(f"       = hint: {d.hint}")
     return "\n".join(out)
