@@ -79,8 +79,10 @@ def bvh_text(clip: MotionClip, rig: Rig = SGT) -> str:
     """The BVH file for ``clip`` on ``rig`` as text."""
     offsets = rig.rest_offsets()
     lines: list[str] = ["HIERARCHY"]
+    order: list[int] = []  # MOTION columns follow the joints in the order the hierarchy lists them
 
     def write(i: int, depth: int) -> None:
+        order.append(i)
         bone = rig.bones[i]
         pad = "  " * depth
         lines.append(f"{pad}{'ROOT' if bone.parent is None else 'JOINT'} {bone.name}")
@@ -105,7 +107,7 @@ def bvh_text(clip: MotionClip, rig: Rig = SGT) -> str:
     lines.append("MOTION")
     lines.append(f"Frames: {clip.n_frames}")
     lines.append(f"Frame Time: {1.0 / FPS:.7f}")
-    rows = np.concatenate([root, rots.reshape(clip.n_frames, -1)], axis=1)
+    rows = np.concatenate([root, rots[:, order].reshape(clip.n_frames, -1)], axis=1)
     lines.extend(_fmt(r) for r in rows)
     return "\n".join(lines) + "\n"
 
