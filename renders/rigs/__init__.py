@@ -15,7 +15,7 @@ SKELETAL_RIGS: dict[str, Rig] = {"sgt": SGT, "vrm": VRM, "mixamo": MIXAMO, "smpl
 ROBOT_RIGS = ("nao", "pepper")
 RIG_NAMES = tuple(SKELETAL_RIGS) + ROBOT_RIGS
 
-__all__ = ["Aim", "Bone", "Orient", "Rig", "SKELETAL_RIGS", "ROBOT_RIGS", "RIG_NAMES", "get_rig"]
+__all__ = ["RIG_NAMES", "ROBOT_RIGS", "SKELETAL_RIGS", "Aim", "Bone", "Orient", "Rig", "get_rig"]
 
 
 def get_rig(name: str) -> Rig:

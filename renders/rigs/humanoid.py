@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.skeleton import BONE_LENGTHS
 from renders.rigs.rig import Aim, Bone, Orient, Rig
 
 SPINE = Orient(("spine", "neck"), ("right_shoulder", "left_shoulder"))
@@ -59,8 +60,6 @@ MIXAMO_PREFIX = "mixamorig:"
 
 def _torso_scale(table) -> float:
     """Target hips->neck length over sgt's spine->neck length: the hips translation factor."""
-    from core.skeleton import BONE_LENGTHS
-
     heads = {name: np.asarray(head) for name, _, head, _, _ in table}
     return float(np.linalg.norm(heads["neck"] - heads["hips"]) / BONE_LENGTHS["neck"])
 

@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from renders.rotations import quat_to_matrix
+
 Vec = tuple[float, float, float]
 
 
@@ -101,8 +103,6 @@ class Rig:
         return np.array([b.head for b in self.bones], dtype=np.float64)
 
     def rest_rotations(self) -> np.ndarray:
-        from renders.rotations import quat_to_matrix
-
         return quat_to_matrix(np.array([b.rest_rotation for b in self.bones], dtype=np.float64))
 
     def rest_offsets(self) -> np.ndarray:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.skeleton import BONE_LENGTHS
 from renders.rigs.humanoid import HEAD, SPINE
 from renders.rigs.rig import Aim, Bone, Rig
 
@@ -51,8 +52,6 @@ DRIVES = {
 
 
 def _build() -> Rig:
-    from core.skeleton import BONE_LENGTHS
-
     bones = []
     # Parents first: SMPL-X order already is (every parent index is smaller than its child's).
     for i, name in enumerate(JOINT_NAMES):
