@@ -63,6 +63,22 @@ def _seg(joints: dict[str, np.ndarray], pair: tuple[str, str]) -> np.ndarray:
     return joints[pair[1]] - joints[pair[0]]
 
 
+_REFERENCES = (np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
+
+
+def rest_alignment(rig_aim: np.ndarray, source_aim: np.ndarray) -> np.ndarray:
+    """The rotation that carries a bone from its rig rest aim to the source's rest direction
+    keeping its front in front: the plane through the bone and the forward axis (+z; +x for a
+    bone that points forward or back) maps to the same plane through the source direction. So
+    the rig's rest pose (T-pose, A-pose) changes where a bone starts, never its twist."""
+    a = rig_aim / np.linalg.norm(rig_aim)
+    b = source_aim / np.linalg.norm(source_aim)
+    for ref in _REFERENCES:
+        if min(np.linalg.norm(np.cross(a, ref)), np.linalg.norm(np.cross(b, ref))) > 0.3:
+            return triads(b, ref) @ triads(a, ref).T
+    return shortest_arcs(a, b)
+
+
 def retarget(rig: Rig, joints: dict[str, np.ndarray], rest: dict[str, np.ndarray] | None = None) -> RigMotion:
     """Bone rotations of ``rig`` following source joint positions ``joints`` (name -> (T, 3)).
 
@@ -81,7 +97,7 @@ def retarget(rig: Rig, joints: dict[str, np.ndarray], rest: dict[str, np.ndarray
         d = bone.drive
         if isinstance(d, Aim):
             src_rest = _seg(rest, d.source)
-            align = shortest_arcs(rig.aim_end(bone) - heads[i], src_rest)  # rig rest -> source rest
+            align = rest_alignment(rig.aim_end(bone) - heads[i], src_rest)  # rig rest -> source rest
             world[:, i] = shortest_arcs(src_rest, _seg(joints, d.source)) @ align @ r0[i]
         elif isinstance(d, Orient):
             f_rest = triads(_seg(rest, d.primary), _seg(rest, d.secondary))

@@ -15,9 +15,10 @@ side is a table change.
   (``primary`` segment, ``secondary`` segment for the roll) turns relative to the source's rest.
 
 Twist convention (documented in docs/formats.md): an aimed bone is first carried from its rest
-aim to the source's rest direction by the shortest arc, then by the shortest arc from the
-source's rest direction to the direction in the frame, so a T-pose rig and an A-pose rig get the
-same world orientation for the same motion.
+aim to the source's rest direction keeping its front in front
+(:func:`renders.rigs.retarget.rest_alignment`), then by the shortest arc from the source's rest
+direction to the direction in the frame, so a T-pose rig and an A-pose rig get the same world
+orientation for the same motion.
 """
 
 from __future__ import annotations
