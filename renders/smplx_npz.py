@@ -61,5 +61,5 @@ def smplx_arrays(clip: MotionClip) -> dict[str, np.ndarray]:
 
 def write_smplx_npz(path, clip: MotionClip) -> None:
     buf = io.BytesIO()
-    np.savez(buf, **smplx_arrays(clip))
+    np.savez_compressed(buf, **smplx_arrays(clip))
     atomic_write(path, buf.getvalue())

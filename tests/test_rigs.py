@@ -13,7 +13,8 @@ from scipy.spatial.transform import Rotation
 
 from core.motion import MotionClip, save_motion
 from core.skeleton import FPS, REST_POSE
-from rig_readers import check, read_bvh_bvhio, read_glb_pygltflib, sgt_joints, sgt_position_error_mm, sgt_rest_joints
+from rig_readers import (check, read_bvh_bvhio, read_glb_pygltflib, robot_figures, sgt_joints, sgt_position_error_mm,
+                         sgt_rest_joints)
 from test_export import _hard_poses, _library_clip
 
 pytest.importorskip("pygltflib")
@@ -226,68 +227,6 @@ def test_smplx_rest_pose_turns_only_the_arms():
 
 
 # -- robots -----------------------------------------------------------------------------------
-
-# URDF-style chains (origin xyz, origin rpy, axis) from Aldebaran's generated URDFs and link pages,
-# written out again here so the check does not reuse the solver's own formulas.
-CHAINS = {
-    "nao": {"upper": (0.105, 0.015, 0.0), "elbow_rpy": (0.0, 0.0, 0.0), "fore": 0.05595},
-    "pepper": {"upper": (0.1812, 0.015, 0.00013), "elbow_rpy": (0.0, -0.157079, 0.0), "fore": 0.15},
-}
-
-
-def _urdf_fk(angles: dict, robot: str, side: str) -> tuple[np.ndarray, np.ndarray]:
-    c = CHAINS[robot]
-    p = "L" if side == "left" else "R"
-    sign = 1.0 if side == "left" else -1.0
-    rot = (Rotation.from_rotvec(np.outer(angles[p + "ShoulderPitch"], [0, 1, 0]))
-           * Rotation.from_rotvec(np.outer(angles[p + "ShoulderRoll"], [0, 0, 1])))
-    ux, uy, uz = c["upper"]
-    upper = rot.apply([ux, sign * uy, uz])
-    elbow = (rot * Rotation.from_euler("xyz", c["elbow_rpy"])
-             * Rotation.from_rotvec(np.outer(angles[p + "ElbowYaw"], [1, 0, 0]))
-             * Rotation.from_rotvec(np.outer(angles[p + "ElbowRoll"], [0, 0, 1])))
-    return upper, elbow.apply([c["fore"], 0.0, 0.0])
-
-
-def _sgt_torso_directions(clip) -> dict:
-    """sgt's bones in its torso's frame, NAOqi axes (x forward, y left, z up)."""
-    from rig_readers import _frame
-
-    j, rest = sgt_joints(clip), sgt_rest_joints()
-    turn = _frame(j["neck"] - j["spine"], j["left_shoulder"] - j["right_shoulder"]) @ \
-        _frame(rest["neck"] - rest["spine"], rest["left_shoulder"] - rest["right_shoulder"]).T
-    out = {}
-    for side in ("left", "right"):
-        for name, (a, b) in (("upper", ("shoulder", "elbow")), ("fore", ("elbow", "wrist"))):
-            v = np.einsum("tji,tj->ti", turn, j[f"{side}_{b}"] - j[f"{side}_{a}"])
-            out[f"{side}_{name}"] = v[:, [2, 0, 1]]
-    return out
-
-
-def _angle_deg(a, b):
-    cos = np.sum(a * b, -1) / np.linalg.norm(a, axis=-1) / np.linalg.norm(b, axis=-1)
-    return np.degrees(np.arccos(np.clip(cos, -1, 1)))
-
-
-def robot_figures(clip, robot_name: str) -> dict:
-    """Angular errors (degrees) of the robot's arm bones against sgt's, before and after the limits."""
-    from renders.naoqi import ROBOTS, solve
-
-    sol = solve(clip, ROBOTS[robot_name])
-    want = _sgt_torso_directions(clip)
-    out = {}
-    for key, angles in (("raw", sol.raw), ("limited", sol.angles)):
-        errs = []
-        for side in ("left", "right"):
-            upper, fore = _urdf_fk(angles, robot_name, side)
-            errs += [_angle_deg(upper, want[f"{side}_upper"]), _angle_deg(fore, want[f"{side}_fore"])]
-        e = np.concatenate(errs)
-        out[key] = {"median": float(np.median(e)), "p95": float(np.percentile(e, 95)), "max": float(e.max())}
-    n = sol.n_frames * len(sol.angles)
-    out["position_clamped"] = sum(int(v.sum()) for v in sol.position_clamped.values()) / n
-    out["velocity_clamped"] = sum(int(v.sum()) for v in sol.velocity_clamped.values()) / n
-    return out
-
 
 @pytest.mark.parametrize("robot", ["nao", "pepper"])
 def test_robot_forward_kinematics_matches_the_skeleton(robot):
