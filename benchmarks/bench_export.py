@@ -20,12 +20,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from core.motion import MotionClip  # noqa: E402
-from core.skeleton import FPS  # noqa: E402
-from library import load_library  # noqa: E402
-from renders.rig_export import write_rig_file  # noqa: E402
+from core.motion import MotionClip
+from core.skeleton import FPS
+from library import load_library
+from renders.rig_export import write_rig_file
 
 CASES = (("sgt", ".bvh"), ("sgt", ".glb"), ("vrm", ".glb"), ("mixamo", ".bvh"), ("mixamo", ".glb"),
          ("smplx", ".npz"), ("nao", ".json"), ("pepper", ".csv"))
@@ -35,7 +35,7 @@ def take(minutes: float) -> MotionClip:
     lib = load_library(use_config=False)
     names = lib.names()
     parts, n, i = [], 0, 0
-    want = int(round(minutes * 60 * FPS))
+    want = round(minutes * 60 * FPS)
     while n < want:
         p = lib.get(names[i % len(names)]).clip().poses
         parts.append(p)

@@ -46,9 +46,6 @@ ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation"
 CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
 EULER_ORDER = "ZXY"  # intrinsic: R = Rz @ Rx @ Ry
 
-#: sgt rig's BVH joints in file order.
-BVH_JOINTS = SGT.names
-
 
 def local_rotations(clip: MotionClip, rig: Rig = SGT) -> np.ndarray:
     """BVH local rotation matrices (T, bones, 3, 3) in the rig's bone order."""

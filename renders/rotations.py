@@ -143,19 +143,3 @@ def matrix_to_axis_angle(m) -> np.ndarray:
     s = np.linalg.norm(v, axis=-1, keepdims=True)
     angle = 2.0 * np.arctan2(s, q[..., 3:4])
     return np.where(s > 1e-12, v / np.maximum(s, 1e-12) * angle, 2.0 * v)
-
-
-def axis_angle_to_matrix(r) -> np.ndarray:
-    """Axis-angle vectors (..., 3) -> rotation matrices (..., 3, 3) (Rodrigues)."""
-    r = np.asarray(r, dtype=np.float64)
-    angle = np.linalg.norm(r, axis=-1, keepdims=True)
-    axis = r / np.maximum(angle, 1e-12)
-    half = angle / 2.0
-    return quat_to_matrix(np.concatenate([axis * np.sin(half), np.cos(half)], axis=-1))
-
-
-def rotation_angle_deg(a, b) -> np.ndarray:
-    """Angle in degrees of the rotation that takes rotations ``a`` to ``b`` (..., 3, 3)."""
-    r = np.swapaxes(np.asarray(a), -1, -2) @ np.asarray(b)
-    c = (np.trace(r, axis1=-2, axis2=-1) - 1.0) / 2.0
-    return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))

@@ -18,13 +18,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
-from core.motion import MotionClip  # noqa: E402
-from library import load_library  # noqa: E402
-from renders.export import write_bvh  # noqa: E402
-from renders.gltf import write_glb  # noqa: E402
-from renders.rigs import SKELETAL_RIGS  # noqa: E402
-from rig_readers import (BLENDER, check, read_bvh_bvhio, read_glb_pygltflib, read_with_blender,  # noqa: E402
-                         robot_figures, sgt_position_error_mm)
+from rig_readers import BLENDER, check, read_bvh_bvhio, read_glb_pygltflib, read_with_blender, robot_figures, sgt_position_error_mm
+
+from core.motion import MotionClip
+from library import load_library
+from renders.export import write_bvh
+from renders.gltf import write_glb
+from renders.rigs import SKELETAL_RIGS
 
 
 def main() -> None:

@@ -114,7 +114,7 @@ def read_with_blender(paths: list, out_json) -> dict:
     # Blender finds its Python on PATH: a pyenv/venv python there hides Debian's numpy from it.
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "PYENV", "VIRTUAL_ENV"))}
     env["PATH"] = "/usr/local/bin:/usr/bin:/bin"
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env, check=False)
     if proc.returncode != 0 or not Path(out_json).exists():
         raise RuntimeError(f"blender failed ({proc.returncode}):\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
     data = json.loads(Path(out_json).read_text())

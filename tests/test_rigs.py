@@ -9,13 +9,12 @@ import math
 
 import numpy as np
 import pytest
+from rig_readers import check, read_bvh_bvhio, read_glb_pygltflib, robot_figures, sgt_joints, sgt_position_error_mm, sgt_rest_joints
 from scipy.spatial.transform import Rotation
+from test_export import _hard_poses, _library_clip
 
 from core.motion import MotionClip, save_motion
 from core.skeleton import FPS, REST_POSE
-from rig_readers import (check, read_bvh_bvhio, read_glb_pygltflib, robot_figures, sgt_joints, sgt_position_error_mm,
-                         sgt_rest_joints)
-from test_export import _hard_poses, _library_clip
 
 pytest.importorskip("pygltflib")
 
@@ -158,6 +157,16 @@ def test_new_source_joints_are_a_table_change():
     assert np.degrees(np.arccos(np.clip(cos, -1, 1))).max() < 1e-4
     with pytest.raises(ValueError, match="left_index_tip"):
         retarget(rig, source_positions(c))
+
+
+def test_sgt_rig_forward_kinematics_is_the_skeleton(clip):
+    from core.skeleton import JOINTS
+    from renders.rigs import SGT
+    from renders.rigs.retarget import retarget_clip
+
+    pos = retarget_clip(SGT, clip).joint_positions()
+    for i, name in enumerate(JOINTS):
+        assert np.abs(pos[:, SGT.index[name]] - clip.positions[:, i]).max() < 1e-5, name
 
 
 def test_rig_tables_are_checked():

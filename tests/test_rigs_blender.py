@@ -5,7 +5,6 @@ Blender (scripts/install.sh installs it)."""
 from __future__ import annotations
 
 import pytest
-
 from rig_readers import BLENDER, check, read_with_blender, sgt_position_error_mm
 from test_export import _library_clip
 

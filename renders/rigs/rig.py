@@ -23,7 +23,7 @@ orientation for the same motion.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -65,7 +65,6 @@ class Rig:
     translation_scale: float = 1.0
     #: VRM Animation humanoid mapping is written into glTF files (VRMC_vrm_animation).
     vrm_animation: bool = False
-    notes: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         seen: set[str] = set()
