@@ -1,6 +1,7 @@
 """Exports of motion clips: BVH (joint rotations) and CSV (joint positions).
 
-BVH hierarchy (all names are skeleton joint names except the two zero-length collars)::
+BVH for any skeletal rig of :mod:`renders.rigs` (``rig``; sgt's own by default). sgt's own
+hierarchy (all names are skeleton joint names except the two zero-length collars)::
 
     ROOT spine            6 channels: Xposition Yposition Zposition Zrotation Xrotation Yrotation
       neck                3 channels: Zrotation Xrotation Yrotation (every JOINT below too)
@@ -16,15 +17,16 @@ BVH hierarchy (all names are skeleton joint names except the two zero-length col
 A joint's rotation turns the bone from it to its child: spine -> neck, neck -> nose,
 nose -> head_top, left_collar -> left_shoulder, left_shoulder -> left_elbow,
 left_elbow -> left_wrist. The collars exist because one BVH rotation can orient only one
-bone, and the neck starts three. OFFSETs are the rest-pose bone vectors
-(:data:`core.skeleton.REST_DIRECTIONS` times the bone lengths) in metres, so all-zero
-rotations give the rest pose. head_top and the wrists carry zero rotations.
+bone, and the neck starts three. OFFSETs are the rig's rest-pose bone vectors (for sgt's rig
+:data:`core.skeleton.REST_DIRECTIONS` times the bone lengths) in metres, so all-zero
+rotations give the rig's rest pose (a T-pose for the VRM, Mixamo and SMPL-X rigs).
 
-Roll: the skeleton stores bone directions only, so twist about a bone is undefined. The
-convention is: the world rotation of every bone is the shortest-arc rotation from its
-rest direction to its direction in the frame (no twist relative to the rest pose); local
-rotations are parent^-1 * child. Euler angles are intrinsic Z, X, Y in degrees
-(R = Rz Rx Ry, the order of the channels).
+Roll: the skeleton stores bone directions only, so twist about a bone is undefined. For sgt's
+rig the world rotation of every bone is the shortest-arc rotation from its rest direction to
+its direction in the frame (no twist relative to the rest pose); other rigs follow the
+convention of :mod:`renders.rigs.rig`. BVH has no rest orientations: a joint's channels hold
+its rotation relative to the rest pose, local rotations are parent^-1 * child of those. Euler
+angles are intrinsic Z, X, Y in degrees (R = Rz Rx Ry, the order of the channels).
 """
 
 from __future__ import annotations
@@ -36,63 +38,22 @@ import numpy as np
 
 from core.fileio import atomic_write
 from core.motion import MotionClip
-from core.skeleton import BONE_LENGTHS, BONES, FPS, JOINT_INDEX, JOINTS, REST_DIRECTIONS
-from renders.rotations import shortest_arc
+from core.skeleton import FPS, JOINTS
+from renders.rigs import SGT, Rig
+from renders.rigs.retarget import retarget_clip
 
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
 CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
 EULER_ORDER = "ZXY"  # intrinsic: R = Rz @ Rx @ Ry
-END_SITES = {"head_top": 0.05, "left_wrist": 0.08, "right_wrist": 0.08}
 
 
-def _rest_vector(bone: str) -> np.ndarray:
-    return np.asarray(REST_DIRECTIONS[bone], dtype=np.float64) * BONE_LENGTHS[bone]
-
-
-# (joint, parent, offset, bone it drives or None)
-def _hierarchy() -> list[tuple[str, str | None, np.ndarray, str | None]]:
-    z = np.zeros(3)
-    h = [
-        ("spine", None, z, "neck"),
-        ("neck", "spine", _rest_vector("neck"), "nose"),
-        ("nose", "neck", _rest_vector("nose"), "head_top"),
-        ("head_top", "nose", _rest_vector("head_top"), None),
-    ]
-    for side in ("left", "right"):
-        h += [
-            (f"{side}_collar", "neck", z, f"{side}_shoulder"),
-            (f"{side}_shoulder", f"{side}_collar", _rest_vector(f"{side}_shoulder"), f"{side}_elbow"),
-            (f"{side}_elbow", f"{side}_shoulder", _rest_vector(f"{side}_elbow"), f"{side}_wrist"),
-            (f"{side}_wrist", f"{side}_elbow", _rest_vector(f"{side}_wrist"), None),
-        ]
-    return h
-
-
-HIERARCHY = _hierarchy()
-BVH_JOINTS = tuple(j for j, _, _, _ in HIERARCHY)
-
-
-def _parent_bone_joint(name: str) -> str:
-    """The skeleton joint at which the bone named ``name`` starts."""
-    return dict((c, p) for p, c in BONES)[name]
-
-
-def local_rotations(clip: MotionClip) -> np.ndarray:
-    """Local rotation matrices (T, len(HIERARCHY), 3, 3) in HIERARCHY order."""
-    pos = np.asarray(clip.positions, dtype=np.float64)
-    T = pos.shape[0]
-    out = np.zeros((T, len(HIERARCHY), 3, 3))
-    for t in range(T):
-        world: dict[str, np.ndarray] = {}
-        for i, (joint, parent, _, bone) in enumerate(HIERARCHY):
-            if bone is None:
-                g = world[parent]
-            else:
-                start = pos[t, JOINT_INDEX[_parent_bone_joint(bone)]]
-                end = pos[t, JOINT_INDEX[bone]]
-                g = shortest_arc(REST_DIRECTIONS[bone], end - start)
-            world[joint] = g
-            out[t, i] = g if parent is None else world[parent].T @ g
+def local_rotations(clip: MotionClip, rig: Rig = SGT) -> np.ndarray:
+    """BVH local rotation matrices (T, bones, 3, 3) in the rig's bone order."""
+    delta = retarget_clip(rig, clip).world_delta()
+    parents = rig.parent_indices()
+    out = delta.copy()
+    has = parents >= 0
+    out[:, has] = np.swapaxes(delta[:, parents[has]], -1, -2) @ delta[:, has]
     return out
 
 
@@ -111,44 +72,40 @@ def _fmt(v) -> str:
     return " ".join(f"{x:.6f}" for x in v)
 
 
-def bvh_text(clip: MotionClip) -> str:
-    """The BVH file for ``clip`` as text."""
-    children: dict[str | None, list[int]] = {}
-    for i, (_, parent, _, _) in enumerate(HIERARCHY):
-        children.setdefault(parent, []).append(i)
+def bvh_text(clip: MotionClip, rig: Rig = SGT) -> str:
+    """The BVH file for ``clip`` on ``rig`` as text."""
+    offsets = rig.rest_offsets()
     lines: list[str] = ["HIERARCHY"]
+    order: list[int] = []  # MOTION columns follow the joints in the order the hierarchy lists them
 
     def write(i: int, depth: int) -> None:
-        joint, parent, offset, _ = HIERARCHY[i]
+        order.append(i)
+        bone = rig.bones[i]
         pad = "  " * depth
-        if parent is None:
-            lines.append(f"ROOT {joint}")
-        else:
-            lines.append(f"{pad}JOINT {joint}")
+        lines.append(f"{pad}{'ROOT' if bone.parent is None else 'JOINT'} {bone.name}")
         lines.append(pad + "{")
-        lines.append(f"{pad}  OFFSET {_fmt(offset)}")
-        ch = ROOT_CHANNELS if parent is None else CHANNELS
+        lines.append(f"{pad}  OFFSET {_fmt(np.zeros(3) if bone.parent is None else offsets[i])}")
+        ch = ROOT_CHANNELS if bone.parent is None else CHANNELS
         lines.append(f"{pad}  CHANNELS {len(ch)} {' '.join(ch)}")
-        kids = children.get(joint, [])
+        kids = [rig.index[k] for k in rig.children(bone.name)]
         for k in kids:
             write(k, depth + 1)
-        if not kids:
-            bone = joint  # head_top / wrists: the end site continues the bone into them
-            tip = np.asarray(REST_DIRECTIONS[bone]) * END_SITES[joint]
+        if not kids:  # a leaf: the End Site continues the bone to its tail
             lines.append(f"{pad}  End Site")
             lines.append(f"{pad}  {{")
-            lines.append(f"{pad}    OFFSET {_fmt(tip)}")
+            lines.append(f"{pad}    OFFSET {_fmt(np.asarray(bone.tail) - np.asarray(bone.head))}")
             lines.append(f"{pad}  }}")
         lines.append(pad + "}")
 
-    write(children[None][0], 0)
-    rots = euler_zxy(local_rotations(clip))  # (T, J, 3), ZXY order
-    root = np.asarray(clip.positions, dtype=np.float64)[:, JOINT_INDEX["spine"]]
+    write(0, 0)
+    motion = retarget_clip(rig, clip)
+    rots = euler_zxy(local_rotations(clip, rig))  # (T, J, 3), ZXY order
+    root = motion.root_translation
     lines.append("MOTION")
     lines.append(f"Frames: {clip.n_frames}")
     lines.append(f"Frame Time: {1.0 / FPS:.7f}")
-    for t in range(clip.n_frames):
-        lines.append(_fmt(np.concatenate([root[t], rots[t].ravel()])))
+    rows = np.concatenate([root, rots[:, order].reshape(clip.n_frames, -1)], axis=1)
+    lines.extend(_fmt(r) for r in rows)
     return "\n".join(lines) + "\n"
 
 
@@ -163,8 +120,8 @@ def csv_text(clip: MotionClip) -> str:
     return buf.getvalue()
 
 
-def write_bvh(path, clip: MotionClip) -> None:
-    atomic_write(path, bvh_text(clip).encode("utf-8"))
+def write_bvh(path, clip: MotionClip, rig: Rig = SGT) -> None:
+    atomic_write(path, bvh_text(clip, rig).encode("utf-8"))
 
 
 def write_csv(path, clip: MotionClip) -> None:

@@ -55,3 +55,91 @@ def transform(rotation: np.ndarray, translation) -> np.ndarray:
     m[:3, :3] = rotation
     m[:3, 3] = translation
     return m
+
+
+# -- batched helpers (arrays of directions / rotations, leading axes broadcast) -------------------
+
+def shortest_arcs(a, b) -> np.ndarray:
+    """Batched :func:`shortest_arc`: directions (..., 3) -> rotations (..., 3, 3).
+
+    Same formula and the same fixed perpendicular for opposite directions, so one frame gives
+    the same matrix as the scalar version."""
+    a = _unit(np.asarray(a, dtype=np.float64))
+    b = _unit(np.asarray(b, dtype=np.float64))
+    a, b = np.broadcast_arrays(a, b)
+    v = np.cross(a, b)
+    c = np.sum(a * b, axis=-1)
+    vx = np.zeros(a.shape[:-1] + (3, 3))
+    vx[..., 0, 1], vx[..., 0, 2] = -v[..., 2], v[..., 1]
+    vx[..., 1, 0], vx[..., 1, 2] = v[..., 2], -v[..., 0]
+    vx[..., 2, 0], vx[..., 2, 1] = -v[..., 1], v[..., 0]
+    flipped = c < -1.0 + 1e-9
+    scale = 1.0 / np.where(flipped, 1.0, 1.0 + c)
+    out = np.eye(3) + vx + (vx @ vx) * scale[..., None, None]
+    if np.any(flipped):
+        for idx in np.argwhere(np.atleast_1d(flipped)):
+            i = tuple(idx) if a.ndim > 1 else ()
+            axis = _perpendicular(a[i])
+            out[i] = 2.0 * np.outer(axis, axis) - np.eye(3)
+    return out
+
+
+def triads(primary, secondary) -> np.ndarray:
+    """Orthonormal frames (..., 3, 3), columns (x, y, z): y along ``primary``, x towards the
+    part of ``secondary`` perpendicular to it, z = x cross y."""
+    y = _unit(np.asarray(primary, dtype=np.float64))
+    s = np.asarray(secondary, dtype=np.float64)
+    x = _unit(s - np.sum(s * y, axis=-1, keepdims=True) * y)
+    z = np.cross(x, y)
+    return np.stack([x, y, z], axis=-1)
+
+
+def matrix_to_quat(m) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) -> unit quaternions (..., 4) as (x, y, z, w), w >= 0."""
+    m = np.asarray(m, dtype=np.float64)
+    t = m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]
+    cand = np.stack([
+        np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1], 1 + t], -1),
+        np.stack([1 + m[..., 0, 0] - m[..., 1, 1] - m[..., 2, 2], m[..., 0, 1] + m[..., 1, 0],
+                  m[..., 0, 2] + m[..., 2, 0], m[..., 2, 1] - m[..., 1, 2]], -1),
+        np.stack([m[..., 0, 1] + m[..., 1, 0], 1 - m[..., 0, 0] + m[..., 1, 1] - m[..., 2, 2],
+                  m[..., 1, 2] + m[..., 2, 1], m[..., 0, 2] - m[..., 2, 0]], -1),
+        np.stack([m[..., 0, 2] + m[..., 2, 0], m[..., 1, 2] + m[..., 2, 1],
+                  1 - m[..., 0, 0] - m[..., 1, 1] + m[..., 2, 2], m[..., 1, 0] - m[..., 0, 1]], -1),
+    ], axis=-2)  # (..., 4 candidates, 4); the one with the largest norm is the stable one
+    best = np.argmax(np.linalg.norm(cand, axis=-1), axis=-1)
+    q = np.take_along_axis(cand, best[..., None, None], axis=-2)[..., 0, :]
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return np.where(q[..., 3:4] < 0, -q, q)
+
+
+def quat_to_matrix(q) -> np.ndarray:
+    """Quaternions (..., 4) as (x, y, z, w) -> rotation matrices (..., 3, 3)."""
+    q = np.asarray(q, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+    ], axis=-2)
+
+
+def continuous_quats(q) -> np.ndarray:
+    """Flip signs along axis 0 so consecutive quaternions (T, ..., 4) lie in one hemisphere
+    (interpolating players then take the short way between keys)."""
+    q = np.array(q, dtype=np.float64)
+    for t in range(1, q.shape[0]):
+        flip = np.sum(q[t] * q[t - 1], axis=-1) < 0
+        q[t][flip] = -q[t][flip]
+    return q
+
+
+def matrix_to_axis_angle(m) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) -> axis-angle vectors (..., 3): axis times angle in
+    radians, angle in [0, pi]."""
+    q = matrix_to_quat(m)
+    v = q[..., :3]
+    s = np.linalg.norm(v, axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(s, q[..., 3:4])
+    return np.where(s > 1e-12, v / np.maximum(s, 1e-12) * angle, 2.0 * v)

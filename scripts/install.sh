@@ -10,10 +10,12 @@ PY="${PYTHON:-python3}"
 
 echo "==> system packages (espeak-ng: speech; EGL/OSMesa: offscreen rendering; fortunes: training sentences;"
 echo "    tmux: terminal tests; alsa-utils: recorded human speech for scripts/real_speech_check.py;"
-echo "    ffmpeg: ffprobe, the independent reader of sgt's MP4s in the tests)"
+echo "    ffmpeg: ffprobe, the independent reader of sgt's MP4s in the tests;"
+echo "    blender + python3-numpy: Blender's glTF/BVH importers read the rig exports in tests/test_rigs_blender.py)"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
-    espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min alsa-utils ffmpeg >/dev/null
+    espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min alsa-utils \
+    ffmpeg blender python3-numpy >/dev/null
 
 echo "==> PyTorch (CPU build)"
 "$PY" -m pip install -q torch==2.13.0

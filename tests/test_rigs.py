@@ -1,0 +1,337 @@
+"""Rig exports read back by independent readers (pygltflib, bvhio, numpy's npz, a URDF-style
+forward kinematics of the robots), against sgt's joint positions (tests/rig_readers.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from rig_readers import check, read_bvh_bvhio, read_glb_pygltflib, robot_figures, sgt_joints, sgt_position_error_mm, sgt_rest_joints
+from scipy.spatial.transform import Rotation
+from test_export import _hard_poses, _library_clip
+
+from core.motion import MotionClip, save_motion
+from core.skeleton import FPS, REST_POSE
+
+pytest.importorskip("pygltflib")
+
+GESTURES = ("wave", "point_right", "open_arms", "shrug", "nod", "clap", "point_up")
+# Tolerances: float32 keys in both files; arccos near 1 turns float32 noise into ~1e-3 degrees.
+AIM_DEG, CHAIN_MM, ORIENT_DEG, ROOT_MM = 0.01, 0.01, 0.01, 0.01
+
+
+@pytest.fixture(scope="module")
+def clip() -> MotionClip:
+    c = _library_clip(GESTURES)
+    pos = c.positions.copy()
+    pos += np.linspace(0, 1, len(pos))[:, None, None] * np.array([0.1, -0.05, 0.2])  # the root moves too
+    return MotionClip(poses=c.poses, positions=pos)
+
+
+def _assert_close(fig: dict, what: str) -> None:
+    assert fig["aim_deg"] < AIM_DEG, f"{what}: aimed bones off by {fig['aim_deg']:.4f} deg"
+    assert fig["chain_mm"] < CHAIN_MM, f"{what}: chain joints off by {fig['chain_mm']:.4f} mm"
+    assert fig["orient_deg"] < ORIENT_DEG, f"{what}: oriented bones off by {fig['orient_deg']:.4f} deg"
+    assert fig["root_mm"] < ROOT_MM, f"{what}: root off by {fig['root_mm']:.4f} mm"
+    assert fig["follow_deg"] < ORIENT_DEG, f"{what}: undriven bones turned by {fig['follow_deg']:.4f} deg"
+
+
+@pytest.mark.parametrize("name", ["sgt", "vrm", "mixamo", "smplx"])
+def test_glb_read_by_pygltflib(tmp_path, clip, name):
+    from renders.gltf import write_glb
+    from renders.rigs import SKELETAL_RIGS
+
+    rig = SKELETAL_RIGS[name]
+    path = tmp_path / f"take_{name}.glb"
+    write_glb(path, clip, rig)
+    r = read_glb_pygltflib(path)
+    assert np.allclose(np.diff(r["times"]), 1 / FPS, atol=1e-6) and len(r["times"]) == clip.n_frames
+    assert set(r["heads"]) == set(rig.names)
+    _assert_close(check(rig, clip, r), f"{name} glb")
+    if name == "sgt":
+        assert sgt_position_error_mm(clip, r) < 0.01
+    if name == "mixamo":
+        assert "mixamorig:LeftForeArm" in r["heads"]
+
+
+@pytest.mark.parametrize("name", ["sgt", "vrm", "mixamo", "smplx"])
+def test_bvh_read_by_bvhio(tmp_path, clip, name):
+    from renders.export import write_bvh
+    from renders.rigs import SKELETAL_RIGS
+
+    rig = SKELETAL_RIGS[name]
+    path = tmp_path / f"take_{name}.bvh"
+    write_bvh(path, clip, rig)
+    r = read_bvh_bvhio(path)
+    assert abs(r["frame_time"] - 1 / FPS) < 1e-6
+    fig = check(rig, clip, r)
+    _assert_close(fig, f"{name} bvh")
+    if name == "sgt":
+        assert sgt_position_error_mm(clip, r) < 1.0
+
+
+def test_vrma_extension_maps_every_humanoid_bone(tmp_path, clip):
+    from renders.gltf import write_glb
+    from renders.rigs import VRM
+
+    write_glb(tmp_path / "take.vrma", clip, VRM)
+    r = read_glb_pygltflib(tmp_path / "take.vrma")
+    ext = r["extensions"]["VRMC_vrm_animation"]
+    assert ext["specVersion"] == "1.0"
+    bones = ext["humanoid"]["humanBones"]
+    required = {"hips", "spine", "head", "leftUpperArm", "leftLowerArm", "leftHand", "rightUpperArm", "rightLowerArm",
+                "rightHand", "leftUpperLeg", "leftLowerLeg", "leftFoot", "rightUpperLeg", "rightLowerLeg", "rightFoot"}
+    assert required <= set(bones)
+    assert all(r["node_names"][v["node"]] == k for k, v in bones.items())
+    # VRM T-pose: arms straight out along +-x at rest, identity rest rotations
+    rest = r["rest_heads"]
+    for side, sign in (("left", 1), ("right", -1)):
+        arm = rest[f"{side}Hand"] - rest[f"{side}UpperArm"]
+        assert arm[0] * sign > 0.4 and abs(arm[1]) < 1e-6 and abs(arm[2]) < 1e-6
+
+
+def _variant(rig, **changes):
+    return dataclasses.replace(rig, **changes)
+
+
+def test_rest_rotations_and_a_pose_are_data(tmp_path, clip):
+    """A rig whose bones carry rest rotations, and one in an A-pose: same joint positions and the
+    same twist (a marker in front of each arm bone lands in the same place) as the T-pose rig."""
+    from renders.gltf import write_glb
+    from renders.rigs import VRM, Bone
+
+    rng = np.random.default_rng(5)
+    rotated = _variant(VRM, bones=tuple(dataclasses.replace(b, rest_rotation=tuple(Rotation.random(random_state=rng).as_quat()))
+                                        for b in VRM.bones))
+    down = Rotation.from_euler("z", -45, degrees=True)
+    bones = []
+    for b in VRM.bones:
+        if "Arm" in b.name or "Hand" in b.name:
+            side = 1 if b.name.startswith("left") else -1
+            pivot = np.array([0.18 * side, 1.44, 0.0])
+            rot = down if side > 0 else down.inv()
+            b = dataclasses.replace(b, head=tuple(pivot + rot.apply(np.array(b.head) - pivot)),
+                                    tail=None if b.tail is None else tuple(pivot + rot.apply(np.array(b.tail) - pivot)))
+        bones.append(b)
+    a_pose = _variant(VRM, bones=tuple(bones))
+    reads = {}
+    for name, rig in (("t", VRM), ("rotated", rotated), ("a", a_pose)):
+        write_glb(tmp_path / f"{name}.glb", clip, rig)
+        reads[name] = read_glb_pygltflib(tmp_path / f"{name}.glb")
+        _assert_close(check(rig, clip, reads[name]), name)
+    t, rot, a = reads["t"], reads["rotated"], reads["a"]
+    for bone in VRM.names:
+        assert np.abs(rot["heads"][bone] - t["heads"][bone]).max() < 1e-5
+        assert np.abs(a["heads"][bone] - t["heads"][bone]).max() < 1e-5
+    marker = np.array([0.0, 0.0, 0.1])  # 10 cm in front of the bone at rest (rest frames are identity)
+    for bone in ("leftUpperArm", "leftLowerArm", "rightUpperArm", "rightLowerArm"):
+        p_t = t["heads"][bone] + t["rotations"][bone] @ marker
+        p_a = a["heads"][bone] + a["rotations"][bone] @ marker
+        assert np.linalg.norm(p_t - p_a, axis=-1).max() < 1e-4, bone
+    assert isinstance(rotated.bones[0], Bone)
+
+
+def test_new_source_joints_are_a_table_change():
+    """Finger bones later: a new row driven by a new source joint, no new code."""
+    from renders.rigs import VRM, Aim, Bone
+    from renders.rigs.retarget import retarget, source_positions, source_rest
+
+    c = _library_clip(("wave",))
+    joints = source_positions(c)
+    rest = source_rest()
+    rng = np.random.default_rng(2)
+    tip = rng.normal(size=(c.n_frames, 3))
+    joints["left_index_tip"] = joints["left_wrist"] + 0.09 * tip / np.linalg.norm(tip, axis=-1, keepdims=True)
+    rest["left_index_tip"] = rest["left_wrist"] + np.array([0.0, -0.09, 0.0])
+    finger = Bone("leftIndexProximal", "leftHand", (0.80, 1.44, 0.0), Aim(("left_wrist", "left_index_tip")),
+                  tail=(0.89, 1.44, 0.0))
+    rig = _variant(VRM, bones=VRM.bones + (finger,))
+    m = retarget(rig, joints, rest)
+    world = m.world[:, rig.index["leftIndexProximal"]]
+    got = world @ np.array([1.0, 0.0, 0.0])  # the finger's rest aim is +x
+    want = joints["left_index_tip"] - joints["left_wrist"]
+    cos = np.sum(got * want, -1) / np.linalg.norm(want, axis=-1)
+    assert np.degrees(np.arccos(np.clip(cos, -1, 1))).max() < 1e-4
+    with pytest.raises(ValueError, match="left_index_tip"):
+        retarget(rig, source_positions(c))
+
+
+def test_sgt_rig_forward_kinematics_is_the_skeleton(clip):
+    from core.skeleton import JOINTS
+    from renders.rigs import SGT
+    from renders.rigs.retarget import retarget_clip
+
+    pos = retarget_clip(SGT, clip).joint_positions()
+    for i, name in enumerate(JOINTS):
+        assert np.abs(pos[:, SGT.index[name]] - clip.positions[:, i]).max() < 1e-5, name
+
+
+def test_rig_tables_are_checked():
+    from renders.rigs import Aim, Bone, Rig
+
+    with pytest.raises(ValueError, match="must come before"):
+        Rig("x", "x", (Bone("a", None, (0, 0, 0), tail=(0, 1, 0)), Bone("c", "b", (0, 1, 0), tail=(0, 2, 0))))
+    with pytest.raises(ValueError, match="unknown bone"):
+        Rig("x", "x", (Bone("a", None, (0, 0, 0), Aim(("spine", "neck"), "zz"), tail=(0, 1, 0)),))
+
+
+# -- SMPL-X -----------------------------------------------------------------------------------
+
+def test_smplx_npz_layout_and_forward_kinematics(tmp_path, clip):
+    from renders.rigs.smplx import JOINT_NAMES, PARENTS, REST_JOINTS
+    from renders.smplx_npz import write_smplx_npz
+
+    path = tmp_path / "take.npz"
+    write_smplx_npz(path, clip)
+    d = np.load(path, allow_pickle=False)
+    T = clip.n_frames
+    assert d["global_orient"].shape == (T, 3) and d["body_pose"].shape == (T, 63) and d["transl"].shape == (T, 3)
+    assert d["poses"].shape == (T, 165) and d["betas"].shape == (10,) and not d["betas"].any()
+    assert np.array_equal(d["poses"][:, :3], d["global_orient"]) and np.array_equal(d["poses"][:, 3:66], d["body_pose"])
+    assert not d["poses"][:, 66:].any() and not d["left_hand_pose"].any()
+    assert float(d["mocap_frame_rate"]) == 15.0 and str(d["gender"]) == "neutral"
+    assert str(d["surface_model_type"]) == "smplx" and list(d["joint_names"]) == list(JOINT_NAMES)
+    # forward kinematics of the axis-angle rotations (scipy's rotvec) over SMPL-X's tree
+    aa = np.concatenate([d["global_orient"][:, None], d["body_pose"].reshape(T, 21, 3)], axis=1).astype(np.float64)
+    local = Rotation.from_rotvec(aa.reshape(-1, 3)).as_matrix().reshape(T, 22, 3, 3)
+    world = np.zeros_like(local)
+    pos = np.zeros((T, 22, 3))
+    pos[:, 0] = REST_JOINTS[0] + d["transl"]
+    world[:, 0] = local[:, 0]
+    for i in range(1, 22):
+        p = PARENTS[i]
+        world[:, i] = world[:, p] @ local[:, i]
+        pos[:, i] = pos[:, p] + world[:, p] @ (REST_JOINTS[i] - REST_JOINTS[p])
+    j = sgt_joints(clip)
+    idx = {n: i for i, n in enumerate(JOINT_NAMES)}
+    for side in ("left", "right"):
+        for (a, b), (sa, sb) in (((f"{side}_collar", f"{side}_shoulder"), ("neck", f"{side}_shoulder")),
+                                 ((f"{side}_shoulder", f"{side}_elbow"), (f"{side}_shoulder", f"{side}_elbow")),
+                                 ((f"{side}_elbow", f"{side}_wrist"), (f"{side}_elbow", f"{side}_wrist"))):
+            got = pos[:, idx[b]] - pos[:, idx[a]]
+            want = j[sb] - j[sa]
+            cos = np.sum(got * want, -1) / np.linalg.norm(got, axis=-1) / np.linalg.norm(want, axis=-1)
+            err = np.degrees(np.arccos(np.clip(cos, -1, 1))).max()
+            assert err < 0.01, f"{a}->{b}: {err:.4f} deg"
+    rest = sgt_rest_joints()
+    from renders.rigs import SMPLX
+
+    assert np.abs(d["transl"] - SMPLX.translation_scale * (j["spine"] - rest["spine"])).max() < 1e-5
+
+
+def test_smplx_rest_pose_turns_only_the_arms():
+    """sgt's rest pose on SMPL-X's T-pose rest: the arms come down (collars, shoulders, elbows
+    turn); pelvis, spine, head (turned relative to its rest) and legs stay at zero."""
+    from renders.rigs.smplx import JOINT_NAMES
+    from renders.smplx_npz import smplx_arrays
+
+    a = smplx_arrays(MotionClip(poses=np.repeat(REST_POSE[None], 2, axis=0)))
+    angle = np.degrees(np.linalg.norm(a["body_pose"].reshape(2, 21, 3)[0], axis=-1))
+    turned = {JOINT_NAMES[i + 1] for i in np.nonzero(angle > 1.0)[0]}
+    assert turned == {f"{s}_{j}" for s in ("left", "right") for j in ("collar", "shoulder", "elbow")}
+    assert np.abs(a["global_orient"]).max() < 1e-6 and np.abs(a["transl"]).max() < 1e-6
+
+
+# -- robots -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("robot", ["nao", "pepper"])
+def test_robot_forward_kinematics_matches_the_skeleton(robot):
+    from renders.naoqi import NAMES, ROBOTS, solve
+
+    clip = _library_clip(GESTURES)
+    fig = robot_figures(clip, robot)
+    # unclamped IK is exact up to Pepper's 0.13 mm elbow z-offset and nearly straight arms (ElbowYaw held)
+    assert fig["raw"]["median"] < 0.05 and fig["raw"]["p95"] < 0.1 and fig["raw"]["max"] < 4.0, fig
+    assert fig["limited"]["median"] < 0.1, fig
+    sol = solve(clip, ROBOTS[robot])
+    r = ROBOTS[robot]
+    for n in NAMES:
+        lo, hi = r.limits[n]
+        a = sol.angles[n]
+        assert a.min() >= lo - 1e-9 and a.max() <= hi + 1e-9, n
+        assert np.abs(np.diff(a)).max() <= r.velocity[n] / FPS + 1e-9, n
+
+
+def test_robot_head_follows_the_skeleton():
+    from renders.naoqi import NAO, solve
+
+    clip = _library_clip(("nod",))
+    sol = solve(clip, NAO)
+    assert np.ptp(sol.angles["HeadPitch"]) > math.radians(5)  # a nod moves the head's pitch
+    rest = solve(MotionClip(poses=np.repeat(REST_POSE[None], 3, axis=0)), NAO)
+    assert abs(rest.angles["HeadYaw"][0]) < 1e-6 and abs(rest.angles["HeadPitch"][0]) < 1e-6
+
+
+def test_robot_limits_clamp_out_of_range_poses():
+    """Random bone directions: many leave the joint ranges; the output stays inside them."""
+    from renders.naoqi import NAMES, PEPPER, solve
+
+    sol = solve(MotionClip(poses=_hard_poses(60)), PEPPER)
+    assert any(v.any() for v in sol.position_clamped.values())
+    assert any(v.any() for v in sol.velocity_clamped.values())
+    for n in NAMES:
+        lo, hi = PEPPER.limits[n]
+        assert lo - 1e-9 <= sol.angles[n].min() and sol.angles[n].max() <= hi + 1e-9
+
+
+# -- command line -----------------------------------------------------------------------------
+
+@pytest.fixture
+def motion_path(tmp_path):
+    path = tmp_path / "take.json"
+    save_motion(path, [_library_clip(("wave",)), _library_clip(("nod",))])
+    return path
+
+
+def test_cli_rig_choices_match_the_rigs():
+    from renders.rigs import RIG_NAMES
+    from sgt_tui.commands.export import RIG_OUTPUTS
+
+    assert tuple(RIG_OUTPUTS) == RIG_NAMES
+
+
+@pytest.mark.parametrize("rig,suffix", [("vrm", ".glb"), (None, ".vrma"), ("mixamo", ".glb"), ("mixamo", ".bvh"),
+                                        ("smplx", ".npz"), ("sgt", ".glb"), ("nao", ".json"), ("pepper", ".csv")])
+def test_cli_export_rigs(tmp_path, motion_path, rig, suffix, capsys):
+    from sgt_tui.cli import main
+
+    out = tmp_path / f"out{suffix}"
+    args = ["export", str(motion_path), "-o", str(out)] + (["--rig", rig] if rig else [])
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert f"wrote {out}" in err
+    frames = sum(c.n_frames for c in [_library_clip(("wave",)), _library_clip(("nod",))])
+    if suffix in (".glb", ".vrma"):
+        r = read_glb_pygltflib(out)
+        assert len(r["times"]) == frames
+        assert ("hips" in r["heads"]) == (rig in ("vrm", None))
+    elif suffix == ".json":
+        doc = json.loads(out.read_text())
+        assert list(doc) == ["names", "angleLists", "timeLists"]
+        assert doc["names"][:4] == ["HeadYaw", "HeadPitch", "LShoulderPitch", "LShoulderRoll"]
+        assert all(len(a) == frames for a in doc["angleLists"])
+        times = np.array(doc["timeLists"][0])
+        assert times[0] > 0 and np.all(np.diff(times) > 0) and abs(times[-1] - frames / FPS) < 1e-5
+        assert "clamped" in err
+    elif suffix == ".csv":
+        rows = out.read_text().splitlines()
+        assert rows[0].startswith("time,HeadYaw,HeadPitch,LShoulderPitch") and len(rows) == frames + 1
+    elif suffix == ".npz":
+        assert np.load(out)["body_pose"].shape == (frames, 63)
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--rig", "vrm", "-o", "x.csv"], "--rig vrm writes .glb, .vrma, .bvh, not .csv"),
+    (["--rig", "nao", "-o", "x.glb"], "--rig nao writes .json, .csv, not .glb"),
+    (["--rig", "mixamo", "-o", "x.vrma"], "not .vrma"),
+])
+def test_cli_rig_usage_errors(tmp_path, motion_path, args, message, capsys):
+    from sgt_tui.cli import main
+
+    args = [a if not a.startswith("x.") else str(tmp_path / a) for a in args]
+    assert main(["export", str(motion_path), *args]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
