@@ -26,7 +26,9 @@ rig the world rotation of every bone is the shortest-arc rotation from its rest 
 its direction in the frame (no twist relative to the rest pose); other rigs follow the
 convention of :mod:`renders.rigs.rig`. BVH has no rest orientations: a joint's channels hold
 its rotation relative to the rest pose, local rotations are parent^-1 * child of those. Euler
-angles are intrinsic Z, X, Y in degrees (R = Rz Rx Ry, the order of the channels).
+angles are intrinsic Z, X, Y in degrees (R = Rz Rx Ry, the order of the channels), and
+continuous from frame to frame (:func:`unwrap_euler`): a channel may pass +-180 instead of
+jumping by 360, so a client that interpolates channels linearly stays on the motion.
 """
 
 from __future__ import annotations
@@ -68,6 +70,32 @@ def euler_zxy(rotations: np.ndarray) -> np.ndarray:
     return e.reshape(*shape, 3)
 
 
+def unwrap_euler(angles: np.ndarray) -> np.ndarray:
+    """Continuous intrinsic ZXY Euler angles (T, ..., 3) in degrees: the same rotations, but from
+    one frame to the next each joint takes, of the two ZXY solutions ``(z, x, y)`` and
+    ``(z + 180, 180 - x, y + 180)`` with any multiple of 360 added, the one nearest the previous
+    frame. Clients that interpolate channels linearly then never swing through a wrap at +-180."""
+    e = np.array(angles, dtype=np.float64)
+    if len(e) < 2:
+        return e
+    alt = np.stack([e[..., 0] + 180.0, 180.0 - e[..., 1], e[..., 2] + 180.0], axis=-1)
+    out = np.empty_like(e)
+    out[0] = e[0]
+    for t in range(1, len(e)):
+        prev = out[t - 1]
+        best = None
+        for cand in (e[t], alt[t]):
+            c = cand + 360.0 * np.round((prev - cand) / 360.0)
+            d = np.abs(c - prev).sum(-1, keepdims=True)
+            if best is None:
+                best, best_d = c, d
+            else:
+                best = np.where(d < best_d, c, best)
+                best_d = np.minimum(d, best_d)
+        out[t] = best
+    return out
+
+
 def _fmt(v) -> str:
     return " ".join(f"{x:.6f}" for x in v)
 
@@ -99,7 +127,7 @@ def bvh_text(clip: MotionClip, rig: Rig = SGT) -> str:
 
     write(0, 0)
     motion = retarget_clip(rig, clip)
-    rots = euler_zxy(local_rotations(clip, rig))  # (T, J, 3), ZXY order
+    rots = unwrap_euler(euler_zxy(local_rotations(clip, rig)))  # (T, J, 3), ZXY order, continuous
     root = motion.root_translation
     lines.append("MOTION")
     lines.append(f"Frames: {clip.n_frames}")

@@ -153,3 +153,50 @@ def test_cli_export_errors(tmp_path, motion_file, capsys):
     assert main(["export", str(bad), "-o", str(tmp_path / "x.csv")]) == 1
     assert "not valid JSON" in capsys.readouterr().err
     assert not (tmp_path / "x.bvh").exists() and not (tmp_path / "x.csv").exists()
+
+
+def _worst_linear_midpoint_error(euler, rotations) -> float:
+    """Degrees between the rotation a client gets by interpolating the channels linearly
+    half-way between two frames and the true half-way rotation, worst over frames and joints."""
+    from scipy.spatial.transform import Rotation
+
+    worst = 0.0
+    for j in range(rotations.shape[1]):
+        mid = Rotation.from_euler("ZXY", (euler[:-1, j] + euler[1:, j]) / 2, degrees=True)
+        a, b = Rotation.from_matrix(rotations[:-1, j]), Rotation.from_matrix(rotations[1:, j])
+        true = a * Rotation.from_rotvec((a.inv() * b).as_rotvec() / 2)
+        worst = max(worst, float(np.degrees((true.inv() * mid).magnitude()).max()))
+    return worst
+
+
+def test_bvh_channels_are_continuous_through_a_full_turn(tmp_path):
+    """A bone turning steadily twice round a circle: written channels never wrap by 360, the
+    same rotations come back, and linear interpolation between frames stays on the motion."""
+    from scipy.spatial.transform import Rotation
+
+    from renders.export import bvh_text, euler_zxy, local_rotations, unwrap_euler
+
+    n = 90
+    poses = np.tile(REST_POSE, (n, 1)).astype(np.float32)
+    b = BONE_INDEX["right_wrist"] * 3
+    ang = np.linspace(0, 4 * np.pi, n)  # two whole turns in the horizontal plane, 8 degrees a frame
+    poses[:, b : b + 3] = np.stack([np.cos(ang), np.zeros(n), np.sin(ang)], 1)
+    clip = MotionClip(poses=normalize_pose(poses))
+    rotations = local_rotations(clip)
+    raw = euler_zxy(rotations)
+    assert _worst_linear_midpoint_error(raw, rotations) > 170  # the plain decomposition wraps
+    e = unwrap_euler(raw)
+    same = Rotation.from_euler("ZXY", e.reshape(-1, 3), degrees=True).as_matrix()
+    assert np.allclose(same, rotations.reshape(-1, 3, 3), atol=1e-9)
+    assert _worst_linear_midpoint_error(e, rotations) < 8  # within one frame's turn
+    rows = np.array([list(map(float, r.split())) for r in bvh_text(clip).split("Frame Time:")[1].splitlines()[1:]])
+    assert np.abs(np.diff(rows[:, 3:], axis=0)).max() < 180  # no 360-degree wrap in the file
+
+
+def test_unwrap_euler_picks_the_alternative_solution_near_gimbal():
+    from renders.export import unwrap_euler
+
+    e = np.array([[170.0, 80.0, 10.0], [-10.0, 100.0 - 360.0 + 360.0 - 0.0, -170.0]])  # 2nd = alt form of ~(170, 80, 10)
+    e[1] = [-10.0, 100.0, -170.0]
+    out = unwrap_euler(e)
+    assert np.allclose(out[1], [170.0, 80.0, 10.0])
