@@ -3,41 +3,25 @@
 from __future__ import annotations
 
 import json
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from core.skeleton import FPS
 from model.features import AUDIO_DIM
 from model.training.corpus import FORTUNE_DIR, CorpusError, build_corpus, load_corpus, load_manifest, load_sentences
 
-FORTUNES = """\
-Look over there, the big red house is where I grew up.
-%
-Never put off till tomorrow what you can do the day after tomorrow.
-\t\t-- Mark Twain
-%
-    +--------+
-    | ascii  |
-    +--------+
-%
-Hello and welcome to the show. Maybe we will think of something small today!
-%
-Q: How many programmers does it take to change a light bulb?
-A: None, that is a hardware problem.
-%
-Ok
-%
-"""
-HOURS_TWO_SHARDS = 150 / 15 / 3600  # 150 frames: more than one shard of two clips
+sys.path.insert(0, str(Path(__file__).parent))
+from synthetic import write_fortunes  # noqa: E402
+
+HOURS_TWO_SHARDS = 150 / FPS / 3600  # 150 frames: more than one shard of two clips
 
 
 @pytest.fixture()
 def fortunes(tmp_path):
-    d = tmp_path / "fortunes"
-    d.mkdir()
-    (d / "tiny").write_text(FORTUNES)
-    (d / "tiny.dat").write_bytes(b"\x00\x01binary")
-    return d
+    return write_fortunes(tmp_path / "fortunes")
 
 
 def test_sentences_cleaned(fortunes):
@@ -129,3 +113,8 @@ def test_cli(tmp_path, fortunes, monkeypatch, capsys):
     assert "clips" in capsys.readouterr().out
     assert json.loads((tmp_path / "c" / "manifest.json").read_text())["seed"] == 1
     assert main(["corpus", "-o", str(tmp_path / "d"), "--hours", "0"]) == 2
+    # a missing corpus is a message with the fix, not a traceback
+    capsys.readouterr()
+    for command in ("train", "eval"):
+        assert main([command, "--corpus", str(tmp_path / "none")]) == 1
+        assert f"sgt corpus -o {tmp_path / 'none'}" in capsys.readouterr().err
