@@ -182,6 +182,28 @@ def test_training_keeps_the_best_validation_epoch_and_decays_the_rate(weights):
     assert all(a >= b for a, b in zip(rates, rates[1:]))
 
 
+def test_validation_pcs_is_the_pcs_of_sgt_eval(weights):
+    """The training loop's held-out PCS (which picks the shipped epoch) scores the same control
+    as sgt eval: metrics.pose_control on every window, the network without noise."""
+    from model.training.metrics import pcs, pose_control
+    from model.training.train import Windows, validate
+
+    model = load_weights(weights)[0]
+    val = Windows(synthetic_clips(4, frames=150, seed=5), 40)
+    row = validate(model, val, TrainConfig(), count=6)
+    batch = val.fixed(6)
+    scores = []
+    for i in range(6):
+        ctl = pose_control(batch["poses"][i])
+        args = [torch.as_tensor(batch["audio"][i : i + 1]), torch.as_tensor(batch["word_ids"][i : i + 1]),
+                torch.as_tensor(batch["onsets"][i : i + 1], dtype=torch.float32)]
+        args += [torch.as_tensor(a)[None] for a in (ctl.pose, ctl.pose_mask, ctl.style, ctl.style_mask)]
+        with torch.no_grad():
+            out = model(*args, torch.zeros(1, model.config["noise_dim"]))[0].numpy()
+        scores.append(pcs(ctl.pose, out, ctl.pose_mask))
+    assert row["val_pcs"] == pytest.approx(np.mean(scores), rel=1e-5)
+
+
 def test_audio_features_equal_librosa_and_do_not_import_it():
     """The numpy log-mel + energy give librosa's numbers (the shipped model was trained on
     them), on noise, a rising tone and a clip shorter than the motion, with and without an

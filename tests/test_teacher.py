@@ -132,11 +132,21 @@ def test_handedness_sign_and_mirror():
         assert raw_style(r)[:, 2].mean() < 0
 
 
-def test_per_frame_style_arrays():
-    speed = np.full(N, -3.0)
-    speed[N // 2:] = 3.0
-    p = teach(SENTENCE, N, style={"speed": speed}, rng=np.random.default_rng(0))
-    assert p.shape == (N, 27) and steps_deg(p).max() < 25
+def half_change(poses, k):
+    """How much style statistic ``k`` grows from the first half of the frames to the second."""
+    r = raw_style(poses)[:, k]
+    return r[N // 2:].mean() - r[: N // 2].mean()
+
+
+@pytest.mark.parametrize("k,name", [(0, "speed"), (1, "space"), (2, "handedness")])
+def test_per_frame_style_arrays_act_on_their_frames(k, name):
+    """A style that changes half way changes the motion half way (not its mean over the clip)."""
+    rising = np.where(np.arange(N) < N // 2, -3.0, 3.0)
+    for seed in range(4):
+        up = teach(SENTENCE, N, style={name: rising}, rng=np.random.default_rng(seed))
+        down = teach(SENTENCE, N, style={name: -rising}, rng=np.random.default_rng(seed))
+        assert up.shape == (N, 27) and steps_deg(up).max() < 25
+        assert half_change(up, k) > 0 > half_change(down, k), (name, seed)
 
 
 # -- the rules engine ----------------------------------------------------------------------------
@@ -166,6 +176,15 @@ def test_rules_engine_registered_and_follows_pose_controls():
     assert steps_deg(out).max() < 25.0  # smooth into and out of the controlled spans
     assert np.array_equal(out, generate(inputs, seed=0))
     assert np.abs(out[10] - target).max() > 0.3  # far from the spans the teacher moves freely
+
+
+def test_rules_engine_style_controls_act_on_their_frames():
+    for seed in range(4):
+        late, early = ControlArrays.empty(N), ControlArrays.empty(N)
+        late.set_style(N // 2, N, {"speed": 3.0})
+        early.set_style(0, N // 2, {"speed": 3.0})
+        assert half_change(generate(EngineInputs(late, SENTENCE), seed=seed), 0) > \
+            half_change(generate(EngineInputs(early, SENTENCE), seed=seed), 0), seed
 
 
 def test_rules_engine_style_controls():
