@@ -40,6 +40,7 @@ from core.skeleton import (
 )
 from library import load_library
 from model.features import HOP, SAMPLE_RATE, load_audio
+from model.postprocess import blend_pose_controls
 
 NAME = "rules"
 #: The largest per-frame rotation of any bone direction in the teacher's output, degrees.
@@ -490,6 +491,12 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
 # -- the ``rules`` engine -----------------------------------------------------------------
 
 
+#: The ``rules`` engine eases into and out of pose controls over at least CONTROL_RAMP frames,
+#: more when the arms must turn further than CONTROL_RAMP_STEP_DEG degrees a frame.
+CONTROL_RAMP = 5
+CONTROL_RAMP_STEP_DEG = 12.0
+
+
 def _control_blend(base: np.ndarray, pose: np.ndarray, mask: np.ndarray, min_blend: int = 5) -> np.ndarray:
     """Exact poses where ``mask``; smoothstep blends outside the controlled spans."""
     n = len(base)
@@ -549,5 +556,5 @@ def generate(inputs, *, seed: int = 0) -> np.ndarray:
         audio = load_audio(inputs.audio_path)
     base = teach(inputs.words, n, audio=audio, lead_in=inputs.lead_in,
                  style=style, rng=np.random.default_rng(seed))
-    out = _control_blend(base, arrays.pose, arrays.pose_mask)
+    out = blend_pose_controls(base, arrays.pose, arrays.pose_mask, CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG)
     return normalize_pose(out).astype(np.float32)
