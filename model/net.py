@@ -25,8 +25,8 @@ from torch import nn
 from torch.nn import functional as F
 
 from core.controls import STYLE_NAMES
-from model.features import AUDIO_DIM, WORD_BUCKETS
 from core.skeleton import N_BONES, POSE_DIM, REST_POSE
+from model.features import AUDIO_DIM, WORD_BUCKETS
 
 DEFAULT_CONFIG = {
     "hidden": 128,

@@ -56,8 +56,7 @@ def speech_inputs(inputs, n_frames: int):
 
 def _fade_weights(overlap: int) -> np.ndarray:
     """New-window weights over the overlap: 0 on the seed frames, then a smoothstep up to 1."""
-    x = np.clip((np.arange(overlap) - SEED + 1) / (overlap - SEED + 1), 0.0, 1.0)
-    return (x * x * (3 - 2 * x)).astype(np.float32)
+    return postprocess.smoothstep((np.arange(overlap) - SEED + 1) / (overlap - SEED + 1)).astype(np.float32)
 
 
 def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:

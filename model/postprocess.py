@@ -30,20 +30,6 @@ def moving_average(poses: np.ndarray, window: int = 5) -> np.ndarray:
     return normalize_pose(window_mean(p.T, window).T)
 
 
-def _moving_average_before_merge(poses: np.ndarray, window: int = 5) -> np.ndarray:
-    """The implementation before it used :func:`model.style.window_mean` (deleted next commit)."""
-    p = np.asarray(poses, np.float64)
-    if window <= 1 or len(p) < 2:
-        return np.asarray(poses, np.float32).copy()
-    half = window // 2
-    c = np.concatenate([np.zeros((1, p.shape[1])), np.cumsum(p, axis=0)])
-    idx = np.arange(len(p))
-    lo = np.clip(idx - half, 0, len(p))
-    hi = np.clip(idx + half + 1, 0, len(p))
-    out = (c[hi] - c[lo]) / (hi - lo)[:, None]
-    return normalize_pose(out)
-
-
 #: 1-euro settings of the shipped engine, chosen on the validation split with
 #: scripts/tune_smoothing.py (jerk within 25% of the reference while keeping style; docs/model.md).
 ONE_EURO_MIN_CUTOFF = 4.0
@@ -76,7 +62,8 @@ def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: f
     return normalize_pose(out)
 
 
-def _smoothstep(x: np.ndarray) -> np.ndarray:
+def smoothstep(x):
+    """3x^2 - 2x^3 of ``x`` clipped to [0, 1]: the easing of every blend and cross-fade."""
     x = np.clip(x, 0.0, 1.0)
     return x * x * (3 - 2 * x)
 
@@ -120,7 +107,7 @@ def _ramps(generated: np.ndarray, requested: np.ndarray, m: np.ndarray, ramp: in
         n_out = _ramp_length(ramp, max_step_deg, generated[min(t - 1, e)], requested[e - 1])
         for frames, anchor, length in ((np.arange(s - 1, max(prev_end, s - n_in) - 1, -1), s, n_in),
                                        (np.arange(e, min(next_start, e + n_out)), e - 1, n_out)):
-            w = _smoothstep(1.0 - np.abs(frames - anchor) / float(length + 1))
+            w = smoothstep(1.0 - np.abs(frames - anchor) / float(length + 1))
             better = w > weight[frames]
             weight[frames[better]] = w[better]
             source[frames[better]] = anchor
@@ -161,54 +148,6 @@ def blend_pose_controls(generated: np.ndarray, pose: np.ndarray, mask: np.ndarra
     weight, source = _ramps(g, req, m, ramp, max_step_deg)
     out = _nlerp(g, req[source], weight.astype(np.float32)[:, None])
     out[m] = normalize_pose(req[m])
-    return out
-
-
-def _smoothstep_before_merge(x: np.ndarray) -> np.ndarray:
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3 - 2 * x)
-
-
-def _blend_weights_before_merge(mask: np.ndarray, ramp: int = 6) -> np.ndarray:
-    """Per-frame weight of the requested pose: 1 on controlled frames, easing to 0 over ``ramp`` frames."""
-    m = np.asarray(mask) > 0.5
-    t = len(m)
-    if not m.any():
-        return np.zeros(t, np.float32)
-    idx = np.arange(t)
-    controlled = np.flatnonzero(m)
-    # distance (in frames) to the nearest controlled frame
-    pos = np.searchsorted(controlled, idx)
-    left = np.where(pos > 0, idx - controlled[np.maximum(pos - 1, 0)], t + ramp)
-    right = np.where(pos < len(controlled), controlled[np.minimum(pos, len(controlled) - 1)] - idx, t + ramp)
-    dist = np.minimum(np.abs(left), np.abs(right))
-    w = _smoothstep_before_merge(1.0 - dist / float(ramp + 1)) if ramp > 0 else (dist == 0).astype(float)
-    w[m] = 1.0
-    return w.astype(np.float32)
-
-
-def _nearest_control_before_merge(pose: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """For every frame, the requested pose of the nearest controlled frame (T, 27)."""
-    m = np.asarray(mask) > 0.5
-    controlled = np.flatnonzero(m)
-    idx = np.arange(len(m))
-    pos = np.clip(np.searchsorted(controlled, idx), 0, len(controlled) - 1)
-    prev = controlled[np.maximum(pos - 1, 0)]
-    nxt = controlled[pos]
-    nearest = np.where(np.abs(idx - prev) <= np.abs(nxt - idx), prev, nxt)
-    return pose[nearest]
-
-
-def _blend_pose_controls_before_merge(generated: np.ndarray, pose: np.ndarray, mask: np.ndarray, ramp: int = 6) -> np.ndarray:
-    """Exact pose following: requested poses where masked, smooth easing around them."""
-    g = np.asarray(generated, np.float32)
-    if not (np.asarray(mask) > 0.5).any():
-        return g.copy()
-    w = _blend_weights_before_merge(mask, ramp)[:, None]
-    target = _nearest_control_before_merge(np.asarray(pose, np.float32), mask)
-    out = normalize_pose((1 - w) * g + w * target)
-    m = np.asarray(mask) > 0.5
-    out[m] = normalize_pose(np.asarray(pose, np.float32)[m])
     return out
 
 

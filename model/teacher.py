@@ -40,7 +40,7 @@ from core.skeleton import (
 )
 from library import load_library
 from model.features import HOP, SAMPLE_RATE, load_audio
-from model.postprocess import blend_pose_controls
+from model.postprocess import blend_pose_controls, smoothstep
 
 NAME = "rules"
 #: The largest per-frame rotation of any bone direction in the teacher's output, degrees.
@@ -177,11 +177,6 @@ def _slerp_dirs(a: np.ndarray, b: np.ndarray, w) -> np.ndarray:
                             np.broadcast_to(b, out.shape)[bad])
         n = np.linalg.norm(out, axis=-1, keepdims=True)
     return out / np.maximum(n, 1e-9)
-
-
-def smoothstep(x):
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
 
 
 def limit_velocity(poses: np.ndarray, max_deg: float = MAX_STEP_DEG) -> np.ndarray:
@@ -495,52 +490,6 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
 #: more when the arms must turn further than CONTROL_RAMP_STEP_DEG degrees a frame.
 CONTROL_RAMP = 5
 CONTROL_RAMP_STEP_DEG = 12.0
-
-
-def _control_blend(base: np.ndarray, pose: np.ndarray, mask: np.ndarray, min_blend: int = 5) -> np.ndarray:
-    """Exact poses where ``mask``; smoothstep blends outside the controlled spans."""
-    n = len(base)
-    out = base.reshape(n, N_BONES, 3).astype(np.float64).copy()
-    req = pose.reshape(n, N_BONES, 3).astype(np.float64)
-    m = mask > 0.5
-    if not m.any():
-        return base
-    req = _unit(np.where(np.linalg.norm(req, axis=-1, keepdims=True) < 1e-6, out, req))
-    # spans of controlled frames
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], m.astype(int), [0]])))
-    spans = list(zip(edges[::2], edges[1::2]))
-    weight = np.zeros(n)
-    target = out.copy()
-    for s, e in spans:
-        target[s:e] = req[s:e]
-        weight[s:e] = 1.0
-
-    def blend_len(a, b):
-        cos = np.clip((a * b).sum(-1), -1, 1)
-        ang = float(np.degrees(np.arccos(cos)).max())
-        return max(min_blend, int(math.ceil(ang / 12.0)) + 1)
-
-    for s, e in spans:
-        # into the span: frames [s-L, s) blend from the teacher's motion to the first requested pose
-        L = blend_len(out[max(0, s - 1)], req[s])
-        for k in range(1, L + 1):
-            f = s - k
-            if f < 0 or m[f]:
-                break
-            w = smoothstep(1.0 - k / (L + 1))
-            if w > weight[f]:
-                weight[f], target[f] = w, req[s]
-        L = blend_len(out[min(n - 1, e)], req[e - 1])
-        for k in range(1, L + 1):
-            f = e - 1 + k
-            if f >= n or m[f]:
-                break
-            w = smoothstep(1.0 - k / (L + 1))
-            if w > weight[f]:
-                weight[f], target[f] = w, req[e - 1]
-    res = _slerp_dirs(out, target, weight[:, None, None] * np.ones((1, N_BONES, 1)))
-    res[m] = req[m]
-    return res.reshape(n, POSE_DIM).astype(np.float32)
 
 
 def generate(inputs, *, seed: int = 0) -> np.ndarray:
