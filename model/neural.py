@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
+from core.skeleton import FPS, POSE_DIM
 from model import postprocess
-from model.features import AUDIO_DIM, FPS, audio_features, load_audio, word_features
+from model.features import AUDIO_DIM, audio_features, load_audio, word_features
 from model.weights import load_weights
 
 NAME = "neural"
@@ -64,7 +65,7 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
     import torch
 
     t_count = arrays.n_frames
-    out = np.zeros((t_count, 27), np.float32)
+    out = np.zeros((t_count, POSE_DIM), np.float32)
     rng = np.random.default_rng(seed)
     noise_dim = model.config["noise_dim"]
     overlap = WINDOW - HOP

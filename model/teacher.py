@@ -29,7 +29,7 @@ import re
 
 import numpy as np
 
-from core.controls import STYLE_NAMES
+from core.controls import STYLE_LIMIT, STYLE_NAMES
 from core.skeleton import (
     BONE_INDEX,
     FPS,
@@ -122,10 +122,10 @@ def _timed_words(words) -> list[tuple[str, float, float]]:
 
 def _style_tracks(style, n: int) -> dict[str, np.ndarray]:
     out = {}
-    for k in ("speed", "space", "handedness"):
+    for k in STYLE_NAMES:
         v = 0.0 if style is None else style.get(k, 0.0)
         arr = np.broadcast_to(np.asarray(v, np.float64), (n,)).astype(np.float64)
-        out[k] = np.clip(np.nan_to_num(arr), -3.0, 3.0)
+        out[k] = np.clip(np.nan_to_num(arr), -STYLE_LIMIT, STYLE_LIMIT)
     return out
 
 

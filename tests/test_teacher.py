@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from core.controls import ControlArrays
-from core.skeleton import BONE_INDEX, N_BONES, REST_POSE, mirror_pose
+from core.skeleton import BONE_INDEX, FPS, N_BONES, REST_POSE, mirror_pose
 from core.words import TimedWord
 from model.generate import EngineInputs, engine_function
 from model.style import raw_style
@@ -78,9 +78,9 @@ def test_accents_follow_the_loud_syllables_of_the_audio():
     words = [TimedWord("alpha", 0.4, 0.9), TimedWord("market", 1.1, 1.6), TimedWord("gamma", 1.9, 2.5)]
     words = [w.shifted(lead) for w in words]
     got = _accents([(w.word, w.start, w.end) for w in words], 60, y, lead, np.random.default_rng(0))
-    want = [int((t + lead) * 15) for t in bursts]
+    want = [int((t + lead) * FPS) for t in bursts]
     assert [f for f, _ in got] == pytest.approx(want, abs=1)
-    onsets = [int((w.start) * 15) for w in words]
+    onsets = [int(w.start * FPS) for w in words]
     assert all(abs(f - o) >= 3 for (f, _), o in zip(got, onsets))
     no_audio = _accents([(w.word, w.start, w.end) for w in words], 60, None, lead, np.random.default_rng(0))
     assert [f for f, _ in no_audio] == onsets

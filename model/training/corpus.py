@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from core.controls import STYLE_LIMIT, STYLE_NAMES
 from core.fileio import atomic_write, atomic_write_text
 from core.skeleton import FPS, frame_count, mirror_pose
 from core.words import TimedWord
@@ -243,9 +244,9 @@ def clip_split(seed: int, index: int) -> str:
 
 def _draw_style(rng) -> dict[str, float]:
     out = {}
-    for k in ("speed", "space", "handedness"):
-        v = rng.uniform(-3, 3) if rng.random() < 0.5 else rng.normal(0, 1.0)
-        out[k] = round(float(np.clip(v, -3, 3)), 3)
+    for k in STYLE_NAMES:
+        v = rng.uniform(-STYLE_LIMIT, STYLE_LIMIT) if rng.random() < 0.5 else rng.normal(0, 1.0)
+        out[k] = round(float(np.clip(v, -STYLE_LIMIT, STYLE_LIMIT)), 3)
     return out
 
 
