@@ -82,17 +82,37 @@ def test_tiny_corpus_reproducible_shapes_splits_resume(tmp_path, fortunes):
     assert not (ids["train"] & ids["val"]) and not (ids["train"] & ids["test"]) and not (ids["val"] & ids["test"])
     assert sum(ma["split_counts"].values()) == len(ca)
 
-    # resume: finished shards are kept, a missing one is rebuilt identically
+    # the same arrays give the same bytes, whenever a shard is built
+    assert [(a / f["file"]).read_bytes() for f in ma["shards"]] == [(b / f["file"]).read_bytes() for f in mb["shards"]]
+
+    # resume: finished shards are kept, a missing or damaged one is rebuilt identically
     shard0, shard1 = a / ma["shards"][0]["file"], a / ma["shards"][1]["file"]
     stamp = shard0.stat().st_mtime_ns
     before = shard1.read_bytes()
-    shard1.unlink()
-    (a / "manifest.json").unlink()
-    mc = build(a, fortunes)
-    assert shard0.stat().st_mtime_ns == stamp
-    assert shard1.read_bytes() == before
-    assert mc["clips"] == ma["clips"]
-    assert load_manifest(a)["total_frames"] == ma["total_frames"]
+    for damage in (shard1.unlink, lambda: shard1.write_bytes(before[: len(before) // 2])):
+        damage()
+        (a / "manifest.json").unlink()
+        mc = build(a, fortunes)
+        assert shard0.stat().st_mtime_ns == stamp
+        assert shard1.read_bytes() == before
+        assert mc == ma
+        assert load_manifest(a)["total_frames"] == ma["total_frames"]
+
+
+def test_jobs_build_the_same_corpus(tmp_path, fortunes):
+    """--jobs 2 (worker processes) gives the manifest and byte-identical shards of --jobs 1."""
+    one = build_corpus(tmp_path / "one", hours=2 * HOURS_TWO_SHARDS, seed=5, clips_per_shard=2, fortune_dir=fortunes)
+    calls = []
+    two = build_corpus(tmp_path / "two", hours=2 * HOURS_TWO_SHARDS, seed=5, clips_per_shard=2, fortune_dir=fortunes,
+                       jobs=2, progress=lambda done, total, what: calls.append(what))
+    assert len(one["shards"]) >= 3 and two == one
+    for shard in one["shards"]:
+        assert (tmp_path / "one" / shard["file"]).read_bytes() == (tmp_path / "two" / shard["file"]).read_bytes()
+    assert {f"shard {k}" for k in range(len(one["shards"]))} <= set(calls)
+    # a resumed --jobs 2 run keeps every shard and writes the same manifest
+    (tmp_path / "two" / "manifest.json").unlink()
+    assert build_corpus(tmp_path / "two", hours=2 * HOURS_TWO_SHARDS, seed=5, clips_per_shard=2, fortune_dir=fortunes,
+                        jobs=2) == one
 
 
 def test_different_seed_differs(tmp_path, fortunes):

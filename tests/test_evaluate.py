@@ -152,3 +152,16 @@ def test_sgt_eval_writes_the_rows(corpus, tmp_path, capsys):
     assert rows[2]["pcs"] == pytest.approx(0.0, abs=1e-6) and rows[1]["pcs"] > 0
     assert rows[0]["pcs"] is None  # NaN (not applicable) is written as null
     assert table.splitlines()[2].startswith("model ") and "FGD" in table
+
+
+def test_train_default_extractor_on_a_corpus(corpus, tmp_path):
+    """The documented way to retrain the shipped FGD extractor (fgd.load's fix message)."""
+    from model.training import fgd
+
+    out = tmp_path / "fgd.pt"
+    ext = fgd.train_default_extractor(corpus, out, epochs=2, seed=1)
+    assert fgd.load(out).config == ext.config and ext.meta["epochs"] == 2
+    assert ext.meta["n_motions"] == 4 and ext.meta["n_val_motions"] == 1 and np.isfinite(ext.meta["corpus_val_mae"])
+    train = [c["poses"] for c in load_corpus(corpus, "train")]
+    again = fgd.train_extractor(train, epochs=2, seed=1)  # the same training, on the train split
+    assert np.array_equal(again.features(train), ext.features(train))
