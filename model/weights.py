@@ -99,7 +99,9 @@ def load_weights(path: Path | str | None = None):
         raise WeightsError(f"generator weights not found: {path}; {fix}")
     try:
         blob = torch.load(str(path), map_location="cpu", weights_only=True)
-    except Exception as exc:  # truncated, not a torch file, ...
+    except Exception as exc:  # noqa: BLE001 - torch.load raises a dozen unrelated types on damaged files (UnpicklingError,
+        # RuntimeError, EOFError, UnicodeDecodeError, IndexError, struct.error, KeyError, AssertionError...: measured on
+        # truncated and mutated files); only torch.load is inside, and the error is reported with its type, not hidden
         raise WeightsError(f"cannot read generator weights {path}: {exc.__class__.__name__}; the file is corrupt. {fix}") from None
     if not isinstance(blob, dict) or blob.get("format") != FORMAT:
         raise WeightsError(f"{path} is not an sgt generator weights file; {fix}")

@@ -205,7 +205,7 @@ def load(path: Path | str | None = None) -> FGDExtractor:
         raise ExtractorError(f"FGD feature extractor not found: {path}; {fix}")
     try:
         blob = torch.load(str(path), map_location="cpu", weights_only=True)
-    except Exception as exc:  # truncated, not a torch file, ...
+    except Exception as exc:  # noqa: BLE001 - torch.load on a damaged file: see model.weights.load_weights
         raise ExtractorError(f"cannot read FGD feature extractor {path} ({exc.__class__.__name__}): the file is corrupt; {fix}") from None
     if not isinstance(blob, dict) or blob.get("format") != FORMAT:
         raise ExtractorError(f"{path} is not an sgt FGD feature extractor file; {fix}")
