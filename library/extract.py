@@ -41,9 +41,21 @@ def _num(x: float) -> str:
     return text + "0" if text.endswith(".") else text
 
 
+_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
 def _toml_str(s: str) -> str:
-    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ")
-    return f'"{out}"'
+    """``s`` as a TOML basic string that reads back exactly: quotes, backslashes and every
+    control character escaped (TOML allows none of them raw, except tab)."""
+    out = []
+    for ch in s:
+        if ch in _TOML_ESCAPES:
+            out.append(_TOML_ESCAPES[ch])
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
 
 
 def render_spec(name: str, dirs: np.ndarray, frames: list[int], n: int, *, description: str,

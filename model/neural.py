@@ -26,7 +26,6 @@ from model import postprocess
 from model.features import AUDIO_DIM, audio_features, load_audio, word_features
 from model.weights import load_weights
 
-NAME = "neural"
 WINDOW = 60
 HOP = 30
 SEED = 15  # seed-pose frames at the start of each window after the first

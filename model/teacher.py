@@ -43,7 +43,6 @@ from library import load_library
 from model.features import HOP, SAMPLE_RATE, load_audio
 from model.postprocess import blend_pose_controls, smoothstep
 
-NAME = "rules"
 #: The largest per-frame rotation of any bone direction in the teacher's output, degrees.
 MAX_STEP_DEG = 22.0
 

@@ -69,7 +69,6 @@ def _hierarchy() -> list[tuple[str, str | None, np.ndarray, str | None]]:
 
 
 HIERARCHY = _hierarchy()
-BVH_JOINTS = tuple(j for j, _, _, _ in HIERARCHY)
 
 
 def _parent_bone_joint(name: str) -> str:

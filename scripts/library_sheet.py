@@ -46,7 +46,7 @@ def _project(p: np.ndarray, view: str, ox: float, oy: float):
     return ox + CELL_W / 2 + h * SCALE, oy + CELL_H - 12 - (p[..., 1] - 0.85) * SCALE
 
 
-def _draw_view(draw, pos, path_r, path_l, view, ox, oy, frame_box=None):
+def _draw_view(draw, pos, path_r, path_l, view, ox, oy):
     # ground reference: spine height line and centre line
     cx, _ = _project(np.array([0.0, 1.0, 0.0]), view, ox, oy)
     draw.line([(cx, oy + 14), (cx, oy + CELL_H - 4)], fill=(225, 225, 225))

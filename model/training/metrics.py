@@ -465,12 +465,13 @@ def report(conditions: Mapping[str, Any], extractor: Any = "default", stats=None
     return rows
 
 
-_COLUMNS = (  # (key, header, width)
-    ("fgd", "FGD", 7), ("pcs", "PCS", 6), ("scs", "SCS", 6), ("ape", "APE", 6),
-    ("speed", "spd", 6), ("accel", "acc", 6), ("jerk", "jerk", 7),
-    ("jerk_ratio", "jerk/ref", 8), ("hellinger", "H all", 6),
-    ("hellinger_elbows", "H elb", 6), ("hellinger_wrists", "H wri", 6),
-)
+_HEADERS = {  # key: (header, width)
+    "fgd": ("FGD", 7), "pcs": ("PCS", 6), "scs": ("SCS", 6), "ape": ("APE", 6),
+    "speed": ("spd", 6), "accel": ("acc", 6), "jerk": ("jerk", 7),
+    "jerk_ratio": ("jerk/ref", 8), "hellinger": ("H all", 6),
+    "hellinger_elbows": ("H elb", 6), "hellinger_wrists": ("H wri", 6),
+}
+_COLUMNS = tuple((key, *_HEADERS[key]) for key in ROW_KEYS)  # (key, header, width), in table order
 _UNITS = "units: APE m, spd m/s, acc m/s^2, jerk m/s^3; - = n/a; * = jerk not within 25% of ref"
 
 
