@@ -55,9 +55,9 @@ print(json.dumps({{"frames": n, "rss_before_mb": before / 1024, "rss_after_mb": 
 def model_time(weights, repeat: int) -> None:
     import numpy as np
 
-    from model import neural, postprocess
     from core.controls import ControlArrays
     from core.skeleton import FPS
+    from model import neural, postprocess
     from model.features import AUDIO_DIM
 
     if weights and Path(weights).exists():

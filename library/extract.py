@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 
-from library.spec import REST_DIRS, parse_spec_text, sample
 from core.skeleton import (
     BONE_NAMES,
     FPS,
@@ -23,6 +22,7 @@ from core.skeleton import (
     frame_count,
     positions_from_pose,
 )
+from library.spec import REST_DIRS, parse_spec_text, sample
 
 #: Bones are written only when they moved more than this since the previous keyframe.
 SAME_DEG = 0.3

@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from library import BUILTIN_DIR, Clip, Gesture, LibraryProblem, load_library
 from core.skeleton import (
     JOINT_INDEX,
     N_BONES,
@@ -18,6 +17,7 @@ from core.skeleton import (
     mirror_pose,
     positions_from_pose,
 )
+from library import BUILTIN_DIR, Clip, Gesture, LibraryProblem, load_library
 
 REQUIRED = """point_left point_right point_front point_up point_down point_self beat_right beat_left
 beat_both wave nod head_shake shrug stop thumbs_up open_arms frame cup sweep big small count_one

@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from library import load_library
 from core.motion import MotionClip, save_motion
 from core.skeleton import N_BONES
+from library import load_library
 from sgt_tui import cli
 
 

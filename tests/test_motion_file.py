@@ -9,7 +9,6 @@ import pytest
 
 from core.controls import Control
 from core.motion import MotionClip, MotionFileError, load_motion, save_motion
-from core.words import TimedWord
 from core.skeleton import (
     FPS,
     JOINTS,
@@ -18,6 +17,7 @@ from core.skeleton import (
     normalize_pose,
     positions_from_pose,
 )
+from core.words import TimedWord
 
 
 def _clips():

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from library import load_library
 from core.skeleton import FPS, REST_POSE, mirror_pose
+from library import load_library
 from model.style import WINDOW, StyleStats, fit_stats, load_stats, raw_style, style
 
 
