@@ -129,6 +129,7 @@ def regenerate(repeat: int) -> None:
 
 
 async def _app_regenerate(path: Path, engine: str, repeat: int, weights: str | None):
+    from core.skeleton import FPS
     from sgt_tui.app.main import EditorApp
     from sgt_tui.editor.files import ScriptFile
 
@@ -147,7 +148,7 @@ async def _app_regenerate(path: Path, engine: str, repeat: int, weights: str | N
                 await asyncio.sleep(0.002)
             if i:
                 out.append(time.perf_counter() - t)
-            seconds = app.player.n_frames / 15
+            seconds = app.player.n_frames / FPS
     return out, seconds
 
 

@@ -32,13 +32,14 @@ import json, resource, sys, time
 import numpy as np
 sys.path.insert(0, {root!r})
 from core.controls import ControlArrays
+from core.skeleton import FPS
 from model import neural
 from model.net import GestureNet
 from model.features import AUDIO_DIM
 import torch
 torch.set_num_threads(2)
 minutes = float(sys.argv[1])
-n = int(minutes * 60 * 15)
+n = int(minutes * 60 * FPS)
 model = GestureNet()
 model.eval()
 arrays = ControlArrays.empty(n)
@@ -54,8 +55,9 @@ print(json.dumps({{"frames": n, "rss_before_mb": before / 1024, "rss_after_mb": 
 def model_time(weights, repeat: int) -> None:
     import numpy as np
 
-    from model import neural, postprocess
     from core.controls import ControlArrays
+    from core.skeleton import FPS
+    from model import neural, postprocess
     from model.features import AUDIO_DIM
 
     if weights and Path(weights).exists():
@@ -74,7 +76,7 @@ def model_time(weights, repeat: int) -> None:
     import torch
 
     torch.set_num_threads(2)
-    n = 20 * 15
+    n = 20 * FPS
     arrays = ControlArrays.empty(n)
     rng = np.random.default_rng(0)
     audio = rng.normal(size=(n, AUDIO_DIM)).astype(np.float32)
@@ -96,6 +98,7 @@ def model_time(weights, repeat: int) -> None:
 
 
 def generate_breakdown(weights) -> None:
+    from core.skeleton import FPS
     from model.features import audio_features, load_audio
 
     text = "guide: Welcome to the mall! [pose:point_right] The shops are over there, and the food court is upstairs."
@@ -123,7 +126,7 @@ def generate_breakdown(weights) -> None:
         audio = load_audio(u.audio_path)
         t_load = time.perf_counter() - t
         t = time.perf_counter()
-        audio_features(audio, u.n_frames, int(round(u.lead_in * 15)))
+        audio_features(audio, u.n_frames, int(round(u.lead_in * FPS)))
         t_feat = time.perf_counter() - t
         args = [sys.executable, "-m", "sgt_tui.cli", "generate", str(script), "-o", str(Path(tmp) / "m.json")]
         if weights:

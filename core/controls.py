@@ -4,8 +4,11 @@
 - style controls: ``style`` (T, 3) values in [-3, 3] for (speed, space, handedness), and
   ``style_mask`` (T, 3) 1 where that style element is requested.
 
-Uncontrolled frames hold zeros. This module is the only place that knows the layout; the
-compiler fills it, the generator and the metrics read it.
+Uncontrolled frames hold zeros. The network reads them as one control vector per frame,
+:data:`CONTROL_LAYOUT` (names, widths, order), built by
+:func:`control_vector_parts` for numpy arrays and torch tensors alike. This module is the only
+place that knows the layout; the compiler fills it, the generator and the metrics read it, and
+weights files record it (:mod:`model.weights`).
 """
 
 from __future__ import annotations
@@ -22,8 +25,25 @@ STYLE_INDEX = {name: i for i, name in enumerate(STYLE_NAMES)}
 #: Style values are normalised statistics clamped to [-STYLE_LIMIT, STYLE_LIMIT].
 STYLE_LIMIT = 3.0
 
-#: Width of the packed control vector: pose (27) + pose mask (1) + style (3) + style mask (3).
-CONTROL_DIM = POSE_DIM + 1 + 2 * len(STYLE_NAMES)
+#: The per-frame control vector of the generator, in order: (part, width). Values are masked
+#: (uncontrolled values read as 0 whatever the arrays hold), then the masks follow them.
+CONTROL_LAYOUT: tuple[tuple[str, int], ...] = (
+    ("pose", POSE_DIM),
+    ("pose_mask", 1),
+    ("style", len(STYLE_NAMES)),
+    ("style_mask", len(STYLE_NAMES)),
+)
+#: Width of the control vector: pose (27) + pose mask (1) + style (3) + style mask (3) = 34.
+CONTROL_DIM = sum(width for _, width in CONTROL_LAYOUT)
+
+
+def control_vector_parts(pose, pose_mask, style, style_mask) -> list:
+    """The parts of the control vector in :data:`CONTROL_LAYOUT` order, for numpy arrays or
+    torch tensors with any leading axes: pose (..., 27), pose_mask (...), style (..., 3),
+    style_mask (..., 3). Concatenated along the last axis they are (..., CONTROL_DIM)."""
+    parts = {"pose": pose * pose_mask[..., None], "pose_mask": pose_mask[..., None],
+             "style": style * style_mask, "style_mask": style_mask}
+    return [parts[name] for name, _ in CONTROL_LAYOUT]
 
 
 @dataclass
@@ -61,12 +81,6 @@ class ControlArrays:
             self.style[lo:hi, k] = max(-STYLE_LIMIT, min(STYLE_LIMIT, float(value)))
             self.style_mask[lo:hi, k] = 1.0
 
-    def packed(self) -> np.ndarray:
-        """(T, CONTROL_DIM) float32: [pose, pose_mask, style, style_mask] per frame."""
-        return np.concatenate(
-            [self.pose, self.pose_mask[:, None], self.style, self.style_mask], axis=1
-        ).astype(np.float32)
-
     def as_dict(self) -> dict[str, np.ndarray]:
         return {
             "pose": self.pose,
@@ -74,10 +88,6 @@ class ControlArrays:
             "style": self.style,
             "style_mask": self.style_mask,
         }
-
-
-#: Kinds of :class:`Control`.
-CONTROL_KINDS = ("pose", "style", "pause")
 
 
 @dataclass

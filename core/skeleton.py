@@ -85,8 +85,6 @@ def _mirror_name(name: str) -> str:
 
 #: For bone i of a mirrored pose, the index of the bone it is copied from.
 MIRROR_BONE_PERMUTATION = np.array([BONE_INDEX[_mirror_name(b)] for b in BONE_NAMES])
-#: For joint i of mirrored positions, the index of the joint it is copied from.
-MIRROR_JOINT_PERMUTATION = np.array([JOINT_INDEX[_mirror_name(j)] for j in JOINTS])
 
 
 def _unit(v) -> list[float]:

@@ -20,14 +20,14 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from core.controls import STYLE_NAMES
 from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean
 from dsl.script import AudioRef, Header, Span
+from dsl.speech.synth import PITCH_RANGE, RATE_RANGE
 from dsl.styles import STYLE_ITEM_HELP, parse_style_value
 
 DIRECTIVES = ("voice", "rate", "pitch", "seed", "library", "preset", "audio")
 HEADER_ONLY = {"voice", "rate", "pitch", "seed", "library", "preset"}
-RATE_RANGE = (80, 450)
-PITCH_RANGE = (0, 100)
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
 _ARG_RE = re.compile(r'"([^"]*)"|\'([^\']*)\'|(\S+)')
 
@@ -201,7 +201,7 @@ def _do_preset(ctx, args, line, where):
         if isinstance(problem, str):
             hint = STYLE_ITEM_HELP
             if "unknown style" in problem:
-                h, _ = did_you_mean(item, ("speed", "space", "handedness"))
+                h, _ = did_you_mean(item, STYLE_NAMES)
                 hint = h or hint
             ctx.error(line, arg.col, arg.length, problem, hint, "bad-style")
             continue

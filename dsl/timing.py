@@ -13,9 +13,9 @@ from pathlib import Path
 from core.words import TimedWord, shift_words
 from dsl import speech
 from dsl.script import Utterance
+from dsl.speech.synth import LEAD_IN  # the estimate starts its first word where real speech does
 
 _SENTENCE_END = re.compile(r"[.!?;:]")
-LEAD_IN = 0.05  # seconds of silence before the first estimated word
 _timed_word = tuple.__new__  # TimedWord(word, start, end) without the NamedTuple call overhead
 
 @dataclass

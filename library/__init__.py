@@ -160,10 +160,6 @@ def _load_file(path: Path):
     return result
 
 
-def clear_cache() -> None:
-    _CACHE.clear()
-
-
 def load_library(extra_dirs: Sequence[Path] = (), *, use_config: bool = True) -> Library:
     """Load built-in gestures, then configured user folders, then ``extra_dirs``."""
     lib = Library()

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 
-from library.spec import REST_DIRS, parse_spec_text, sample
 from core.skeleton import (
     BONE_NAMES,
     FPS,
@@ -23,6 +22,7 @@ from core.skeleton import (
     frame_count,
     positions_from_pose,
 )
+from library.spec import REST_DIRS, parse_spec_text, sample
 
 #: Bones are written only when they moved more than this since the previous keyframe.
 SAME_DEG = 0.3
@@ -41,9 +41,21 @@ def _num(x: float) -> str:
     return text + "0" if text.endswith(".") else text
 
 
+_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
 def _toml_str(s: str) -> str:
-    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ")
-    return f'"{out}"'
+    """``s`` as a TOML basic string that reads back exactly: quotes, backslashes and every
+    control character escaped (TOML allows none of them raw, except tab)."""
+    out = []
+    for ch in s:
+        if ch in _TOML_ESCAPES:
+            out.append(_TOML_ESCAPES[ch])
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
 
 
 def render_spec(name: str, dirs: np.ndarray, frames: list[int], n: int, *, description: str,

@@ -141,10 +141,26 @@ def parse_spec_text(text: str, path: Path) -> GestureSpec:
 
 
 def _validate(data: dict, path: Path) -> GestureSpec:
+    """A :class:`GestureSpec` from parsed TOML; the first problem raises :class:`SpecError`."""
     for key in data:
         if key not in TOP_LEVEL_KEYS:
             raise SpecError(key, f"unknown key '{key}'" + _did_you_mean(key, TOP_LEVEL_KEYS))
+    name = _name(data, path)
+    description, tags = _description_and_tags(data)
+    duration = _duration(data)
+    keyframes, key_dirs = _keyframes(data, duration)
+    return GestureSpec(
+        name=name,
+        description=description,
+        tags=tuple(tags),
+        duration=duration,
+        keyframes=tuple(keyframes),
+        path=path,
+        key_dirs=np.stack(key_dirs),
+    )
 
+
+def _name(data: dict, path: Path) -> str:
     if "name" not in data:
         raise SpecError("name", "missing 'name'")
     name = data["name"]
@@ -155,108 +171,128 @@ def _validate(data: dict, path: Path) -> GestureSpec:
         )
     if name != path.stem:
         raise SpecError("name", f"name '{name}' does not match the file name '{path.name}'")
+    return name
 
+
+def _description_and_tags(data: dict) -> tuple[str, list[str]]:
     description = data.get("description", "")
     if not isinstance(description, str):
         raise SpecError("description", "description must be a string")
     tags = data.get("tags", [])
     if not isinstance(tags, list) or not all(isinstance(t, str) for t in tags):
         raise SpecError("tags", "tags must be a list of strings")
+    return description, tags
 
+
+def _duration(data: dict) -> float:
     if "duration" not in data:
         raise SpecError("duration", "missing 'duration' (seconds at speed 1)")
     duration = data["duration"]
     if not _is_number(duration) or duration <= 0:
         raise SpecError("duration", f"duration must be a positive number of seconds, got {duration!r}")
-    duration = float(duration)
+    return float(duration)
 
+
+def _keyframes(data: dict, duration: float) -> tuple[list[Keyframe], list[np.ndarray]]:
+    """The keyframes as written, and the full bone directions (9, 3) at each of them."""
     raw_keys = data.get("keyframes")
     if raw_keys is None:
         raise SpecError("keyframes", "missing [[keyframes]]")
     if not isinstance(raw_keys, list) or not raw_keys or not all(isinstance(k, dict) for k in raw_keys):
         raise SpecError("keyframes", "keyframes must be a non-empty array of tables ([[keyframes]])")
-
     keyframes: list[Keyframe] = []
+    key_dirs: list[np.ndarray] = []
     dirs = REST_DIRS.copy()
-    key_dirs = []
     stroke_at: int | None = None
-    prev_time = None
     for i, raw in enumerate(raw_keys):
         where = f"keyframes[{i}]"
-        if "time" not in raw:
-            raise SpecError(f"{where}.time", "missing 'time'")
-        t = raw["time"]
-        if not _is_number(t):
-            raise SpecError(f"{where}.time", f"time must be a number of seconds, got {t!r}")
-        t = float(t)
-        if t < 0 or t > duration + 1e-9:
-            raise SpecError(f"{where}.time", f"time {t:g} is outside [0, duration={duration:g}]")
-        if prev_time is not None and t <= prev_time:
-            raise SpecError(
-                f"{where}.time", f"time {t:g} is not after the previous keyframe's {prev_time:g}"
-            )
-        prev_time = t
+        t = _key_time(where, raw, duration, keyframes[-1].time if keyframes else None)
         label = raw.get("label")
         if label is not None and not isinstance(label, str):
             raise SpecError(f"{where}.label", "label must be a string")
-        stroke = raw.get("stroke", False)
-        if not isinstance(stroke, bool):
-            raise SpecError(f"{where}.stroke", "stroke must be true or false")
+        stroke = _key_stroke(where, raw, stroke_at)
         if stroke:
-            if stroke_at is not None:
-                raise SpecError(
-                    f"{where}.stroke",
-                    f"second stroke keyframe (keyframes[{stroke_at}] is already the stroke)",
-                )
             stroke_at = i
-        bones: dict[str, tuple[float, float, float] | None] = {}
-        new_dirs = dirs.copy()
-        for key, value in raw.items():
-            if key in KEYFRAME_KEYS:
-                continue
-            if key not in BONE_INDEX:
-                if key == "spine":
-                    msg = "'spine' is the root joint and has no bone; use 'neck' to lean the torso"
-                else:
-                    msg = f"unknown bone '{key}'" + _did_you_mean(key, BONE_NAMES + KEYFRAME_KEYS)
-                raise SpecError(f"{where}.{key}", msg)
-            if value == "rest":
-                bones[key] = None
-                new_dirs[BONE_INDEX[key]] = REST_DIRS[BONE_INDEX[key]]
-                continue
-            if not isinstance(value, list) or len(value) != 3 or not all(_is_number(v) for v in value):
-                raise SpecError(
-                    f"{where}.{key}", f"a bone direction must be 3 numbers or \"rest\", got {value!r}"
-                )
-            v = np.asarray(value, dtype=np.float64)
-            n = float(np.linalg.norm(v))
-            if n < 1e-6:
-                raise SpecError(f"{where}.{key}", "direction has zero length")
-            v = v / n
-            bones[key] = (float(v[0]), float(v[1]), float(v[2]))
-            new_dirs[BONE_INDEX[key]] = v
+        bones, new_dirs = _key_bones(where, raw, dirs)
         if key_dirs:
-            cos = np.clip(np.sum(new_dirs * dirs, axis=1), -1.0, 1.0)
-            worst = int(np.argmin(cos))
-            angle = math.degrees(math.acos(cos[worst]))
-            if angle > MAX_STEP_DEGREES:
-                raise SpecError(
-                    f"{where}.{BONE_NAMES[worst]}",
-                    f"turns {angle:.0f} degrees from the previous keyframe; add a keyframe in between",
-                )
+            _check_turn(where, dirs, new_dirs)
         dirs = new_dirs
         key_dirs.append(dirs)
         keyframes.append(Keyframe(t, label, stroke, bones))
+    return keyframes, key_dirs
 
-    return GestureSpec(
-        name=name,
-        description=description,
-        tags=tuple(tags),
-        duration=duration,
-        keyframes=tuple(keyframes),
-        path=path,
-        key_dirs=np.stack(key_dirs),
-    )
+
+def _key_time(where: str, raw: dict, duration: float, prev_time: float | None) -> float:
+    if "time" not in raw:
+        raise SpecError(f"{where}.time", "missing 'time'")
+    t = raw["time"]
+    if not _is_number(t):
+        raise SpecError(f"{where}.time", f"time must be a number of seconds, got {t!r}")
+    t = float(t)
+    if t < 0 or t > duration + 1e-9:
+        raise SpecError(f"{where}.time", f"time {t:g} is outside [0, duration={duration:g}]")
+    if prev_time is not None and t <= prev_time:
+        raise SpecError(
+            f"{where}.time", f"time {t:g} is not after the previous keyframe's {prev_time:g}"
+        )
+    return t
+
+
+def _key_stroke(where: str, raw: dict, stroke_at: int | None) -> bool:
+    stroke = raw.get("stroke", False)
+    if not isinstance(stroke, bool):
+        raise SpecError(f"{where}.stroke", "stroke must be true or false")
+    if stroke and stroke_at is not None:
+        raise SpecError(
+            f"{where}.stroke",
+            f"second stroke keyframe (keyframes[{stroke_at}] is already the stroke)",
+        )
+    return stroke
+
+
+def _key_bones(where: str, raw: dict, dirs: np.ndarray) -> tuple[dict, np.ndarray]:
+    """The bones a keyframe names (unit direction, or None for "rest") and the full directions
+    after it: bones it does not name keep ``dirs``."""
+    bones: dict[str, tuple[float, float, float] | None] = {}
+    new_dirs = dirs.copy()
+    for key, value in raw.items():
+        if key in KEYFRAME_KEYS:
+            continue
+        if key not in BONE_INDEX:
+            if key == "spine":
+                msg = "'spine' is the root joint and has no bone; use 'neck' to lean the torso"
+            else:
+                msg = f"unknown bone '{key}'" + _did_you_mean(key, BONE_NAMES + KEYFRAME_KEYS)
+            raise SpecError(f"{where}.{key}", msg)
+        if value == "rest":
+            bones[key] = None
+            new_dirs[BONE_INDEX[key]] = REST_DIRS[BONE_INDEX[key]]
+            continue
+        v = _direction(f"{where}.{key}", value)
+        bones[key] = (float(v[0]), float(v[1]), float(v[2]))
+        new_dirs[BONE_INDEX[key]] = v
+    return bones, new_dirs
+
+
+def _direction(field: str, value) -> np.ndarray:
+    if not isinstance(value, list) or len(value) != 3 or not all(_is_number(v) for v in value):
+        raise SpecError(field, f"a bone direction must be 3 numbers or \"rest\", got {value!r}")
+    v = np.asarray(value, dtype=np.float64)
+    n = float(np.linalg.norm(v))
+    if n < 1e-6:
+        raise SpecError(field, "direction has zero length")
+    return v / n
+
+
+def _check_turn(where: str, dirs: np.ndarray, new_dirs: np.ndarray) -> None:
+    cos = np.clip(np.sum(new_dirs * dirs, axis=1), -1.0, 1.0)
+    worst = int(np.argmin(cos))
+    angle = math.degrees(math.acos(cos[worst]))
+    if angle > MAX_STEP_DEGREES:
+        raise SpecError(
+            f"{where}.{BONE_NAMES[worst]}",
+            f"turns {angle:.0f} degrees from the previous keyframe; add a keyframe in between",
+        )
 
 
 def sample(spec: GestureSpec, n_frames: int) -> np.ndarray:

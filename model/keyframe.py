@@ -14,8 +14,6 @@ import numpy as np
 from core.controls import ControlArrays
 from core.skeleton import REST_POSE, normalize_pose
 
-NAME = "keyframe"
-
 
 def generate(inputs, *, mean_pose: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
     """Poses (T, 27) through the pose controls; deterministic (``seed`` unused).

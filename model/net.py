@@ -1,8 +1,9 @@
 """The controllable gesture generator (SGToolkit section 4), in PyTorch.
 
 Per frame it sees speech audio features, the word being spoken (hashed embedding and an onset
-flag), pose controls (27 numbers + mask bit, Eq. 1-2) and style controls (3 values + 3 mask
-bits, Eq. 3), plus one noise vector per window (a different seed gives a different take).
+flag), the control vector of :mod:`core.controls` (pose controls: 27 numbers + mask bit, Eq.
+1-2; style controls: 3 values + 3 mask bits, Eq. 3), plus one noise vector per window (a
+different seed gives a different take).
 It outputs the 27-number pose (unit bone directions).
 
 Architecture (chosen by measurement, see docs/model.md): per-frame inputs are projected to
@@ -24,9 +25,9 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from core.controls import STYLE_NAMES
-from model.features import AUDIO_DIM, WORD_BUCKETS
+from core.controls import CONTROL_DIM, control_vector_parts
 from core.skeleton import N_BONES, POSE_DIM, REST_POSE
+from model.features import AUDIO_DIM, WORD_BUCKETS
 
 DEFAULT_CONFIG = {
     "hidden": 128,
@@ -57,9 +58,9 @@ class GestureNet(nn.Module):
         cfg = {**DEFAULT_CONFIG, **(config or {})}
         self.config = cfg
         h = cfg["hidden"]
-        n_style = len(STYLE_NAMES)
         self.word_emb = nn.Embedding(WORD_BUCKETS, cfg["word_dim"])
-        in_dim = AUDIO_DIM + cfg["word_dim"] + 1 + (POSE_DIM + 1) + 2 * n_style + cfg["noise_dim"]
+        # per frame: audio features, word embedding, onset flag, the control vector, noise
+        in_dim = AUDIO_DIM + cfg["word_dim"] + 1 + CONTROL_DIM + cfg["noise_dim"]
         self.inp = nn.Linear(in_dim, h)
         self.blocks = nn.ModuleList(_Block(h, cfg["kernel"], 2**i) for i in range(cfg["layers"]))
         self.gru = nn.GRU(h, h // 2, batch_first=True, bidirectional=True) if cfg["gru"] else None
@@ -76,11 +77,8 @@ class GestureNet(nn.Module):
         """All inputs batched (B, T, ...); ``z`` is (B, noise_dim). Returns poses (B, T, 27)."""
         b, t, _ = audio.shape
         zz = z[:, None, :].expand(b, t, z.shape[-1])
-        x = torch.cat(
-            [audio, self.word_emb(word_ids), onsets[..., None], pose * pose_mask[..., None], pose_mask[..., None],
-             style * style_mask, style_mask, zz],
-            dim=-1,
-        )
+        controls = control_vector_parts(pose, pose_mask, style, style_mask)
+        x = torch.cat([audio, self.word_emb(word_ids), onsets[..., None], *controls, zz], dim=-1)
         x = self.inp(x).transpose(1, 2)
         for block in self.blocks:
             x = block(x)

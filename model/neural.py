@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
+from core.skeleton import FPS, POSE_DIM
 from model import postprocess
-from model.features import AUDIO_DIM, FPS, audio_features, load_audio, word_features
+from model.features import AUDIO_DIM, audio_features, load_audio, word_features
 from model.weights import load_weights
 
-NAME = "neural"
 WINDOW = 60
 HOP = 30
 SEED = 15  # seed-pose frames at the start of each window after the first
@@ -56,8 +56,7 @@ def speech_inputs(inputs, n_frames: int):
 
 def _fade_weights(overlap: int) -> np.ndarray:
     """New-window weights over the overlap: 0 on the seed frames, then a smoothstep up to 1."""
-    x = np.clip((np.arange(overlap) - SEED + 1) / (overlap - SEED + 1), 0.0, 1.0)
-    return (x * x * (3 - 2 * x)).astype(np.float32)
+    return postprocess.smoothstep((np.arange(overlap) - SEED + 1) / (overlap - SEED + 1)).astype(np.float32)
 
 
 def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
@@ -65,7 +64,7 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
     import torch
 
     t_count = arrays.n_frames
-    out = np.zeros((t_count, 27), np.float32)
+    out = np.zeros((t_count, POSE_DIM), np.float32)
     rng = np.random.default_rng(seed)
     noise_dim = model.config["noise_dim"]
     overlap = WINDOW - HOP

@@ -18,7 +18,8 @@ import math
 
 import numpy as np
 
-from core.skeleton import FPS, normalize_pose
+from core.skeleton import FPS, N_BONES, normalize_pose
+from model.style import window_mean
 
 
 def moving_average(poses: np.ndarray, window: int = 5) -> np.ndarray:
@@ -26,13 +27,7 @@ def moving_average(poses: np.ndarray, window: int = 5) -> np.ndarray:
     p = np.asarray(poses, np.float64)
     if window <= 1 or len(p) < 2:
         return np.asarray(poses, np.float32).copy()
-    half = window // 2
-    c = np.concatenate([np.zeros((1, p.shape[1])), np.cumsum(p, axis=0)])
-    idx = np.arange(len(p))
-    lo = np.clip(idx - half, 0, len(p))
-    hi = np.clip(idx + half + 1, 0, len(p))
-    out = (c[hi] - c[lo]) / (hi - lo)[:, None]
-    return normalize_pose(out)
+    return normalize_pose(window_mean(p.T, window).T)
 
 
 #: 1-euro settings of the shipped engine, chosen on the validation split with
@@ -67,51 +62,92 @@ def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: f
     return normalize_pose(out)
 
 
-def _smoothstep(x: np.ndarray) -> np.ndarray:
+def smoothstep(x):
+    """3x^2 - 2x^3 of ``x`` clipped to [0, 1]: the easing of every blend and cross-fade."""
     x = np.clip(x, 0.0, 1.0)
     return x * x * (3 - 2 * x)
 
 
-def blend_weights(mask: np.ndarray, ramp: int = 6) -> np.ndarray:
-    """Per-frame weight of the requested pose: 1 on controlled frames, easing to 0 over ``ramp`` frames."""
-    m = np.asarray(mask) > 0.5
+def _spans(m: np.ndarray) -> list[tuple[int, int]]:
+    """[start, end) of every run of True in ``m``."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], m.astype(np.int8), [0]])))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+
+
+def _max_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    """The largest angle (degrees) between corresponding bones of two poses (27,)."""
+    a = np.asarray(a, np.float64).reshape(N_BONES, 3)
+    b = np.asarray(b, np.float64).reshape(N_BONES, 3)
+    cos = (a * b).sum(-1) / np.maximum(np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1), 1e-12)
+    return float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).max())
+
+
+def _ramp_length(ramp: int, max_step_deg: float | None, a: np.ndarray, b: np.ndarray) -> int:
+    if max_step_deg is None:
+        return ramp
+    return max(ramp, int(math.ceil(_max_angle_deg(a, b) / max_step_deg)) + 1)
+
+
+def _ramps(generated: np.ndarray, requested: np.ndarray, m: np.ndarray, ramp: int,
+           max_step_deg: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame: the weight of the requested pose (T,) and the controlled frame it eases towards (T,).
+
+    Controlled frames weigh 1. A frame ``k`` frames before (after) a controlled span weighs
+    ``smoothstep(1 - k / (L + 1))`` of the span's first (last) pose, for ``k`` up to the ramp
+    length ``L``; a ramp stops at the neighbouring span and where two ramps meet the larger
+    weight wins (the earlier span's on a tie)."""
     t = len(m)
-    if not m.any():
-        return np.zeros(t, np.float32)
-    idx = np.arange(t)
-    controlled = np.flatnonzero(m)
-    # distance (in frames) to the nearest controlled frame
-    pos = np.searchsorted(controlled, idx)
-    left = np.where(pos > 0, idx - controlled[np.maximum(pos - 1, 0)], t + ramp)
-    right = np.where(pos < len(controlled), controlled[np.minimum(pos, len(controlled) - 1)] - idx, t + ramp)
-    dist = np.minimum(np.abs(left), np.abs(right))
-    w = _smoothstep(1.0 - dist / float(ramp + 1)) if ramp > 0 else (dist == 0).astype(float)
-    w[m] = 1.0
-    return w.astype(np.float32)
+    weight = m.astype(np.float64)
+    source = np.arange(t)
+    spans = _spans(m)
+    for i, (s, e) in enumerate(spans):
+        prev_end = spans[i - 1][1] if i > 0 else 0
+        next_start = spans[i + 1][0] if i + 1 < len(spans) else t
+        n_in = _ramp_length(ramp, max_step_deg, generated[max(0, s - 1)], requested[s])
+        n_out = _ramp_length(ramp, max_step_deg, generated[min(t - 1, e)], requested[e - 1])
+        for frames, anchor, length in ((np.arange(s - 1, max(prev_end, s - n_in) - 1, -1), s, n_in),
+                                       (np.arange(e, min(next_start, e + n_out)), e - 1, n_out)):
+            w = smoothstep(1.0 - np.abs(frames - anchor) / float(length + 1))
+            better = w > weight[frames]
+            weight[frames[better]] = w[better]
+            source[frames[better]] = anchor
+    return weight, source
 
 
-def nearest_control(pose: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """For every frame, the requested pose of the nearest controlled frame (T, 27)."""
-    m = np.asarray(mask) > 0.5
-    controlled = np.flatnonzero(m)
-    idx = np.arange(len(m))
-    pos = np.clip(np.searchsorted(controlled, idx), 0, len(controlled) - 1)
-    prev = controlled[np.maximum(pos - 1, 0)]
-    nxt = controlled[pos]
-    nearest = np.where(np.abs(idx - prev) <= np.abs(nxt - idx), prev, nxt)
-    return pose[nearest]
+def _nlerp(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Blend poses a -> b (T, 27) by per-frame weights w (T, 1), bone by bone, renormalised; a bone
+    whose two directions (nearly) cancel takes the nearer end instead of a random direction."""
+    out = (1 - w) * a + w * b
+    n = np.linalg.norm(out.reshape(len(out), N_BONES, 3), axis=-1)
+    bad = n < 1e-3
+    if bad.any():
+        near = np.where(w < 0.5, a, b).reshape(len(out), N_BONES, 3)
+        out = np.where(bad[..., None], near, out.reshape(len(out), N_BONES, 3)).reshape(out.shape)
+    return normalize_pose(out)
 
 
-def blend_pose_controls(generated: np.ndarray, pose: np.ndarray, mask: np.ndarray, ramp: int = 6) -> np.ndarray:
-    """Exact pose following: requested poses where masked, smooth easing around them."""
+def blend_pose_controls(generated: np.ndarray, pose: np.ndarray, mask: np.ndarray, ramp: int = 6, *,
+                        max_step_deg: float | None = None) -> np.ndarray:
+    """Exact pose following: requested poses where masked, smooth easing around them.
+
+    The output is the requested pose on every controlled frame; ``ramp`` frames before and
+    after each controlled span ease from ``generated`` into the span's first pose and out of
+    its last (smoothstep weights, bone directions blended and renormalised). With
+    ``max_step_deg``, a ramp is lengthened to ``ceil(angle / max_step_deg) + 1`` frames when
+    the largest bone rotation between the generated pose next to the span and the requested
+    one needs it (the ``rules`` engine's limit). A requested bone of zero length keeps the
+    generated bone. The neural engine and ``sgt eval`` use it with ``ramp`` = 6, the ``rules``
+    engine with ``ramp`` = 5 and ``max_step_deg`` = 12."""
     g = np.asarray(generated, np.float32)
-    if not (np.asarray(mask) > 0.5).any():
-        return g.copy()
-    w = blend_weights(mask, ramp)[:, None]
-    target = nearest_control(np.asarray(pose, np.float32), mask)
-    out = normalize_pose((1 - w) * g + w * target)
     m = np.asarray(mask) > 0.5
-    out[m] = normalize_pose(np.asarray(pose, np.float32)[m])
+    if not m.any():
+        return g.copy()
+    req = np.asarray(pose, np.float32).reshape(len(g), N_BONES, 3)
+    zero = np.linalg.norm(req, axis=-1, keepdims=True) < 1e-6
+    req = np.where(zero, g.reshape(len(g), N_BONES, 3), req).reshape(g.shape)
+    weight, source = _ramps(g, req, m, ramp, max_step_deg)
+    out = _nlerp(g, req[source], weight.astype(np.float32)[:, None])
+    out[m] = normalize_pose(req[m])
     return out
 
 

@@ -43,8 +43,12 @@ def _norm(x):
     return ((x * x).sum(-1) + _EPS * _EPS) ** 0.5
 
 
-def _window_mean(x, window: int):
-    """Centred moving mean over axis -1 (time), cut at the ends."""
+def window_mean(x, window: int):
+    """Centred moving mean over the last axis (time) of a numpy array or torch tensor: frame i
+    averages frames [i - window // 2, i + window // 2], the window cut at the ends.
+
+    The one centred window mean of sgt: the style statistics (Eq. 4-6) and
+    :func:`model.postprocess.moving_average` use it."""
     half = window // 2
     if _is_torch(x):
         import torch
@@ -90,10 +94,10 @@ def raw_style(poses, window: int = WINDOW):
         disp = torch.cat([first, disp], dim=-2)
     else:
         disp = np.concatenate([first, disp], axis=-2)
-    speed = _window_mean(disp.sum(-1), window)
-    space = _window_mean(_norm(pos[..., _LW, :] - pos[..., _RW, :]), window)
-    sl = _window_mean(disp[..., _LW], window) + _EPS
-    sr = _window_mean(disp[..., _RW], window) + _EPS
+    speed = window_mean(disp.sum(-1), window)
+    space = window_mean(_norm(pos[..., _LW, :] - pos[..., _RW, :]), window)
+    sl = window_mean(disp[..., _LW], window) + _EPS
+    sr = window_mean(disp[..., _RW], window) + _EPS
     if _is_torch(poses):
         import torch
 

@@ -26,10 +26,11 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 
 import numpy as np
 
-from core.controls import STYLE_NAMES
+from core.controls import STYLE_LIMIT, STYLE_NAMES
 from core.skeleton import (
     BONE_INDEX,
     FPS,
@@ -40,8 +41,8 @@ from core.skeleton import (
 )
 from library import load_library
 from model.features import HOP, SAMPLE_RATE, load_audio
+from model.postprocess import blend_pose_controls, smoothstep
 
-NAME = "rules"
 #: The largest per-frame rotation of any bone direction in the teacher's output, degrees.
 MAX_STEP_DEG = 22.0
 
@@ -121,10 +122,10 @@ def _timed_words(words) -> list[tuple[str, float, float]]:
 
 def _style_tracks(style, n: int) -> dict[str, np.ndarray]:
     out = {}
-    for k in ("speed", "space", "handedness"):
+    for k in STYLE_NAMES:
         v = 0.0 if style is None else style.get(k, 0.0)
         arr = np.broadcast_to(np.asarray(v, np.float64), (n,)).astype(np.float64)
-        out[k] = np.clip(np.nan_to_num(arr), -3.0, 3.0)
+        out[k] = np.clip(np.nan_to_num(arr), -STYLE_LIMIT, STYLE_LIMIT)
     return out
 
 
@@ -176,11 +177,6 @@ def _slerp_dirs(a: np.ndarray, b: np.ndarray, w) -> np.ndarray:
                             np.broadcast_to(b, out.shape)[bad])
         n = np.linalg.norm(out, axis=-1, keepdims=True)
     return out / np.maximum(n, 1e-9)
-
-
-def smoothstep(x):
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
 
 
 def limit_velocity(poses: np.ndarray, max_deg: float = MAX_STEP_DEG) -> np.ndarray:
@@ -286,29 +282,30 @@ def _beat_kernel(t: np.ndarray, dur: float) -> np.ndarray:
     return 0.7 * up - 1.0 * down
 
 
-def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
-          rng: np.random.Generator | None = None, trigger_prob: float | None = None) -> np.ndarray:
-    """Poses (n_frames, 27) float32 of unit bone directions for timed ``words``.
+@dataclass
+class _Clip:
+    """What every step of :func:`teach` reads: the frames, the style per frame, the speaker's
+    personality and the times of the hold variants."""
 
-    ``words``: timed words (seconds on the motion timeline; :class:`~core.words.TimedWord`).
-    ``audio``: mono float32 at :data:`model.features.SAMPLE_RATE` starting ``lead_in``
-    seconds into the motion, or None. ``style``: dict of speed/space/handedness in [-3, 3],
-    scalars (per clip) or arrays (per frame). ``trigger_prob`` overrides the chance that a
-    trigger word gets its library gesture. Deterministic given ``rng``'s state.
-    """
-    rng = np.random.default_rng(0) if rng is None else rng
-    n = int(n_frames)
-    if n <= 0:
-        return np.zeros((0, POSE_DIM), np.float32)
-    tw = _timed_words(words)
-    st = _style_tracks(style, n)
-    sp_f = 2.0 ** (st["speed"] / 3.0)  # 0.5 .. 2 per frame
-    spc = st["space"] / 3.0  # -1 .. 1
-    hnd = st["handedness"] / 3.0  # -1 (right-handed) .. 1 (left-handed)
-    t_sec = np.arange(n) / FPS
+    n: int
+    t_sec: np.ndarray  # (n,) seconds of every frame
+    speed: np.ndarray  # (n,) tempo factor 0.5 .. 2 (style speed -3 .. 3)
+    space: np.ndarray  # (n,) -1 .. 1
+    hand: np.ndarray  # (n,) -1 (right-handed) .. 1 (left-handed)
+    pers: dict  # per-clip personality, see _personality
+    keys_t: list  # times (s) of the hold variants
 
-    # per-clip personality
-    pers = {
+
+@dataclass
+class _Beats:
+    elev: dict  # side (1.0 left, -1.0 right) -> (n,) forearm elevation offsets, radians
+    flex: dict  # side -> (n,) upper-arm flexion offsets, radians
+    frames: list  # frames of the beats
+
+
+def _personality(rng) -> dict:
+    """Per-clip personality: the resting hold, beat amplitude and rate, trigger and head factors."""
+    return {
         "flex": math.radians(rng.uniform(12, 30)),
         "abd": math.radians(rng.uniform(4, 14)),
         "elev": math.radians(rng.uniform(-18, 6)),
@@ -320,20 +317,30 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
         "breath_period": rng.uniform(3.0, 5.0),
     }
 
-    # ---- 1. speaking envelope (1 while talking, 0 at rest), smooth ----------------------
+
+def _speaking_envelope(tw, n: int) -> np.ndarray:
+    """1 while talking (from a little before the first word to a little after the last of a
+    run of words), 0 at rest; smooth. Long pauses drop part way towards rest, short gaps are
+    bridged."""
     talk = np.zeros(n)
     for _, a, b in tw:
         fa, fb = int(math.floor((a - 0.45) * FPS)), int(math.ceil((b + 0.6) * FPS))
         talk[max(0, fa):max(0, min(n, fb))] = 1.0
-    # long pauses drop part way towards rest; short gaps are bridged by the padding above
     talk = _gauss_smooth(talk, 3.0)
-    talk = smoothstep(talk * 1.15)
+    return smoothstep(talk * 1.15)
 
-    # hold variants: a new variant every 1.5-4 s (shorter when fast)
+
+def _hold_times(n: int, speed: np.ndarray, rng) -> list:
+    """Times of the hold variants: a new variant every 1.5-4 s (shorter when fast)."""
     keys_t = [0.0]
     while keys_t[-1] < n / FPS + 1.0:
-        keys_t.append(keys_t[-1] + rng.uniform(1.5, 4.0) / float(np.mean(sp_f)) ** 0.5)
-    nk = len(keys_t)
+        keys_t.append(keys_t[-1] + rng.uniform(1.5, 4.0) / float(np.mean(speed)) ** 0.5)
+    return keys_t
+
+
+def _hold_variants(nk: int, rng) -> tuple[dict, np.ndarray]:
+    """Per side, random offsets of the hold angles at every hold time; and per hold time, a draw
+    that sometimes rests the non-dominant hand while the dominant one talks."""
     var = {
         side: {
             "flex": rng.normal(0, math.radians(6), nk),
@@ -343,40 +350,46 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
         }
         for side in (1.0, -1.0)
     }
-    # sometimes the non-dominant hand rests while the dominant one talks
-    rest_other = rng.random(nk)
+    return var, rng.random(nk)
 
-    def hold_track(vals):
-        return _gauss_smooth(np.interp(t_sec, keys_t, vals), 0.25 * FPS)
 
-    # ---- 2. beats ------------------------------------------------------------------------
-    accents = _accents(tw, n, audio, lead_in, rng)
-    beat_elev = {1.0: np.zeros(n), -1.0: np.zeros(n)}
-    beat_flex = {1.0: np.zeros(n), -1.0: np.zeros(n)}
-    beat_frames: list[int] = []
+def _beats(accents, c: _Clip, rng) -> _Beats:
+    """Beats on the accents: the forearm lifts slightly before the accent and strikes down on
+    it; hand by handedness, amplitude by space and speed, frequency and tempo by speed."""
+    n, t_sec, pers = c.n, c.t_sec, c.pers
+    beats = _Beats({1.0: np.zeros(n), -1.0: np.zeros(n)}, {1.0: np.zeros(n), -1.0: np.zeros(n)}, [])
     last = -1e9
     for f, s in accents:
-        sf = _at(sp_f, f)
+        sf = _at(c.speed, f)
         gap = 0.55 / sf
         p = np.clip((0.25 + 0.75 * s) * pers["beat_rate"] * (0.55 + 0.45 * sf), 0.0, 0.97)
         if (f - last) / FPS < gap or rng.random() > p:
             continue
         last = f
-        beat_frames.append(f)
-        q = _at(hnd, f)
+        beats.frames.append(f)
+        q = _at(c.hand, f)
         both = rng.random() < 0.3 * (1.0 - abs(q))
         left = rng.random() < 0.5 + 0.48 * q
-        amp = math.radians(14.0) * pers["beat_amp"] * (0.45 + 0.55 * sf) * (0.6 + 0.4 * s) * (1.0 + 0.25 * _at(spc, f))
+        amp = math.radians(14.0) * pers["beat_amp"] * (0.45 + 0.55 * sf) * (0.6 + 0.4 * s) * (1.0 + 0.25 * _at(c.space, f))
         dur = float(np.clip(0.6 / sf ** 0.7, 0.3, 1.0))
         lo, hi = max(0, f - int(dur * FPS) - 2), min(n, f + int(dur * FPS) + 2)
         k = _beat_kernel(t_sec[lo:hi] - f / FPS, dur)
         for side in (1.0, -1.0):
             if both or (side > 0) == left:
                 w = 1.0 if not both else 0.8
-                beat_elev[side][lo:hi] += -amp * w * k  # negative kernel peak -> strike down
-                beat_flex[side][lo:hi] += -0.35 * amp * w * k
+                beats.elev[side][lo:hi] += -amp * w * k  # negative kernel peak -> strike down
+                beats.flex[side][lo:hi] += -0.35 * amp * w * k
+    return beats
 
-    # ---- arm layer -------------------------------------------------------------------------
+
+def _arms(c: _Clip, talk: np.ndarray, var: dict, rest_other: np.ndarray, beats: _Beats) -> np.ndarray:
+    """Bone directions (n, 9, 3): the rest pose with both arms in their holds (rest while
+    silent, raised in front while talking, drifting between the hold variants) plus the beats."""
+    n, t_sec, keys_t, pers, spc, hnd = c.n, c.t_sec, c.keys_t, c.pers, c.space, c.hand
+
+    def hold_track(vals):
+        return _gauss_smooth(np.interp(t_sec, keys_t, vals), 0.25 * FPS)
+
     dirs = np.repeat(REST_POSE.reshape(1, N_BONES, 3).astype(np.float64), n, axis=0)
     for side, ub, fb in ((1.0, "left_elbow", "left_wrist"), (-1.0, "right_elbow", "right_wrist")):
         dom = np.clip(0.5 + side * 0.5 * hnd, 0.0, 1.0)  # 1 for the dominant side
@@ -390,14 +403,19 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
         azim = pers["azim"] + hold_track(var[side]["azim"]) + math.radians(22) * spc
         rest_abd, rest_flex = math.atan2(0.12, 1.0), 0.02
         rest_elev, rest_azim = math.asin(-0.75 / math.hypot(0.75, math.hypot(0.02, 0.66))), 0.03
-        flex = rest_flex + engage * (flex - rest_flex) + beat_flex[side] * engage
+        flex = rest_flex + engage * (flex - rest_flex) + beats.flex[side] * engage
         abd = rest_abd + engage * (abd - rest_abd)
-        elev = rest_elev + engage * (elev - rest_elev) + beat_elev[side] * np.maximum(engage, 0.3)
+        elev = rest_elev + engage * (elev - rest_elev) + beats.elev[side] * np.maximum(engage, 0.3)
         azim = rest_azim + engage * (azim - rest_azim)
         dirs[:, BONE_INDEX[ub]] = _upper_arm(side, abd, np.maximum(flex, -0.1))
         dirs[:, BONE_INDEX[fb]] = _forearm(side, elev, azim)
+    return dirs
 
-    # ---- 3. library gestures ------------------------------------------------------------------
+
+def _add_library_gestures(dirs: np.ndarray, tw, c: _Clip, trigger_prob: float | None, rng) -> None:
+    """Blend library gestures triggered by words into ``dirs`` (in place): the stroke on the
+    word's onset, one gesture at a time, one-handed ones mostly on the dominant side."""
+    n, pers = c.n, c.pers
     lib = _lib()
     busy_until = -1
     for text, a, b in tw:
@@ -408,7 +426,7 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
         onset = int(math.floor(a * FPS + 1e-6))
         if onset >= n or onset < 0:
             continue
-        sf = _at(sp_f, onset)
+        sf = _at(c.speed, onset)
         p = TRIGGER_PROB * pers["trigger"] * (0.6 + 0.4 * sf)
         p = min(0.95, p) if trigger_prob is None else float(trigger_prob)
         if rng.random() >= p:
@@ -417,7 +435,7 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
         g = lib.get(name)
         gspeed = float(np.clip(round(sf ** 0.5 * 4) / 4, 0.75, 1.25))
         hold = float(rng.choice([0.0, 0.0, 0.2, 0.4])) / sf
-        q = _at(hnd, onset)
+        q = _at(c.hand, onset)
         flip = bool(rng.random() < 0.5 + 0.45 * q)  # library one-handed gestures use the right hand
         if name in ("point_left", "point_right"):
             # keep the meaning (direction); usually point with the arm on that side
@@ -447,7 +465,11 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
             # head bones from the library: add the gesture's rotation on top of the base
             dirs[lo:hi, bi] = _slerp_dirs(dirs[lo:hi, bi], gp[sl, bi], wgt[sl, None])
 
-    # ---- 4. idle + head + torso ------------------------------------------------------------
+
+def _idle(dirs: np.ndarray, c: _Clip, talk: np.ndarray, beats: _Beats, rng) -> np.ndarray:
+    """Add head drift and nods and the shoulders' breathing to ``dirs`` (in place); return the
+    torso rotations (n, 3, 3): breathing lean and sway, a twist towards the more active hand."""
+    t_sec, pers, nk = c.t_sec, c.pers, len(c.keys_t)
     ph = rng.uniform(0, 2 * np.pi, 8)
     bp = pers["breath_period"]
     breath = np.sin(2 * np.pi * t_sec / bp + ph[0])
@@ -459,11 +481,11 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
     twist = math.radians(5.0) * np.tanh(4.0 * (act_l - act_r)) + math.radians(1.5) * np.sin(2 * np.pi * t_sec / 11 + ph[3])
     torso = _rot(twist, lean, roll)
 
-    hscale = pers["head"] * (0.7 + 0.3 * np.clip(sp_f, 0.5, 2.0))
-    head_yaw = math.radians(7.0) * hscale * _gauss_smooth(np.interp(t_sec, keys_t, rng.uniform(-1, 1, nk)), 0.4 * FPS)
+    hscale = pers["head"] * (0.7 + 0.3 * np.clip(c.speed, 0.5, 2.0))
+    head_yaw = math.radians(7.0) * hscale * _gauss_smooth(np.interp(t_sec, c.keys_t, rng.uniform(-1, 1, nk)), 0.4 * FPS)
     head_pitch = math.radians(2.5) * np.sin(2 * np.pi * t_sec / 6.1 + ph[4]) * hscale
-    head_roll = math.radians(3.0) * hscale * _gauss_smooth(np.interp(t_sec, keys_t, rng.uniform(-1, 1, nk)), 0.5 * FPS)
-    for f in beat_frames:  # small nods on the beats
+    head_roll = math.radians(3.0) * hscale * _gauss_smooth(np.interp(t_sec, c.keys_t, rng.uniform(-1, 1, nk)), 0.5 * FPS)
+    for f in beats.frames:  # small nods on the beats
         if rng.random() < 0.6:
             head_pitch += math.radians(4.0) * hscale * np.exp(-0.5 * ((t_sec - f / FPS - 0.02) / 0.12) ** 2)
     # nose/head_top rotate about the neck: a positive pitch (about +x) lifts the face (+z) down
@@ -473,67 +495,60 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
         dirs[:, bi] = np.einsum("tij,tj->ti", head, dirs[:, bi])
     for bname, s in (("left_shoulder", 1.0), ("right_shoulder", -1.0)):
         bi = BONE_INDEX[bname]
-        dirs[:, bi, 1] += 0.03 * breath + 0.04 * talk * np.maximum(0, 0.5 * (beat_elev[s] != 0))
-    # ---- 5. space: spread the arms, then the torso carries everything -------------------------
+        dirs[:, bi, 1] += 0.03 * breath + 0.04 * talk * np.maximum(0, 0.5 * (beats.elev[s] != 0))
+    return torso
+
+
+def _finish(dirs: np.ndarray, c: _Clip, talk: np.ndarray, torso: np.ndarray) -> np.ndarray:
+    """Space spreads the arms, the torso carries everything, then a light temporal smoothing and
+    the per-bone angular velocity limit: poses (n, 27) float32."""
     for side, ub, fb in ((1.0, "left_elbow", "left_wrist"), (-1.0, "right_elbow", "right_wrist")):
-        dirs[:, BONE_INDEX[ub], 0] += side * 0.08 * spc
-        dirs[:, BONE_INDEX[fb], 0] += side * 0.22 * spc * (0.4 + 0.6 * talk)
+        dirs[:, BONE_INDEX[ub], 0] += side * 0.08 * c.space
+        dirs[:, BONE_INDEX[fb], 0] += side * 0.22 * c.space * (0.4 + 0.6 * talk)
     dirs = _unit(dirs)
     dirs = np.einsum("tij,tbj->tbi", torso, dirs)
-
-    poses = dirs.reshape(n, POSE_DIM)
+    poses = dirs.reshape(c.n, POSE_DIM)
     poses = _gauss_smooth(poses, 0.7)
     poses = limit_velocity(normalize_pose(poses))
     return normalize_pose(poses).astype(np.float32)
 
 
+def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
+          rng: np.random.Generator | None = None, trigger_prob: float | None = None) -> np.ndarray:
+    """Poses (n_frames, 27) float32 of unit bone directions for timed ``words``.
+
+    ``words``: timed words (seconds on the motion timeline; :class:`~core.words.TimedWord`).
+    ``audio``: mono float32 at :data:`model.features.SAMPLE_RATE` starting ``lead_in``
+    seconds into the motion, or None. ``style``: dict of speed/space/handedness in [-3, 3],
+    scalars (per clip) or arrays (per frame). ``trigger_prob`` overrides the chance that a
+    trigger word gets its library gesture. Deterministic given ``rng``'s state (the steps
+    draw from it in this order, which fixes the corpus).
+    """
+    rng = np.random.default_rng(0) if rng is None else rng
+    n = int(n_frames)
+    if n <= 0:
+        return np.zeros((0, POSE_DIM), np.float32)
+    tw = _timed_words(words)
+    st = _style_tracks(style, n)
+    speed = 2.0 ** (st["speed"] / 3.0)  # 0.5 .. 2 per frame
+    pers = _personality(rng)
+    talk = _speaking_envelope(tw, n)
+    c = _Clip(n, np.arange(n) / FPS, speed, st["space"] / 3.0, st["handedness"] / 3.0, pers, _hold_times(n, speed, rng))
+    var, rest_other = _hold_variants(len(c.keys_t), rng)
+    beats = _beats(_accents(tw, n, audio, lead_in, rng), c, rng)
+    dirs = _arms(c, talk, var, rest_other, beats)
+    _add_library_gestures(dirs, tw, c, trigger_prob, rng)
+    torso = _idle(dirs, c, talk, beats, rng)
+    return _finish(dirs, c, talk, torso)
+
+
 # -- the ``rules`` engine -----------------------------------------------------------------
 
 
-def _control_blend(base: np.ndarray, pose: np.ndarray, mask: np.ndarray, min_blend: int = 5) -> np.ndarray:
-    """Exact poses where ``mask``; smoothstep blends outside the controlled spans."""
-    n = len(base)
-    out = base.reshape(n, N_BONES, 3).astype(np.float64).copy()
-    req = pose.reshape(n, N_BONES, 3).astype(np.float64)
-    m = mask > 0.5
-    if not m.any():
-        return base
-    req = _unit(np.where(np.linalg.norm(req, axis=-1, keepdims=True) < 1e-6, out, req))
-    # spans of controlled frames
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], m.astype(int), [0]])))
-    spans = list(zip(edges[::2], edges[1::2]))
-    weight = np.zeros(n)
-    target = out.copy()
-    for s, e in spans:
-        target[s:e] = req[s:e]
-        weight[s:e] = 1.0
-
-    def blend_len(a, b):
-        cos = np.clip((a * b).sum(-1), -1, 1)
-        ang = float(np.degrees(np.arccos(cos)).max())
-        return max(min_blend, int(math.ceil(ang / 12.0)) + 1)
-
-    for s, e in spans:
-        # into the span: frames [s-L, s) blend from the teacher's motion to the first requested pose
-        L = blend_len(out[max(0, s - 1)], req[s])
-        for k in range(1, L + 1):
-            f = s - k
-            if f < 0 or m[f]:
-                break
-            w = smoothstep(1.0 - k / (L + 1))
-            if w > weight[f]:
-                weight[f], target[f] = w, req[s]
-        L = blend_len(out[min(n - 1, e)], req[e - 1])
-        for k in range(1, L + 1):
-            f = e - 1 + k
-            if f >= n or m[f]:
-                break
-            w = smoothstep(1.0 - k / (L + 1))
-            if w > weight[f]:
-                weight[f], target[f] = w, req[e - 1]
-    res = _slerp_dirs(out, target, weight[:, None, None] * np.ones((1, N_BONES, 1)))
-    res[m] = req[m]
-    return res.reshape(n, POSE_DIM).astype(np.float32)
+#: The ``rules`` engine eases into and out of pose controls over at least CONTROL_RAMP frames,
+#: more when the arms must turn further than CONTROL_RAMP_STEP_DEG degrees a frame.
+CONTROL_RAMP = 5
+CONTROL_RAMP_STEP_DEG = 12.0
 
 
 def generate(inputs, *, seed: int = 0) -> np.ndarray:
@@ -549,5 +564,5 @@ def generate(inputs, *, seed: int = 0) -> np.ndarray:
         audio = load_audio(inputs.audio_path)
     base = teach(inputs.words, n, audio=audio, lead_in=inputs.lead_in,
                  style=style, rng=np.random.default_rng(seed))
-    out = _control_blend(base, arrays.pose, arrays.pose_mask)
+    out = blend_pose_controls(base, arrays.pose, arrays.pose_mask, CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG)
     return normalize_pose(out).astype(np.float32)

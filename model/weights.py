@@ -1,10 +1,12 @@
 """Saving and loading generator weights, with refusal of incompatible files.
 
 A weights file is a ``torch.save`` dict: ``format`` ("sgt-generator"), ``version``, the
-``layout`` it was trained for (fps, pose and audio dimensions, word buckets, style names),
-the network ``config``, its ``state_dict``, the normalisation ``style_stats`` and free-form
-``meta`` (training command, data, metrics). A file for another layout or version is refused
-with a message that says how to fix it, never misread.
+``layout`` it was trained for (fps, pose and audio dimensions, word buckets, style names, the
+control vector of :data:`core.controls.CONTROL_LAYOUT`), the network ``config``, its
+``state_dict``, the style normalisation ``style_stats`` it was trained with and free-form
+``meta`` (training command, data, metrics). A file for another layout or version, or trained
+with other style statistics than ``model/style_stats.json`` (its style values would mean
+something else), is refused with a message that says how to fix it, never misread.
 """
 
 from __future__ import annotations
@@ -12,11 +14,13 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-from core.controls import STYLE_NAMES
+import numpy as np
+
+from core.controls import CONTROL_LAYOUT, STYLE_NAMES
 from core.fileio import atomic_write
 from core.skeleton import FPS, JOINTS, POSE_DIM
 from model.features import AUDIO_DIM, N_MELS, SAMPLE_RATE, WORD_BUCKETS
-from model.style import load_stats
+from model.style import STATS_PATH, load_stats
 
 FORMAT = "sgt-generator"
 VERSION = 1
@@ -31,7 +35,41 @@ def layout() -> dict:
     return {
         "fps": FPS, "pose_dim": POSE_DIM, "joints": list(JOINTS), "audio_dim": AUDIO_DIM, "n_mels": N_MELS,
         "sample_rate": SAMPLE_RATE, "word_buckets": WORD_BUCKETS, "style_names": list(STYLE_NAMES),
+        "controls": [[name, width] for name, width in CONTROL_LAYOUT],
     }
+
+
+#: Layout entries that files written before they were recorded were trained with.
+_LAYOUT_BEFORE_RECORDED = {"controls": [["pose", 27], ["pose_mask", 1], ["style", 3], ["style_mask", 3]]}
+
+
+def _stats_problem(path: Path, theirs: dict | None) -> str | None:
+    """Why the file's style statistics differ from ``model/style_stats.json``, or None."""
+    if not theirs:
+        return None  # not recorded: nothing to compare
+    ours = load_stats()
+    if all(_same(theirs.get(k), getattr(ours, k)) for k in ("mean", "std")):
+        return None
+    return (f"{path} was trained with other style statistics than {STATS_PATH} (mean {_fmt(theirs.get('mean'))}, "
+            f"std {_fmt(theirs.get('std'))} in the weights; mean {_fmt(ours.mean)}, std {_fmt(ours.std)} in the file), "
+            f"so its style controls would mean something else. Put back the statistics it was trained with "
+            f"('git checkout model/style_stats.json', or refit them from its data with scripts/fit_style_stats.py; "
+            f"the weights say they come from: {theirs.get('source') or 'unknown'}), or train new weights with 'sgt train'")
+
+
+def _same(values, reference) -> bool:
+    try:
+        a = np.asarray(values, np.float64)
+    except (TypeError, ValueError):
+        return False
+    return a.shape == np.shape(reference) and bool(np.allclose(a, reference, rtol=1e-9, atol=0.0))
+
+
+def _fmt(values) -> str:
+    try:
+        return "[" + ", ".join(f"{float(v):.4g}" for v in values) + "]"
+    except (TypeError, ValueError):
+        return repr(values)
 
 
 def save_weights(path: Path | str, model, meta: dict | None = None) -> None:
@@ -61,16 +99,21 @@ def load_weights(path: Path | str | None = None):
         raise WeightsError(f"generator weights not found: {path}; {fix}")
     try:
         blob = torch.load(str(path), map_location="cpu", weights_only=True)
-    except Exception as exc:  # truncated, not a torch file, ...
+    except Exception as exc:  # noqa: BLE001 - torch.load raises a dozen unrelated types on damaged files (UnpicklingError,
+        # RuntimeError, EOFError, UnicodeDecodeError, IndexError, struct.error, KeyError, AssertionError...: measured on
+        # truncated and mutated files); only torch.load is inside, and the error is reported with its type, not hidden
         raise WeightsError(f"cannot read generator weights {path}: {exc.__class__.__name__}; the file is corrupt. {fix}") from None
     if not isinstance(blob, dict) or blob.get("format") != FORMAT:
         raise WeightsError(f"{path} is not an sgt generator weights file; {fix}")
     if blob.get("version") != VERSION:
         raise WeightsError(f"{path} is weights format version {blob.get('version')}, this sgt reads version {VERSION}; {fix}")
     theirs, ours = blob.get("layout", {}), layout()
-    diff = sorted(k for k in ours if theirs.get(k) != ours[k])
+    diff = sorted(k for k in ours if theirs.get(k, _LAYOUT_BEFORE_RECORDED.get(k)) != ours[k])
     if diff:
         raise WeightsError(f"{path} was trained for a different data layout ({', '.join(diff)} differ); {fix}")
+    problem = _stats_problem(path, blob.get("style_stats"))
+    if problem:
+        raise WeightsError(problem)
     model = GestureNet({"smooth": 0, **(blob.get("config") or {})})  # files from before the option: off
     try:
         model.load_state_dict(blob["state_dict"])

@@ -129,7 +129,3 @@ def start(width: int, height: int):
         _state["platform"] = platform
         return pyrender, renderer, platform
     raise RenderSetupError("could not start offscreen OpenGL (" + "; ".join(errors) + ")\n" + INSTALL_HINT)
-
-
-def current_platform() -> str | None:
-    return _state.get("platform")

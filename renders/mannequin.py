@@ -163,8 +163,8 @@ class Mannequin:
     def close(self) -> None:
         try:
             self.renderer.delete()
-        except Exception:
-            pass
+        except Exception:  # noqa: BLE001 - releasing the GL context is best effort: a broken GL stack raises
+            pass  # anything here (TypeError from PyOpenGL's EGL import on this machine), and it must not hide the render's own result or error
 
     def __enter__(self):
         return self

@@ -18,8 +18,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np  # noqa: E402
 
-from library import load_library  # noqa: E402
 from core.skeleton import BONES, FPS, JOINT_INDEX, positions_from_pose  # noqa: E402
+from library import load_library  # noqa: E402
 
 CELL_W, CELL_H = 150, 170  # one view
 LABEL_W = 170
@@ -46,7 +46,7 @@ def _project(p: np.ndarray, view: str, ox: float, oy: float):
     return ox + CELL_W / 2 + h * SCALE, oy + CELL_H - 12 - (p[..., 1] - 0.85) * SCALE
 
 
-def _draw_view(draw, pos, path_r, path_l, view, ox, oy, frame_box=None):
+def _draw_view(draw, pos, path_r, path_l, view, ox, oy):
     # ground reference: spine height line and centre line
     cx, _ = _project(np.array([0.0, 1.0, 0.0]), view, ox, oy)
     draw.line([(cx, oy + 14), (cx, oy + CELL_H - 4)], fill=(225, 225, 225))

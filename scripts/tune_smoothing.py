@@ -23,7 +23,6 @@ from core.controls import ControlArrays  # noqa: E402
 from model import neural, postprocess  # noqa: E402
 from model.training import metrics  # noqa: E402
 from model.training.corpus import load_corpus  # noqa: E402
-from model.training.evaluate import style_controls  # noqa: E402
 from model.weights import load_weights  # noqa: E402
 
 GRID = [(1.5, 0.3), (2.0, 0.3), (3.0, 0.3), (4.0, 0.5), (5.0, 0.5), (6.0, 0.5), (8.0, 0.5)]
@@ -40,7 +39,7 @@ def main() -> int:
     refs = [c["poses"] for c in clips]
     free, styled, sctl = [], [], []
     for i, c in enumerate(clips):
-        sc = style_controls(c["poses"])
+        sc = metrics.style_control(c["poses"])
         sctl.append(sc)
         free.append(neural.run_windows(model, c["audio"], c["word_ids"], c["onsets"], ControlArrays.empty(len(c["poses"])), i))
         styled.append(neural.run_windows(model, c["audio"], c["word_ids"], c["onsets"], sc, i))

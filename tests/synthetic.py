@@ -1,14 +1,15 @@
-"""Small synthetic training clips for model tests: library gestures strung together.
+"""Small synthetic data for tests: training clips made of library gestures strung together,
+and a fortunes file for tiny procedural corpora.
 
-Audio features carry the motion's speed (louder when the hands move), so a model can learn
-something real from them in a few hundred steps.
+Audio features of the clips carry the motion's speed (louder when the hands move), so a model
+can learn something real from them in a few hundred steps.
 """
 
 import numpy as np
 
+from core.skeleton import REST_POSE, mirror_pose
 from library import load_library
 from model.features import AUDIO_DIM, WORD_BUCKETS
-from core.skeleton import REST_POSE, mirror_pose
 
 
 def synthetic_clips(n_clips: int = 12, frames: int = 150, seed: int = 0) -> list[dict]:
@@ -35,3 +36,33 @@ def synthetic_clips(n_clips: int = 12, frames: int = 150, seed: int = 0) -> list
         onsets = (rng.random(frames) < 0.15).astype(np.float32)
         clips.append({"audio": audio, "word_ids": ids, "onsets": onsets, "poses": poses})
     return clips
+
+
+#: A fortunes file (the corpus's text source) with a few speakable sentences and the things
+#: the sentence cleaner must drop (attributions, ascii art, Q:/A:, too short).
+FORTUNES = """\
+Look over there, the big red house is where I grew up.
+%
+Never put off till tomorrow what you can do the day after tomorrow.
+\t\t-- Mark Twain
+%
+    +--------+
+    | ascii  |
+    +--------+
+%
+Hello and welcome to the show. Maybe we will think of something small today!
+%
+Q: How many programmers does it take to change a light bulb?
+A: None, that is a hardware problem.
+%
+Ok
+%
+"""
+
+
+def write_fortunes(folder):
+    """A fortunes folder holding :data:`FORTUNES` (and an index file the loader must skip)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "tiny").write_text(FORTUNES)
+    (folder / "tiny.dat").write_bytes(b"\x00\x01binary")
+    return folder

@@ -193,7 +193,7 @@ def test_unknown_voice_points_at_the_directive(tmp_path, lib):
     r = compile_file(path, timing="speech", library=lib, cache_dir=tmp_path / "cache")
     (d,) = r.diagnostics
     assert d.is_error and (d.line, d.col) == (1, 8)
-    assert "en-us" in (d.hint or "") + d.message
+    assert "'en-us'" in d.hint  # the fix: the nearest voice
 
 
 def test_recording_with_json_timings_and_a_mismatch(tmp_path, lib):

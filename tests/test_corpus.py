@@ -3,41 +3,25 @@
 from __future__ import annotations
 
 import json
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from core.skeleton import FPS
 from model.features import AUDIO_DIM
 from model.training.corpus import FORTUNE_DIR, CorpusError, build_corpus, load_corpus, load_manifest, load_sentences
 
-FORTUNES = """\
-Look over there, the big red house is where I grew up.
-%
-Never put off till tomorrow what you can do the day after tomorrow.
-\t\t-- Mark Twain
-%
-    +--------+
-    | ascii  |
-    +--------+
-%
-Hello and welcome to the show. Maybe we will think of something small today!
-%
-Q: How many programmers does it take to change a light bulb?
-A: None, that is a hardware problem.
-%
-Ok
-%
-"""
-HOURS_TWO_SHARDS = 150 / 15 / 3600  # 150 frames: more than one shard of two clips
+sys.path.insert(0, str(Path(__file__).parent))
+from synthetic import write_fortunes  # noqa: E402
+
+HOURS_TWO_SHARDS = 150 / FPS / 3600  # 150 frames: more than one shard of two clips
 
 
 @pytest.fixture()
 def fortunes(tmp_path):
-    d = tmp_path / "fortunes"
-    d.mkdir()
-    (d / "tiny").write_text(FORTUNES)
-    (d / "tiny.dat").write_bytes(b"\x00\x01binary")
-    return d
+    return write_fortunes(tmp_path / "fortunes")
 
 
 def test_sentences_cleaned(fortunes):
@@ -98,17 +82,37 @@ def test_tiny_corpus_reproducible_shapes_splits_resume(tmp_path, fortunes):
     assert not (ids["train"] & ids["val"]) and not (ids["train"] & ids["test"]) and not (ids["val"] & ids["test"])
     assert sum(ma["split_counts"].values()) == len(ca)
 
-    # resume: finished shards are kept, a missing one is rebuilt identically
+    # the same arrays give the same bytes, whenever a shard is built
+    assert [(a / f["file"]).read_bytes() for f in ma["shards"]] == [(b / f["file"]).read_bytes() for f in mb["shards"]]
+
+    # resume: finished shards are kept, a missing or damaged one is rebuilt identically
     shard0, shard1 = a / ma["shards"][0]["file"], a / ma["shards"][1]["file"]
     stamp = shard0.stat().st_mtime_ns
     before = shard1.read_bytes()
-    shard1.unlink()
-    (a / "manifest.json").unlink()
-    mc = build(a, fortunes)
-    assert shard0.stat().st_mtime_ns == stamp
-    assert shard1.read_bytes() == before
-    assert mc["clips"] == ma["clips"]
-    assert load_manifest(a)["total_frames"] == ma["total_frames"]
+    for damage in (shard1.unlink, lambda: shard1.write_bytes(before[: len(before) // 2])):
+        damage()
+        (a / "manifest.json").unlink()
+        mc = build(a, fortunes)
+        assert shard0.stat().st_mtime_ns == stamp
+        assert shard1.read_bytes() == before
+        assert mc == ma
+        assert load_manifest(a)["total_frames"] == ma["total_frames"]
+
+
+def test_jobs_build_the_same_corpus(tmp_path, fortunes):
+    """--jobs 2 (worker processes) gives the manifest and byte-identical shards of --jobs 1."""
+    one = build_corpus(tmp_path / "one", hours=2 * HOURS_TWO_SHARDS, seed=5, clips_per_shard=2, fortune_dir=fortunes)
+    calls = []
+    two = build_corpus(tmp_path / "two", hours=2 * HOURS_TWO_SHARDS, seed=5, clips_per_shard=2, fortune_dir=fortunes,
+                       jobs=2, progress=lambda done, total, what: calls.append(what))
+    assert len(one["shards"]) >= 3 and two == one
+    for shard in one["shards"]:
+        assert (tmp_path / "one" / shard["file"]).read_bytes() == (tmp_path / "two" / shard["file"]).read_bytes()
+    assert {f"shard {k}" for k in range(len(one["shards"]))} <= set(calls)
+    # a resumed --jobs 2 run keeps every shard and writes the same manifest
+    (tmp_path / "two" / "manifest.json").unlink()
+    assert build_corpus(tmp_path / "two", hours=2 * HOURS_TWO_SHARDS, seed=5, clips_per_shard=2, fortune_dir=fortunes,
+                        jobs=2) == one
 
 
 def test_different_seed_differs(tmp_path, fortunes):
@@ -129,3 +133,8 @@ def test_cli(tmp_path, fortunes, monkeypatch, capsys):
     assert "clips" in capsys.readouterr().out
     assert json.loads((tmp_path / "c" / "manifest.json").read_text())["seed"] == 1
     assert main(["corpus", "-o", str(tmp_path / "d"), "--hours", "0"]) == 2
+    # a missing corpus is a message with the fix, not a traceback
+    capsys.readouterr()
+    for command in ("train", "eval"):
+        assert main([command, "--corpus", str(tmp_path / "none")]) == 1
+        assert f"sgt corpus -o {tmp_path / 'none'}" in capsys.readouterr().err

@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from library import BUILTIN_DIR, Clip, Gesture, LibraryProblem, load_library
 from core.skeleton import (
     JOINT_INDEX,
     N_BONES,
@@ -18,6 +17,7 @@ from core.skeleton import (
     mirror_pose,
     positions_from_pose,
 )
+from library import BUILTIN_DIR, Clip, Gesture, LibraryProblem, load_library
 
 REQUIRED = """point_left point_right point_front point_up point_down point_self beat_right beat_left
 beat_both wave nod head_shake shrug stop thumbs_up open_arms frame cup sweep big small count_one
@@ -320,16 +320,20 @@ nose = [0, 0, 1]
     assert np.allclose(p[-1, 1], [0, 0, 1], atol=1e-5)
 
 
-def test_cache_and_speed(tmp_path):
-    load_library(use_config=False)
-    t = time.perf_counter()
-    for _ in range(10):
-        load_library(use_config=False)
-    assert (time.perf_counter() - t) / 10 < 0.02
+def test_unchanged_files_are_not_read_again(tmp_path, monkeypatch):
+    import library
+
+    first = load_library(use_config=False)
+    reads = []
+    real = library.read_spec
+    monkeypatch.setattr(library, "read_spec", lambda path: reads.append(path) or real(path))
+    assert load_library(use_config=False).names() == first.names() and reads == []
     # an edited file is re-read
     user = tmp_path / "u"
     path = _write(user, "edit_me")
     assert load_library([user], use_config=False).get("edit_me").duration == 1.0
+    assert reads == [path]
     path.write_text(SPEC.format(name="edit_me").replace("duration = 1.0", "duration = 1.50"))
     os.utime(path, ns=(time.time_ns(), time.time_ns() + 10**9))
     assert load_library([user], use_config=False).get("edit_me").duration == 1.5
+    assert reads == [path, path]

@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from library import load_library
 from core.motion import MotionClip, save_motion
 from core.skeleton import N_BONES
+from library import load_library
 from sgt_tui import cli
 
 
@@ -118,6 +118,27 @@ def test_add_round_trip(tmp_path, capsys, suffix):
     assert err_deg.max() < 3.0
     assert len(g.keyframes) < (b - a)  # it really chose keyframes
     assert g.clip().stroke_frame is not None
+
+
+def test_add_keeps_any_description_and_tags_exactly(tmp_path, capsys):
+    """Text written into the spec file reads back unchanged: quotes, backslashes, newlines,
+    tabs and every other control character are escaped (tomllib refuses them raw)."""
+    import tomllib
+
+    from library.extract import spec_text_from_poses
+
+    path, poses = _motion(tmp_path)
+    description = 'say "hi"\tthen\nwave \\o/ \x01\x7f\r\x08\x0c ünï'
+    code, out, err = _run(capsys, "library", "add", "odd", "--from", str(path), "--frames", "5:30",
+                          "--to", str(tmp_path / "lib"), "--description", description, "--tags", 'a"b, c\\d')
+    assert code == 0, err
+    lib = load_library([tmp_path / "lib"], use_config=False)
+    assert lib.problems == [] and lib.get("odd").description == description
+    assert lib.get("odd").tags == ['a"b', "c\\d"]
+    every = "".join(chr(c) for c in range(0x20)) + "\x7f\\\""
+    text, _ = spec_text_from_poses("every", poses[:20], description=every, tags=[every])
+    data = tomllib.loads(text)
+    assert data["description"] == every and data["tags"] == [every]
 
 
 def test_add_refuses_overwrite_and_bad_ranges(tmp_path, capsys):

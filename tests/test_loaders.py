@@ -62,6 +62,15 @@ def test_bad_bvh_errors():
         parse_bvh("hello")
     with pytest.raises(LoaderError, match="numbers"):
         parse_bvh((CHAIN % ("Zrotation Xrotation Yrotation", "0 0 0")).replace("0 0 0 0 0 0 0 0 0\n", ""))
+    good = CHAIN % ("Zrotation Xrotation Yrotation", "0 0 0")
+    assert len(parse_bvh(good).joints) == 3
+    # a count that is not one is named, not a crash (was OverflowError / ValueError)
+    for bad, what in (("CHANNELS 3", "CHANNELS 1e400"), ("CHANNELS 3", "CHANNELS -1"), ("Frames: 2", "Frames: nan")):
+        assert bad in good
+        with pytest.raises(LoaderError, match="expected a count"):
+            parse_bvh(good.replace(bad, what, 1))
+    with pytest.raises(LoaderError, match="OFFSET outside a joint"):
+        parse_bvh("HIERARCHY OFFSET 0 0 0")
 
 
 # -- a full upper body --------------------------------------------------------------------------

@@ -40,7 +40,12 @@ def moving(lib):
 def test_pcs_is_zero_for_identical_poses_and_grows_with_the_difference(lib):
     ref = _long(lib, ["wave", "beat_both"])[:30]
     ctrl = M.pose_control(ref)
-    assert ctrl.pose_mask.sum() == M.PCS_LENGTH and ctrl.pose_mask[M.PCS_START:M.PCS_START + M.PCS_LENGTH].all()
+    # SGToolkit Eq. 8 as sgt eval runs it: 5 frames centred on the middle frame (15 of 30)
+    assert np.flatnonzero(ctrl.pose_mask).tolist() == [13, 14, 15, 16, 17]
+    assert np.array_equal(ctrl.pose[13:18], ref[13:18]) and not ctrl.pose[:13].any() and not ctrl.pose[18:].any()
+    assert np.flatnonzero(M.pose_control(ref[:29]).pose_mask).tolist() == [12, 13, 14, 15, 16]
+    with pytest.raises(ValueError, match="does not fit"):
+        M.pose_control(ref[:4])
     assert M.pcs(ctrl.pose, ref, ctrl.pose_mask) == 0.0
     rng = np.random.default_rng(0)
     noise = rng.normal(size=ref.shape)
@@ -235,7 +240,7 @@ def test_report_rows_and_table(extractor, moving):
     ctrls = []
     for r in refs:
         c = M.style_control(r)
-        c.set_pose(M.PCS_START, r[M.PCS_START:M.PCS_START + M.PCS_LENGTH])
+        c.set_pose(28, r[28:33])
         ctrls.append(c)
     rows = M.report({"ground truth": (refs, refs, ctrls), "static mean pose": (refs, static, ctrls),
                      "no controls": (refs, [np.roll(r, 7, axis=0) for r in refs])}, extractor=extractor)

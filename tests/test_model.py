@@ -13,7 +13,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from synthetic import synthetic_clips  # noqa: E402
 
 from core.controls import ControlArrays  # noqa: E402
-from core.skeleton import REST_POSE  # noqa: E402
+from core.skeleton import FPS, REST_POSE  # noqa: E402
+from core.words import TimedWord  # noqa: E402
 from model import neural, postprocess  # noqa: E402
 from model.generate import EngineInputs  # noqa: E402
 from model.style import raw_style  # noqa: E402
@@ -33,7 +34,7 @@ def weights(tmp_path_factory):
 
 def words_every(n_frames, every=6):
     """A word every ``every`` frames, so the word features are not empty."""
-    return [(f"w{i}", i / 15, (i + every - 1) / 15) for i in range(0, n_frames, every)]
+    return [TimedWord(f"w{i}", i / FPS, (i + every - 1) / FPS) for i in range(0, n_frames, every)]
 
 
 def inputs_for(n_frames, arrays=None, every=6):
@@ -136,6 +137,70 @@ def test_bad_weights_are_refused(tmp_path, weights):
     assert blob["format"] == FORMAT
 
 
+def _saved(tmp_path, blob):
+    p = tmp_path / "changed.pt"
+    buf = io.BytesIO()
+    torch.save(blob, buf)
+    p.write_bytes(buf.getvalue())
+    return p
+
+
+def test_weights_trained_with_other_style_statistics_are_refused(tmp_path, weights):
+    """Style values are normalised with model/style_stats.json: weights trained with other
+    statistics would read every style control in other units, so they are refused with the fix."""
+    from model.style import load_stats
+
+    blob = torch.load(str(weights), weights_only=True)
+    stats = load_stats()
+    assert blob["style_stats"]["mean"] == list(stats.mean)  # train() records the statistics in use
+    other = {**blob["style_stats"], "mean": [m * 1.5 for m in stats.mean], "source": "a refit corpus"}
+    with pytest.raises(WeightsError, match="other style statistics") as err:
+        load_weights(_saved(tmp_path, {**blob, "style_stats": other}))
+    assert "git checkout model/style_stats.json" in str(err.value) and "a refit corpus" in str(err.value)
+    other = {**blob["style_stats"], "std": [s * 1.001 for s in stats.std]}
+    with pytest.raises(WeightsError, match="other style statistics"):
+        load_weights(_saved(tmp_path, {**blob, "style_stats": other}))
+    # files that do not record their statistics load (nothing to compare)
+    assert load_weights(_saved(tmp_path, {k: v for k, v in blob.items() if k != "style_stats"}))[0] is not None
+
+
+def test_weights_record_the_control_layout(tmp_path, weights):
+    blob = torch.load(str(weights), weights_only=True)
+    assert blob["layout"]["controls"] == [["pose", 27], ["pose_mask", 1], ["style", 3], ["style_mask", 3]]
+    swapped = {**blob["layout"], "controls": [["pose", 27], ["pose_mask", 1], ["style_mask", 3], ["style", 3]]}
+    with pytest.raises(WeightsError, match="controls"):
+        load_weights(_saved(tmp_path, {**blob, "layout": swapped}))
+    # files from before the layout recorded the controls were trained with this one
+    older = {k: v for k, v in blob["layout"].items() if k != "controls"}
+    assert load_weights(_saved(tmp_path, {**blob, "layout": older}))[0] is not None
+
+
+def test_the_network_reads_the_control_vector_of_core_controls():
+    """GestureNet's input is audio, word embedding, onset, then core.controls' control vector
+    (CONTROL_LAYOUT: masked pose, pose mask, masked style, style mask), then the noise."""
+    from core.controls import CONTROL_DIM, CONTROL_LAYOUT
+    from model.features import AUDIO_DIM
+    from model.net import GestureNet
+
+    assert [name for name, _ in CONTROL_LAYOUT] == ["pose", "pose_mask", "style", "style_mask"] and CONTROL_DIM == 34
+    net = GestureNet({"hidden": 16, "word_dim": 4, "noise_dim": 2, "layers": 1, "gru": False}).eval()
+    rng = np.random.default_rng(0)
+    b, t = 2, 12
+    pose = rng.normal(size=(b, t, 27)).astype(np.float32)
+    pose_mask = (rng.random((b, t)) < 0.5).astype(np.float32)
+    style = rng.normal(size=(b, t, 3)).astype(np.float32)
+    style_mask = (rng.random((b, t, 3)) < 0.5).astype(np.float32)
+    seen = []
+    net.inp.register_forward_hook(lambda module, args, out: seen.append(args[0].detach().numpy()))
+    tensors = [torch.as_tensor(a) for a in (pose, pose_mask, style, style_mask)]
+    net(torch.zeros(b, t, AUDIO_DIM), torch.zeros(b, t, dtype=torch.long), torch.zeros(b, t), *tensors, torch.zeros(b, 2))
+    start = AUDIO_DIM + 4 + 1
+    got = seen[0][..., start : start + CONTROL_DIM]
+    want = np.concatenate([pose * pose_mask[..., None], pose_mask[..., None], style * style_mask, style_mask], axis=-1)
+    assert net.inp.in_features == start + CONTROL_DIM + 2
+    assert np.array_equal(got, want)
+
+
 def test_postprocessing_filters_smooth_and_keep_units():
     rng = np.random.default_rng(0)
     clip = synthetic_clips(1, frames=80, seed=1)[0]["poses"]
@@ -180,6 +245,28 @@ def test_training_keeps_the_best_validation_epoch_and_decays_the_rate(weights):
     rates = [learning_rate(cfg, s) for s in range(101)]
     assert rates[0] == pytest.approx(1e-3) and rates[-1] == pytest.approx(1e-4)
     assert all(a >= b for a, b in zip(rates, rates[1:]))
+
+
+def test_validation_pcs_is_the_pcs_of_sgt_eval(weights):
+    """The training loop's held-out PCS (which picks the shipped epoch) scores the same control
+    as sgt eval: metrics.pose_control on every window, the network without noise."""
+    from model.training.metrics import pcs, pose_control
+    from model.training.train import Windows, validate
+
+    model = load_weights(weights)[0]
+    val = Windows(synthetic_clips(4, frames=150, seed=5), 40)
+    row = validate(model, val, TrainConfig(), count=6)
+    batch = val.fixed(6)
+    scores = []
+    for i in range(6):
+        ctl = pose_control(batch["poses"][i])
+        args = [torch.as_tensor(batch["audio"][i : i + 1]), torch.as_tensor(batch["word_ids"][i : i + 1]),
+                torch.as_tensor(batch["onsets"][i : i + 1], dtype=torch.float32)]
+        args += [torch.as_tensor(a)[None] for a in (ctl.pose, ctl.pose_mask, ctl.style, ctl.style_mask)]
+        with torch.no_grad():
+            out = model(*args, torch.zeros(1, model.config["noise_dim"]))[0].numpy()
+        scores.append(pcs(ctl.pose, out, ctl.pose_mask))
+    assert row["val_pcs"] == pytest.approx(np.mean(scores), rel=1e-5)
 
 
 def test_audio_features_equal_librosa_and_do_not_import_it():

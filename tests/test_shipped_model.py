@@ -52,3 +52,22 @@ def test_shipped_model_follows_pose_controls_and_moves(utterances):
         assert pcs(a.pose, raw, a.pose_mask) < 0.05
         assert pcs(a.pose, out, a.pose_mask) < 1e-6
     assert controlled >= 3
+
+
+def test_shipped_model_reads_style_controls_per_frame(utterances):
+    """A style span on half of an utterance speeds up that half (the engine does not average
+    the per-frame style over the utterance)."""
+    from core.controls import ControlArrays
+    from model.style import raw_style
+
+    inputs = utterances[2]
+    n = inputs.n_frames
+
+    def half_change(lo, hi, seed):
+        arrays = ControlArrays.empty(n)
+        arrays.set_style(lo, hi, {"speed": 2.5})
+        speed = raw_style(neural.generate(EngineInputs(arrays, inputs.words, inputs.audio_path, inputs.lead_in), seed=seed))[:, 0]
+        return speed[n // 2:].mean() - speed[: n // 2].mean()
+
+    for seed in range(2):
+        assert half_change(n // 2, n, seed) > 0.05 > 0 > half_change(0, n // 2, seed)

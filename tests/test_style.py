@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from core.skeleton import FPS, REST_POSE, mirror_pose
 from library import load_library
-from core.skeleton import REST_POSE, mirror_pose
 from model.style import WINDOW, StyleStats, fit_stats, load_stats, raw_style, style
 
 
@@ -84,5 +84,14 @@ def test_torch_matches_numpy_and_is_differentiable(lib):
     assert torch.isfinite(t.grad).all() and t.grad.abs().sum() > 0
 
 
-def test_window_constant():
-    assert WINDOW == 30
+def test_statistics_average_over_two_seconds_centred_on_the_frame(lib):
+    """Eq. 4-6 over a 2 s window (30 frames at 15 fps) centred on each frame: one step of the
+    arms at frame 50 shows in the speed of frames 35..65 only, equally."""
+    poses = np.repeat(REST_POSE[None], 100, axis=0)
+    clip = lib.get("open_arms").clip()
+    poses[50:] = clip.poses[clip.stroke_frame]
+    speed = raw_style(poses)[:, 0]
+    moving = np.flatnonzero(speed > 1e-3)
+    assert moving.tolist() == list(range(35, 66))
+    assert np.allclose(speed[moving], speed[50], rtol=1e-6)
+    assert WINDOW == 2 * FPS

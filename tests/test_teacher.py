@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from core.controls import ControlArrays
-from core.skeleton import BONE_INDEX, N_BONES, REST_POSE, mirror_pose
+from core.skeleton import BONE_INDEX, FPS, N_BONES, REST_POSE, mirror_pose
 from core.words import TimedWord
 from model.generate import EngineInputs, engine_function
 from model.style import raw_style
@@ -78,9 +78,9 @@ def test_accents_follow_the_loud_syllables_of_the_audio():
     words = [TimedWord("alpha", 0.4, 0.9), TimedWord("market", 1.1, 1.6), TimedWord("gamma", 1.9, 2.5)]
     words = [w.shifted(lead) for w in words]
     got = _accents([(w.word, w.start, w.end) for w in words], 60, y, lead, np.random.default_rng(0))
-    want = [int((t + lead) * 15) for t in bursts]
+    want = [int((t + lead) * FPS) for t in bursts]
     assert [f for f, _ in got] == pytest.approx(want, abs=1)
-    onsets = [int((w.start) * 15) for w in words]
+    onsets = [int(w.start * FPS) for w in words]
     assert all(abs(f - o) >= 3 for (f, _), o in zip(got, onsets))
     no_audio = _accents([(w.word, w.start, w.end) for w in words], 60, None, lead, np.random.default_rng(0))
     assert [f for f, _ in no_audio] == onsets
@@ -132,11 +132,21 @@ def test_handedness_sign_and_mirror():
         assert raw_style(r)[:, 2].mean() < 0
 
 
-def test_per_frame_style_arrays():
-    speed = np.full(N, -3.0)
-    speed[N // 2:] = 3.0
-    p = teach(SENTENCE, N, style={"speed": speed}, rng=np.random.default_rng(0))
-    assert p.shape == (N, 27) and steps_deg(p).max() < 25
+def half_change(poses, k):
+    """How much style statistic ``k`` grows from the first half of the frames to the second."""
+    r = raw_style(poses)[:, k]
+    return r[N // 2:].mean() - r[: N // 2].mean()
+
+
+@pytest.mark.parametrize("k,name", [(0, "speed"), (1, "space"), (2, "handedness")])
+def test_per_frame_style_arrays_act_on_their_frames(k, name):
+    """A style that changes half way changes the motion half way (not its mean over the clip)."""
+    rising = np.where(np.arange(N) < N // 2, -3.0, 3.0)
+    for seed in range(4):
+        up = teach(SENTENCE, N, style={name: rising}, rng=np.random.default_rng(seed))
+        down = teach(SENTENCE, N, style={name: -rising}, rng=np.random.default_rng(seed))
+        assert up.shape == (N, 27) and steps_deg(up).max() < 25
+        assert half_change(up, k) > 0 > half_change(down, k), (name, seed)
 
 
 # -- the rules engine ----------------------------------------------------------------------------
@@ -166,6 +176,15 @@ def test_rules_engine_registered_and_follows_pose_controls():
     assert steps_deg(out).max() < 25.0  # smooth into and out of the controlled spans
     assert np.array_equal(out, generate(inputs, seed=0))
     assert np.abs(out[10] - target).max() > 0.3  # far from the spans the teacher moves freely
+
+
+def test_rules_engine_style_controls_act_on_their_frames():
+    for seed in range(4):
+        late, early = ControlArrays.empty(N), ControlArrays.empty(N)
+        late.set_style(N // 2, N, {"speed": 3.0})
+        early.set_style(0, N // 2, {"speed": 3.0})
+        assert half_change(generate(EngineInputs(late, SENTENCE), seed=seed), 0) > \
+            half_change(generate(EngineInputs(early, SENTENCE), seed=seed), 0), seed
 
 
 def test_rules_engine_style_controls():

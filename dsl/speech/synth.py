@@ -46,6 +46,7 @@ LEAD_IN = 0.05
 #: Silence kept after the last voiced sample, seconds.
 TAIL = 0.10
 
+#: Speaking rates (words per minute) and pitches espeak-ng accepts; ``@rate``/``@pitch`` check them.
 RATE_RANGE = (80, 450)
 PITCH_RANGE = (0, 100)
 

@@ -35,10 +35,13 @@ import json
 import math
 import re
 import tempfile
+import zipfile
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from pathlib import Path
 
 import numpy as np
 
+from core.controls import STYLE_LIMIT, STYLE_NAMES
 from core.fileio import atomic_write, atomic_write_text
 from core.skeleton import FPS, frame_count, mirror_pose
 from core.words import TimedWord
@@ -243,9 +246,9 @@ def clip_split(seed: int, index: int) -> str:
 
 def _draw_style(rng) -> dict[str, float]:
     out = {}
-    for k in ("speed", "space", "handedness"):
-        v = rng.uniform(-3, 3) if rng.random() < 0.5 else rng.normal(0, 1.0)
-        out[k] = round(float(np.clip(v, -3, 3)), 3)
+    for k in STYLE_NAMES:
+        v = rng.uniform(-STYLE_LIMIT, STYLE_LIMIT) if rng.random() < 0.5 else rng.normal(0, 1.0)
+        out[k] = round(float(np.clip(v, -STYLE_LIMIT, STYLE_LIMIT)), 3)
     return out
 
 
@@ -337,33 +340,145 @@ def build_shard(out: str, k: int, config: dict, sentences: list[str], voices: li
     offsets = np.cumsum([0] + [len(c["poses"]) for c in clips]).astype(np.int64)
     arrays = {key: np.concatenate([c[key] for c in clips]) for key in ("audio", "audio_clean", "word_ids", "onsets", "poses")}
     metas = [c["meta"] for c in clips]
-    buf = io.BytesIO()
+    buf = io.BytesIO()  # np.savez stamps every entry 1980-01-01: the same arrays give the same bytes
     np.savez(buf, offsets=offsets, meta=np.array(json.dumps(metas)), config=np.array(json.dumps(config, sort_keys=True)),
              **arrays)
     atomic_write(shard_path(Path(out), k), buf.getvalue())
     return {"k": k, "frames": int(offsets[-1]), "metas": metas}
 
 
+#: What reading a damaged or foreign shard file raises (np.load, zipfile, json; measured by
+#: reading truncated and corrupted shards); such a shard is built again.
+_DAMAGED_SHARD = (OSError, EOFError, ValueError, LookupError, RuntimeError, zipfile.BadZipFile)
+
+
 def _read_shard_summary(path: Path, config: dict) -> dict | None:
-    """The summary of a finished shard built with ``config``, else None."""
+    """The summary of a finished shard built with ``config``; None when the shard is missing,
+    damaged or made with other settings (it is then built again)."""
+    if not path.is_file():
+        return None
     try:
         with np.load(path) as z:
             if json.loads(str(z["config"])) != json.loads(json.dumps(config, sort_keys=True)):
                 return None
             offsets = z["offsets"]
             metas = json.loads(str(z["meta"]))
-    except Exception:
+            return {"frames": int(offsets[-1]), "metas": metas}
+    except _DAMAGED_SHARD:
         return None
-    return {"frames": int(offsets[-1]), "metas": metas}
 
 
-def _run_shard(args):
-    return build_shard(*args)
+class _InlineExecutor(Executor):
+    """Runs each task when it is submitted: ``--jobs 1`` through the same scheduler, no process."""
+
+    def submit(self, fn, /, *args, **kwargs):
+        future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except Exception as exc:  # handed to the caller by future.result(), as a process pool does
+            future.set_exception(exc)
+        return future
+
+
+def _executor(jobs: int) -> Executor:
+    if jobs <= 1:
+        return _InlineExecutor()
+    import multiprocessing as mp
+
+    return ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
+
+
+def _complete_prefix(done: dict[int, dict], target: int) -> int | None:
+    """The last shard of the shortest run 0, 1, ..., k of finished shards holding ``target``
+    frames, or None while there is no such run."""
+    total = 0
+    k = 0
+    while k in done:
+        total += done[k]["frames"]
+        if total >= target:
+            return k
+        k += 1
+    return None
+
+
+def _enough_in_flight(done: dict[int, dict], pending: dict, target: int) -> bool:
+    """Whether the shards being built will probably reach ``target`` (at the mean shard size so far)."""
+    if not pending or not done:
+        return False
+    known = sum(d["frames"] for d in done.values())
+    return known + len(pending) * known / len(done) >= target
+
+
+def _build_shards(out: Path, config: dict, sentences: list[str], voices: list[str], target: int, jobs: int,
+                  progress=None) -> tuple[list[dict], int]:
+    """Shards 0, 1, ... until they hold ``target`` frames, ``jobs`` at a time; a shard finished by
+    an earlier run with the same settings is kept. Returns (their summaries, how many were kept)."""
+    done: dict[int, dict] = {}
+    kept = 0
+
+    def report(what: str) -> None:
+        if progress:
+            progress(min(sum(d["frames"] for d in done.values()), target), target, what)
+
+    pending: dict[Future, int] = {}
+    next_k = 0
+    pool = _executor(jobs)
+    try:
+        while _complete_prefix(done, target) is None:
+            while len(pending) < max(1, jobs) and not _enough_in_flight(done, pending, target):
+                k, next_k = next_k, next_k + 1
+                summary = _read_shard_summary(shard_path(out, k), config)
+                if summary is None:
+                    pending[pool.submit(build_shard, str(out), k, config, sentences, voices)] = k
+                    continue
+                done[k] = summary
+                kept += 1
+                report(f"shard {k} (kept)")
+                if _complete_prefix(done, target) is not None:
+                    break
+            if not pending or _complete_prefix(done, target) is not None:
+                continue
+            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in finished:
+                k = pending.pop(future)
+                done[k] = future.result()
+                report(f"shard {k}")
+    finally:
+        for future in pending:
+            future.cancel()
+        pool.shutdown(wait=True, cancel_futures=True)
+    last = _complete_prefix(done, target)
+    return [done[k] for k in range(last + 1)], kept
+
+
+def _manifest(out: Path, shards: list[dict], *, hours: float, seed: int, config: dict, n_sentences: int,
+              voices: list[str]) -> dict:
+    clips, files = [], []
+    for k, shard in enumerate(shards):
+        name = shard_path(out, k).name
+        offset = 0
+        for j, m in enumerate(shard["metas"]):
+            clips.append({"id": f"{k:04d}_{j:03d}", "shard": name, "position": j, "frame_offset": offset, **m})
+            offset += m["n_frames"]
+        files.append({"file": name, "clips": len(shard["metas"]), "frames": shard["frames"]})
+    total = sum(shard["frames"] for shard in shards)
+    return {
+        "format": "sgt-corpus", "version": FORMAT_VERSION, "seed": int(seed), "hours_requested": hours,
+        "fps": FPS, "audio_dim": AUDIO_DIM, "clips_per_shard": config["clips_per_shard"],
+        "total_frames": int(total), "total_hours": round(total / FPS / 3600, 4),
+        "sentences": n_sentences, "voices": voices,
+        "split_counts": {s: sum(c["split"] == s for c in clips) for s in SPLITS},
+        "config": config, "shards": files, "clips": clips,
+        "audio_note": "audio: features of the augmented speech; audio_clean: the same speech (same tempo) unaugmented",
+    }
 
 
 def build_corpus(out, *, hours: float = 2.0, seed: int = 0, jobs: int = 1, clips_per_shard: int | None = None,
                  fortune_dir: Path | str = FORTUNE_DIR, progress=None, log=None) -> dict:
-    """Build (or resume) a corpus of at least ``hours`` of motion in ``out``; returns the manifest."""
+    """Build (or resume) a corpus of at least ``hours`` of motion in ``out``; returns the manifest.
+
+    The result depends on the seed, the sentences, the voices and ``clips_per_shard`` only, not
+    on ``jobs`` (shard k is fixed by them, see :func:`build_shard`)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise CorpusError(f"{out} exists and is not a folder")
@@ -377,92 +492,13 @@ def build_corpus(out, *, hours: float = 2.0, seed: int = 0, jobs: int = 1, clips
     shash = hashlib.sha256("\n".join(sentences).encode()).hexdigest()[:16]
     config = _config(seed, clips_per_shard, len(sentences), shash)
     target = int(math.ceil(hours * 3600 * FPS))
-    done: dict[int, dict] = {}
-    reused = 0
-
-    def prefix() -> tuple[int, int | None]:
-        total = 0
-        k = 0
-        while k in done:
-            total += done[k]["frames"]
-            if total >= target:
-                return total, k
-            k += 1
-        return total, None
-
-    def report(what=""):
-        if progress:
-            total = sum(d["frames"] for d in done.values())
-            progress(min(total, target), target, what)
-
-    next_k = 0
-    pool = None
-    pending: dict = {}
-    try:
-        while prefix()[1] is None:
-            while len(pending) < max(1, jobs):
-                known = sum(d["frames"] for d in done.values())
-                avg = known / len(done) if done else None
-                if pending and avg is not None and known + len(pending) * avg >= target:
-                    break  # enough is being built
-                k = next_k
-                next_k += 1
-                summ = _read_shard_summary(shard_path(out, k), config)
-                if summ is not None:
-                    done[k] = summ
-                    reused += 1
-                    report(f"shard {k} (kept)")
-                    if prefix()[1] is not None:
-                        break
-                    continue
-                task = (str(out), k, config, sentences, voices)
-                if jobs <= 1:
-                    done[k] = build_shard(*task)
-                    report(f"shard {k}")
-                    break
-                if pool is None:
-                    import multiprocessing as mp
-                    from concurrent.futures import ProcessPoolExecutor
-
-                    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context("spawn"))
-                pending[pool.submit(_run_shard, task)] = k
-            if pending and prefix()[1] is None:
-                from concurrent.futures import FIRST_COMPLETED, wait
-
-                finished, _ = wait(list(pending), return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    k = pending.pop(fut)
-                    done[k] = fut.result()
-                    report(f"shard {k}")
-    finally:
-        if pool is not None:
-            for fut in pending:
-                fut.cancel()
-            pool.shutdown(wait=True, cancel_futures=True)
-
-    total, last = prefix()
-    clips, shards = [], []
-    for k in range(last + 1):
-        metas = done[k]["metas"]
-        offset = 0
-        for j, m in enumerate(metas):
-            clips.append({"id": f"{k:04d}_{j:03d}", "shard": shard_path(out, k).name, "position": j,
-                          "frame_offset": offset, **m})
-            offset += m["n_frames"]
-        shards.append({"file": shard_path(out, k).name, "clips": len(metas), "frames": done[k]["frames"]})
-    manifest = {
-        "format": "sgt-corpus", "version": FORMAT_VERSION, "seed": int(seed), "hours_requested": hours,
-        "fps": FPS, "audio_dim": AUDIO_DIM, "clips_per_shard": clips_per_shard,
-        "total_frames": int(total), "total_hours": round(total / FPS / 3600, 4),
-        "sentences": len(sentences), "voices": voices,
-        "split_counts": {s: sum(c["split"] == s for c in clips) for s in SPLITS},
-        "config": config, "shards": shards, "clips": clips,
-        "audio_note": "audio: features of the augmented speech; audio_clean: the same speech (same tempo) unaugmented",
-    }
+    shards, kept = _build_shards(out, config, sentences, voices, target, jobs, progress)
+    manifest = _manifest(out, shards, hours=hours, seed=seed, config=config, n_sentences=len(sentences), voices=voices)
     atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1, ensure_ascii=False) + "\n")
     if log:
-        log(f"{len(clips)} clips, {total} frames ({total / FPS / 3600:.2f} h) in {len(shards)} shards"
-            f" ({reused} kept from an earlier run) -> {out}")
+        total = manifest["total_frames"]
+        log(f"{len(manifest['clips'])} clips, {total} frames ({total / FPS / 3600:.2f} h) in {len(shards)} shards"
+            f" ({kept} kept from an earlier run) -> {out}")
     return manifest
 
 

@@ -5,8 +5,10 @@ Every held-out clip is one evaluation window (the corpus clips are single uttera
 
 - ``model``: the generator with no controls (fully automatic);
 - ``model + pose``: a 5-frame pose control copied from the reference in the middle of the clip
-  (SGToolkit Eq. 8), raw network output (``no blend``) and with the exact blend;
-- ``model + style``: style controls computed from the reference over the whole clip (Eq. 9);
+  (SGToolkit Eq. 8, :func:`~model.training.metrics.pose_control`), raw network output
+  (``no blend``) and with the exact blend;
+- ``model + style``: style controls computed from the reference over the whole clip (Eq. 9,
+  :func:`~model.training.metrics.style_control`);
 - ``mean pose``: the static mean pose of the training split (PCS/SCS against the same
   controls, to show their range, as the paper's asterisked entries);
 - ``rules``: the rule teacher with another random seed (same words, style and side);
@@ -23,27 +25,13 @@ from core.controls import ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
 from model import keyframe, neural, postprocess
-from model.style import style as style_of
 from model.teacher import teach
 from model.training import metrics
 from model.training.corpus import load_corpus
 from model.weights import load_weights
 
-PCS_LENGTH = 5
-
-
-def pose_controls(ref: np.ndarray) -> ControlArrays:
-    a = ControlArrays.empty(len(ref))
-    mid = len(ref) // 2
-    a.set_pose(mid - PCS_LENGTH // 2, ref[mid - PCS_LENGTH // 2 : mid - PCS_LENGTH // 2 + PCS_LENGTH])
-    return a
-
-
-def style_controls(ref: np.ndarray) -> ControlArrays:
-    a = ControlArrays.empty(len(ref))
-    a.style[:] = style_of(ref)
-    a.style_mask[:] = 1.0
-    return a
+#: The ``rules`` condition's teacher seeds: ``RULES_SEED + seed + i`` for clip ``i`` (not the corpus's).
+RULES_SEED = 10_000
 
 
 def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
@@ -52,10 +40,52 @@ def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
 
 
 def _rules(clip, seed):
+    """The teacher with another random seed on the clip's words, style and side (no audio)."""
     meta = clip["meta"]
     poses = teach([TimedWord.from_dict(w) for w in meta["words"]], len(clip["poses"]), style=meta.get("teacher_style") or meta.get("style"),
-                  lead_in=meta.get("lead_in", 0.0), rng=np.random.default_rng(10_000 + seed))
+                  lead_in=meta.get("lead_in", 0.0), rng=np.random.default_rng(RULES_SEED + seed))
     return mirror_pose(poses) if meta.get("mirror") else poses
+
+
+def mean_pose(clips) -> np.ndarray:
+    """The static mean pose (27,) of ``clips`` (the training split), unit bones."""
+    return normalize_pose(np.concatenate([c["poses"] for c in clips]).mean(axis=0))
+
+
+def condition_motions(clips, model, mean: np.ndarray, *, seed: int = 0, smoothing: str = "one_euro",
+                      progress=None) -> dict[str, tuple]:
+    """Every condition's motions for ``clips``: name -> ``(references, generated[, controls])``,
+    as :func:`model.training.metrics.report` takes them; clip ``i`` is generated with seed
+    ``seed + i``. ``smoothing``: see :func:`evaluate_corpus`."""
+    refs = [c["poses"] for c in clips]
+    out = {k: [] for k in ("free", "pose_raw", "pose", "style", "mean", "rules", "keyframe")}
+    pcs_ctl, sty_ctl = [], []
+    for i, (clip, ref) in enumerate(zip(clips, refs)):
+        if progress:
+            progress(i, len(clips), "")
+        pc, sc = metrics.pose_control(ref), metrics.style_control(ref)
+        pcs_ctl.append(pc)
+        sty_ctl.append(sc)
+        empty = ControlArrays.empty(len(ref))
+        out["free"].append(_neural(model, clip, empty, seed + i, smoothing=smoothing))
+        out["pose_raw"].append(_neural(model, clip, pc, seed + i, blend=False, smoothing="none"))
+        out["pose"].append(_neural(model, clip, pc, seed + i, smoothing=smoothing))
+        out["style"].append(_neural(model, clip, sc, seed + i, smoothing=smoothing))
+        out["mean"].append(np.repeat(mean[None], len(ref), axis=0))
+        out["rules"].append(_rules(clip, seed + i))
+        out["keyframe"].append(keyframe.generate(pc, mean_pose=mean))
+    if progress:
+        progress(len(clips), len(clips), "")
+    both = [{**p.as_dict(), "style": s.style, "style_mask": s.style_mask} for p, s in zip(pcs_ctl, sty_ctl)]
+    return {
+        "model": (refs, out["free"]),
+        "model+pose raw": (refs, out["pose_raw"], pcs_ctl),
+        "model+pose": (refs, out["pose"], pcs_ctl),
+        "model+style": (refs, out["style"], sty_ctl),
+        "mean pose": (refs, out["mean"], both),
+        "rules": (refs, out["rules"]),
+        "keyframe": (refs, out["keyframe"], pcs_ctl),
+    }
 
 
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
@@ -68,35 +98,6 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
     if limit:
         clips = clips[:limit]
     model, _ = load_weights(weights)
-    train_poses = np.concatenate([c["poses"] for c in load_corpus(corpus, "train")])
-    mean_pose = normalize_pose(train_poses.mean(axis=0))
-    refs = [c["poses"] for c in clips]
-    out = {k: [] for k in ("free", "pose_raw", "pose", "style", "mean", "rules", "keyframe")}
-    pcs_ctl, sty_ctl = [], []
-    for i, (clip, ref) in enumerate(zip(clips, refs)):
-        if progress:
-            progress(i, len(clips), "")
-        pc, sc = pose_controls(ref), style_controls(ref)
-        pcs_ctl.append(pc)
-        sty_ctl.append(sc)
-        empty = ControlArrays.empty(len(ref))
-        out["free"].append(_neural(model, clip, empty, seed + i, smoothing=smoothing))
-        out["pose_raw"].append(_neural(model, clip, pc, seed + i, blend=False, smoothing="none"))
-        out["pose"].append(_neural(model, clip, pc, seed + i, smoothing=smoothing))
-        out["style"].append(_neural(model, clip, sc, seed + i, smoothing=smoothing))
-        out["mean"].append(np.repeat(mean_pose[None], len(ref), axis=0))
-        out["rules"].append(_rules(clip, seed + i))
-        out["keyframe"].append(keyframe.generate(pc, mean_pose=mean_pose))
-    if progress:
-        progress(len(clips), len(clips), "")
-    both = [{**p.as_dict(), "style": s.style, "style_mask": s.style_mask} for p, s in zip(pcs_ctl, sty_ctl)]
-    conditions = {
-        "model": (refs, out["free"]),
-        "model+pose raw": (refs, out["pose_raw"], pcs_ctl),
-        "model+pose": (refs, out["pose"], pcs_ctl),
-        "model+style": (refs, out["style"], sty_ctl),
-        "mean pose": (refs, out["mean"], both),
-        "rules": (refs, out["rules"]),
-        "keyframe": (refs, out["keyframe"], pcs_ctl),
-    }
+    conditions = condition_motions(clips, model, mean_pose(load_corpus(corpus, "train")), seed=seed,
+                                   smoothing=smoothing, progress=progress)
     return metrics.report(conditions, extractor=extractor)

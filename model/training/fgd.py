@@ -30,7 +30,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from core.fileio import atomic_write
-from core.skeleton import FPS, JOINTS, POSE_DIM, REST_POSE
+from core.skeleton import FPS, JOINTS, POSE_DIM
 from model.training.corpus import load_corpus
 
 FORMAT = "sgt-fgd-extractor"
@@ -205,7 +205,7 @@ def load(path: Path | str | None = None) -> FGDExtractor:
         raise ExtractorError(f"FGD feature extractor not found: {path}; {fix}")
     try:
         blob = torch.load(str(path), map_location="cpu", weights_only=True)
-    except Exception as exc:  # truncated, not a torch file, ...
+    except Exception as exc:  # noqa: BLE001 - torch.load on a damaged file: see model.weights.load_weights
         raise ExtractorError(f"cannot read FGD feature extractor {path} ({exc.__class__.__name__}): the file is corrupt; {fix}") from None
     if not isinstance(blob, dict) or blob.get("format") != FORMAT:
         raise ExtractorError(f"{path} is not an sgt FGD feature extractor file; {fix}")
@@ -298,29 +298,6 @@ def train_extractor(
     return ext
 
 
-def _motions_from_corpus(corpus) -> list[np.ndarray]:
-    """Accept the shapes a corpus loader may return: arrays, clips with .poses, dicts, a container."""
-    for attr in ("motions", "clips", "items", "samples"):
-        inner = getattr(corpus, attr, None)
-        if inner is not None and not callable(inner):
-            corpus = inner
-            break
-    if isinstance(corpus, dict):
-        corpus = corpus.get("poses", corpus.get("motions", list(corpus.values())))
-    out = []
-    for item in corpus:
-        if isinstance(item, dict):
-            item = item.get("poses", item.get("motion"))
-        elif not isinstance(item, np.ndarray) and hasattr(item, "poses"):
-            item = item.poses
-        a = np.asarray(item, np.float32)
-        if a.ndim == 3:  # a batch of equal-length motions
-            out.extend(list(a))
-        else:
-            out.append(a)
-    return out
-
-
 def train_default_extractor(corpus_path: Path | str = DEFAULT_CORPUS, out_path: Path | str = DEFAULT_PATH,
                             *, epochs: int = 40, seed: int = 0, progress=None, max_seconds: float | None = None) -> FGDExtractor:
     """Train the shipped extractor on the procedural corpus (:func:`model.training.corpus.load_corpus`).
@@ -329,22 +306,14 @@ def train_default_extractor(corpus_path: Path | str = DEFAULT_CORPUS, out_path: 
     error, pose units) on its ``val`` split when there is one, writes ``out_path`` and returns
     the extractor; ``meta`` holds the corpus path, the training figures and the errors.
     """
-    motions = _motions_from_corpus(load_corpus(corpus_path, "train"))
+    motions = [c["poses"] for c in load_corpus(corpus_path, "train")]
     if not motions:
         raise ValueError(f"corpus {corpus_path} holds no training motions")
     ext = train_extractor(motions, epochs=epochs, seed=seed, progress=progress, max_seconds=max_seconds)
-    try:
-        val = _motions_from_corpus(load_corpus(corpus_path, "val"))
-    except Exception:  # an older corpus layout without a val split
-        val = []
+    val = [c["poses"] for c in load_corpus(corpus_path, "val")]
     ext.meta.update({
         "corpus": str(corpus_path), "n_motions": len(motions), "n_val_motions": len(val),
         "corpus_val_mae": ext.reconstruction_error(val) if val else float("nan"),
     })
     ext.save(out_path)
     return ext
-
-
-def still_windows(n: int = 1) -> np.ndarray:
-    """``n`` windows of the rest pose held still (the static-pose reference)."""
-    return np.repeat(REST_POSE[None, None], WINDOW, axis=1).repeat(n, axis=0)

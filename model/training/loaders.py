@@ -73,96 +73,141 @@ class Bvh:
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
 
-def parse_bvh(text: str, name: str = "<bvh>") -> Bvh:
-    """Parse BVH text (see module docstring)."""
-    toks = text.split()
-    pos = 0
+_CHANNEL_NAMES = ("xposition", "yposition", "zposition", "xrotation", "yrotation", "zrotation")
 
-    def nxt(what: str) -> str:
-        nonlocal pos
-        if pos >= len(toks):
-            raise LoaderError(f"{name}: the BVH file ends early (expected {what})")
-        pos += 1
-        return toks[pos - 1]
 
-    def num(what: str) -> float:
-        tok = nxt(what)
+class _Tokens:
+    """BVH text as whitespace-separated tokens, read in order; problems name the file."""
+
+    def __init__(self, text: str, name: str) -> None:
+        self.toks = text.split()
+        self.pos = 0
+        self.name = name
+
+    def error(self, message: str) -> LoaderError:
+        return LoaderError(f"{self.name}: {message}")
+
+    def next(self, what: str) -> str:
+        if self.pos >= len(self.toks):
+            raise self.error(f"the BVH file ends early (expected {what})")
+        self.pos += 1
+        return self.toks[self.pos - 1]
+
+    def number(self, what: str) -> float:
+        tok = self.next(what)
         try:
             return float(tok)
         except ValueError:
-            raise LoaderError(f"{name}: expected a number for {what}, found {tok!r}") from None
+            raise self.error(f"expected a number for {what}, found {tok!r}") from None
 
-    if nxt("HIERARCHY").upper() != "HIERARCHY":
-        raise LoaderError(f"{name}: not a BVH file (it must start with HIERARCHY)")
+    def count(self, what: str) -> int:
+        value = self.number(what)
+        if not math.isfinite(value) or value < 0:
+            raise self.error(f"expected a count for {what}, found {value:g}")
+        return int(value)
+
+    def rest(self) -> list[str]:
+        return self.toks[self.pos:]
+
+
+def parse_bvh(text: str, name: str = "<bvh>") -> Bvh:
+    """Parse BVH text (see module docstring)."""
+    toks = _Tokens(text, name)
+    if toks.next("HIERARCHY").upper() != "HIERARCHY":
+        raise toks.error("not a BVH file (it must start with HIERARCHY)")
+    joints, n_channels = _hierarchy(toks)
+    frame_time, motion = _motion(toks, n_channels)
+    return Bvh(joints, frame_time, motion)
+
+
+def _hierarchy(toks: _Tokens) -> tuple[list[BvhJoint], int]:
+    """The joints up to ``MOTION`` and the number of channels per frame."""
     joints: list[BvhJoint] = []
-    stack: list[int] = []
+    stack: list[int] = []  # the open joints, innermost last
     n_channels = 0
     while True:
-        tok = nxt("ROOT, JOINT, End or MOTION")
+        tok = toks.next("ROOT, JOINT, End or MOTION")
         up = tok.upper()
         if up in ("ROOT", "JOINT"):
-            jname = nxt("a joint name")
-            if nxt("{") != "{":
-                raise LoaderError(f"{name}: expected '{{' after joint {jname!r}")
-            parent = stack[-1] if stack else -1
-            if up == "ROOT" and stack:
-                raise LoaderError(f"{name}: ROOT {jname!r} inside another joint")
-            j = BvhJoint(jname, parent, np.zeros(3))
-            joints.append(j)
-            stack.append(len(joints) - 1)
+            _open_joint(toks, up, joints, stack)
         elif up == "END":
-            nxt("Site")
-            if nxt("{") != "{":
-                raise LoaderError(f"{name}: expected '{{' after End Site")
-            if not stack:
-                raise LoaderError(f"{name}: End Site outside a joint")
-            pj = joints[stack[-1]]
-            joints.append(BvhJoint(f"{pj.name}_End", stack[-1], np.zeros(3), end_site=True))
-            stack.append(len(joints) - 1)
+            _open_end_site(toks, joints, stack)
         elif up == "OFFSET":
-            if not stack:
-                raise LoaderError(f"{name}: OFFSET outside a joint")
-            joints[stack[-1]].offset = np.array([num("OFFSET x"), num("OFFSET y"), num("OFFSET z")])
+            joint = _innermost(toks, joints, stack, "OFFSET")
+            joint.offset = np.array([toks.number("OFFSET x"), toks.number("OFFSET y"), toks.number("OFFSET z")])
         elif up == "CHANNELS":
-            if not stack:
-                raise LoaderError(f"{name}: CHANNELS outside a joint")
-            count = int(num("the channel count"))
-            chans = [nxt("a channel name") for _ in range(count)]
-            for c in chans:
-                if c.lower() not in ("xposition", "yposition", "zposition", "xrotation", "yrotation", "zrotation"):
-                    raise LoaderError(f"{name}: unknown channel {c!r} of joint {joints[stack[-1]].name!r}")
-            j = joints[stack[-1]]
-            j.channels, j.channel_start = [c.lower() for c in chans], n_channels
-            n_channels += count
+            n_channels += _read_channels(toks, _innermost(toks, joints, stack, "CHANNELS"), n_channels)
         elif tok == "}":
             if not stack:
-                raise LoaderError(f"{name}: unbalanced '}}'")
+                raise toks.error("unbalanced '}'")
             stack.pop()
         elif up == "MOTION":
             break
         else:
-            raise LoaderError(f"{name}: unexpected {tok!r} in the hierarchy")
+            raise toks.error(f"unexpected {tok!r} in the hierarchy")
     if stack:
-        raise LoaderError(f"{name}: the hierarchy has unclosed joints")
+        raise toks.error("the hierarchy has unclosed joints")
     if not joints:
-        raise LoaderError(f"{name}: the hierarchy has no joints")
-    if nxt("Frames:").rstrip(":").lower() != "frames":
-        raise LoaderError(f"{name}: expected 'Frames:' after MOTION")
-    n_frames = int(num("the frame count"))
-    if nxt("Frame").lower() != "frame" or nxt("Time:").rstrip(":").lower() != "time":
-        raise LoaderError(f"{name}: expected 'Frame Time:'")
-    frame_time = num("the frame time")
+        raise toks.error("the hierarchy has no joints")
+    return joints, n_channels
+
+
+def _open_joint(toks: _Tokens, kind: str, joints: list[BvhJoint], stack: list[int]) -> None:
+    jname = toks.next("a joint name")
+    if toks.next("{") != "{":
+        raise toks.error(f"expected '{{' after joint {jname!r}")
+    if kind == "ROOT" and stack:
+        raise toks.error(f"ROOT {jname!r} inside another joint")
+    joints.append(BvhJoint(jname, stack[-1] if stack else -1, np.zeros(3)))
+    stack.append(len(joints) - 1)
+
+
+def _open_end_site(toks: _Tokens, joints: list[BvhJoint], stack: list[int]) -> None:
+    toks.next("Site")
+    if toks.next("{") != "{":
+        raise toks.error("expected '{' after End Site")
+    if not stack:
+        raise toks.error("End Site outside a joint")
+    joints.append(BvhJoint(f"{joints[stack[-1]].name}_End", stack[-1], np.zeros(3), end_site=True))
+    stack.append(len(joints) - 1)
+
+
+def _innermost(toks: _Tokens, joints: list[BvhJoint], stack: list[int], keyword: str) -> BvhJoint:
+    if not stack:
+        raise toks.error(f"{keyword} outside a joint")
+    return joints[stack[-1]]
+
+
+def _read_channels(toks: _Tokens, joint: BvhJoint, first: int) -> int:
+    """Read a CHANNELS line into ``joint`` (its channels start at column ``first``); returns their count."""
+    count = toks.count("the channel count")
+    chans = [toks.next("a channel name") for _ in range(count)]
+    for c in chans:
+        if c.lower() not in _CHANNEL_NAMES:
+            raise toks.error(f"unknown channel {c!r} of joint {joint.name!r}")
+    joint.channels, joint.channel_start = [c.lower() for c in chans], first
+    return count
+
+
+def _motion(toks: _Tokens, n_channels: int) -> tuple[float, np.ndarray]:
+    """The MOTION section: frame time and the (frames, channels) values."""
+    if toks.next("Frames:").rstrip(":").lower() != "frames":
+        raise toks.error("expected 'Frames:' after MOTION")
+    n_frames = toks.count("the frame count")
+    if toks.next("Frame").lower() != "frame" or toks.next("Time:").rstrip(":").lower() != "time":
+        raise toks.error("expected 'Frame Time:'")
+    frame_time = toks.number("the frame time")
     if not frame_time > 0:
-        raise LoaderError(f"{name}: the frame time must be positive, got {frame_time}")
-    values = toks[pos:]
+        raise toks.error(f"the frame time must be positive, got {frame_time}")
+    values = toks.rest()
     need = n_frames * n_channels
     if len(values) < need:
-        raise LoaderError(f"{name}: {n_frames} frames of {n_channels} channels need {need} numbers, found {len(values)}")
+        raise toks.error(f"{n_frames} frames of {n_channels} channels need {need} numbers, found {len(values)}")
     try:
         motion = np.array(values[:need], dtype=np.float64).reshape(n_frames, n_channels)
     except ValueError:
-        raise LoaderError(f"{name}: the motion data has a value that is not a number") from None
-    return Bvh(joints, frame_time, motion)
+        raise toks.error("the motion data has a value that is not a number") from None
+    return frame_time, motion
 
 
 def read_bvh(path) -> Bvh:

@@ -52,9 +52,8 @@ JOINT_GROUPS: dict[str, tuple[str, ...]] = {
     "wrists": ("left_wrist", "right_wrist"),
 }
 
-#: SGToolkit's evaluation window (frames) and its pose control, frames [10, 15) (Eq. 8).
-EVAL_WINDOW = 30
-PCS_START = 10
+#: Frames of the PCS pose control (SGToolkit Eq. 8), centred in the evaluated clip: see
+#: :func:`pcs_frames`. ``sgt eval``, the training loop's validation and the tests all use it.
 PCS_LENGTH = 5
 
 #: Speed histogram bins (m/s): [0, 3) in 0.05 m/s steps; faster speeds fall in the last bin.
@@ -118,19 +117,27 @@ def pcs(requested_poses, generated_poses, mask) -> float:
     return float(np.abs(req[m] - gen[m]).mean())
 
 
-def pose_control(reference, start: int = PCS_START, length: int = PCS_LENGTH):
-    """The paper's PCS control: the reference poses of frames [start, start+length) requested.
+def pcs_frames(n_frames: int, length: int = PCS_LENGTH) -> slice:
+    """The frames of the PCS pose control in an ``n_frames`` window: ``length`` frames centred
+    on the middle frame (``n_frames // 2``), e.g. frames [13, 18) of a 30-frame window."""
+    start = n_frames // 2 - length // 2
+    return slice(start, start + length)
 
-    ``reference`` is a (T, 27) window (SGToolkit uses T = 30, frames [10, 15)); returns a
-    :class:`core.controls.ControlArrays` with only that pose control set.
+
+def pose_control(reference, length: int = PCS_LENGTH):
+    """The PCS control: the reference poses of the :func:`pcs_frames` requested.
+
+    ``reference`` is a (T, 27) motion; returns a :class:`core.controls.ControlArrays` with only
+    that pose control set.
     """
     ref = np.asarray(reference, np.float32)
     if ref.ndim != 2 or ref.shape[1] != POSE_DIM:
-        raise ValueError(f"pose_control: expected a (T, {POSE_DIM}) window, got {ref.shape}")
-    if not 0 <= start < start + length <= len(ref):
-        raise ValueError(f"pose_control: frames [{start}, {start + length}) lie outside a {len(ref)}-frame window")
+        raise ValueError(f"pose_control: expected a (T, {POSE_DIM}) motion, got {ref.shape}")
+    frames = pcs_frames(len(ref), length)
+    if frames.start < 0 or frames.stop > len(ref) or length < 1:
+        raise ValueError(f"pose_control: a {length}-frame control does not fit a {len(ref)}-frame motion")
     ctrl = ControlArrays.empty(len(ref))
-    ctrl.set_pose(start, ref[start:start + length])
+    ctrl.set_pose(frames.start, ref[frames])
     return ctrl
 
 
@@ -458,12 +465,13 @@ def report(conditions: Mapping[str, Any], extractor: Any = "default", stats=None
     return rows
 
 
-_COLUMNS = (  # (key, header, width)
-    ("fgd", "FGD", 7), ("pcs", "PCS", 6), ("scs", "SCS", 6), ("ape", "APE", 6),
-    ("speed", "spd", 6), ("accel", "acc", 6), ("jerk", "jerk", 7),
-    ("jerk_ratio", "jerk/ref", 8), ("hellinger", "H all", 6),
-    ("hellinger_elbows", "H elb", 6), ("hellinger_wrists", "H wri", 6),
-)
+_HEADERS = {  # key: (header, width)
+    "fgd": ("FGD", 7), "pcs": ("PCS", 6), "scs": ("SCS", 6), "ape": ("APE", 6),
+    "speed": ("spd", 6), "accel": ("acc", 6), "jerk": ("jerk", 7),
+    "jerk_ratio": ("jerk/ref", 8), "hellinger": ("H all", 6),
+    "hellinger_elbows": ("H elb", 6), "hellinger_wrists": ("H wri", 6),
+}
+_COLUMNS = tuple((key, *_HEADERS[key]) for key in ROW_KEYS)  # (key, header, width), in table order
 _UNITS = "units: APE m, spd m/s, acc m/s^2, jerk m/s^3; - = n/a; * = jerk not within 25% of ref"
 
 

@@ -26,8 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from core.controls import STYLE_NAMES
 from core.fileio import atomic_write
 from model.style import style as style_of
+from model.training.metrics import pcs_frames
 from model.training.train_config import WINDOW, TrainConfig  # noqa: F401  (re-exported)
 from model.weights import save_weights
 
@@ -80,9 +82,9 @@ def simulate_controls(poses: np.ndarray, ref_style: np.ndarray, rng: np.random.G
         if rng.random() < cfg.p_seed:
             pmask[i, : int(rng.integers(1, t // 2 + 1))] = 1
         if rng.random() < cfg.p_style:
-            keep = np.ones(3, np.float32)
+            keep = np.ones(len(STYLE_NAMES), np.float32)
             if rng.random() < 0.5:
-                keep[rng.integers(0, 3)] = 0
+                keep[rng.integers(0, len(STYLE_NAMES))] = 0
             smask[i] = keep
     pose[pmask > 0] = poses[pmask > 0]
     style = ref_style * smask
@@ -111,18 +113,18 @@ def validate(model, val: Windows, cfg: TrainConfig, count: int = 192) -> dict:
     z = torch.zeros(b, model.config["noise_dim"])
     zeros_p = torch.zeros_like(ref)
     zeros_m = torch.zeros(b, t)
-    zeros_s = torch.zeros(b, t, 3)
+    zeros_s = torch.zeros(b, t, len(STYLE_NAMES))
     with torch.no_grad():
         ref_style = style_of(ref)
         free = model(audio, ids, onsets, zeros_p, zeros_m, zeros_s, zeros_s, z)
         m = torch.zeros(b, t)
-        mid = t // 2
-        m[:, mid - 2 : mid + 3] = 1  # SGToolkit Eq. 8: a 5-frame pose control in the middle
+        frames = pcs_frames(t)  # SGToolkit Eq. 8: a 5-frame pose control in the middle, as sgt eval
+        m[:, frames] = 1
         posed = model(audio, ids, onsets, ref * m[..., None], m, zeros_s, zeros_s, z)
-        ones = torch.ones(b, t, 3)
+        ones = torch.ones(b, t, len(STYLE_NAMES))
         styled = model(audio, ids, onsets, zeros_p, zeros_m, ref_style, ones, z)
         huber = torch.nn.functional.huber_loss(free, ref, delta=cfg.huber_delta).item()
-        pcs = (posed - ref).abs()[:, mid - 2 : mid + 3].mean().item()
+        pcs = (posed - ref).abs()[:, frames].mean().item()
         scs = (style_of(styled) - ref_style).abs().mean().item()
     return {"val_huber": huber, "val_pcs": pcs, "val_scs": scs}
 

@@ -35,6 +35,7 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
+    from model.training.corpus import CorpusError
     from model.training.evaluate import evaluate_corpus
     from model.training.fgd import ExtractorError
     from model.training.metrics import format_table
@@ -48,7 +49,7 @@ def run(args) -> int:
     except (WeightsError, ExtractorError) as exc:
         print(f"sgt eval: error: {exc}", file=sys.stderr)
         return 1
-    except FileNotFoundError as exc:
+    except (CorpusError, FileNotFoundError) as exc:
         print(f"sgt eval: error: {exc}\n  make a corpus with: sgt corpus -o {args.corpus}", file=sys.stderr)
         return 1
     print(format_table(rows))

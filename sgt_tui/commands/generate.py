@@ -36,11 +36,12 @@ def register(sub) -> None:
 def run(args) -> int:
     from pathlib import Path
 
-    from model.generate import GenerateError, generate_clips
     from core.motion import MotionFileError, save_motion
+    from core.skeleton import FPS
+    from model.generate import GenerateError, generate_clips
     from model.neural import Options
-    from sgt_tui.errors import UsageError
     from sgt_tui.commands.common import existing_file, print_diagnostics
+    from sgt_tui.errors import UsageError
     from sgt_tui.progress import ProgressBar
 
     path = existing_file(args.file)
@@ -65,5 +66,5 @@ def run(args) -> int:
         print(f"sgt generate: error: cannot write {out}: {exc}", file=sys.stderr)
         return 1
     frames = sum(len(c.poses) for c in clips)
-    print(f"wrote {out}: {len(clips)} utterances, {frames} frames ({frames / 15:.1f}s)", file=sys.stderr)
+    print(f"wrote {out}: {len(clips)} utterances, {frames} frames ({frames / FPS:.1f}s)", file=sys.stderr)
     return 0

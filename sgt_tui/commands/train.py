@@ -61,12 +61,12 @@ def run(args) -> int:
         train_clips, val_clips = loaded
     else:
         corpus = Path(args.corpus)
-        try:
-            from model.training.corpus import load_corpus
+        from model.training.corpus import CorpusError, load_corpus
 
+        try:
             train_clips = load_corpus(corpus, "train")
             val_clips = load_corpus(corpus, "val")
-        except (FileNotFoundError, ValueError) as exc:
+        except (CorpusError, FileNotFoundError, ValueError) as exc:
             print(f"sgt train: error: cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}",
                   file=sys.stderr)
             return 1

@@ -1,0 +1,167 @@
+"""sgt eval (model/training/evaluate.py), the code behind the model card, on a tiny corpus
+built here: every condition is what docs/model.md says it is, and the table rows are the
+metrics of those motions."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+
+from core.controls import ControlArrays  # noqa: E402
+from core.skeleton import mirror_pose, normalize_pose  # noqa: E402
+from core.words import TimedWord  # noqa: E402
+from model import keyframe, neural, postprocess  # noqa: E402
+from model.style import style  # noqa: E402
+from model.teacher import teach  # noqa: E402
+from model.training import evaluate as E  # noqa: E402
+from model.training import metrics as M  # noqa: E402
+from model.training.corpus import build_corpus, load_corpus  # noqa: E402
+from model.weights import load_weights  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))
+from synthetic import write_fortunes  # noqa: E402
+
+NAMES = ["model", "model+pose raw", "model+pose", "model+style", "mean pose", "rules", "keyframe"]
+SEED = 6  # this seed's tiny corpus has 4 train clips (mirrored and not), 1 val and 1 test clip
+
+
+@pytest.fixture(scope="module")
+def corpus(tmp_path_factory):
+    root = tmp_path_factory.mktemp("eval")
+    build_corpus(root / "corpus", hours=0.006, seed=SEED, clips_per_shard=2, fortune_dir=write_fortunes(root / "fortunes"))
+    return root / "corpus"
+
+
+@pytest.fixture(scope="module")
+def clips(corpus):
+    out = load_corpus(corpus, "train")
+    assert len(out) == 4 and {c["meta"]["mirror"] for c in out} == {True, False}
+    return out
+
+
+@pytest.fixture(scope="module")
+def model():
+    return load_weights()[0]
+
+
+@pytest.fixture(scope="module")
+def motions(clips, model):
+    return E.condition_motions(clips, model, E.mean_pose(clips), seed=3)
+
+
+def test_pose_control_is_the_one_sgt_eval_used(clips):
+    """metrics.pose_control replaced evaluate.pose_controls (the code behind docs/eval.json):
+    the same frames and poses on motions of every length."""
+
+    def old(ref):  # model/training/evaluate.py before the merge, verbatim
+        a = ControlArrays.empty(len(ref))
+        mid = len(ref) // 2
+        a.set_pose(mid - 5 // 2, ref[mid - 5 // 2 : mid - 5 // 2 + 5])
+        return a
+
+    rng = np.random.default_rng(0)
+    for n in list(range(5, 40)) + [len(c["poses"]) for c in clips]:
+        ref = rng.normal(size=(n, 27)).astype(np.float32)
+        a, b = old(ref), M.pose_control(ref)
+        for key, value in a.as_dict().items():
+            assert np.array_equal(value, b.as_dict()[key]), (n, key)
+
+
+def test_every_condition_is_what_the_model_card_says(clips, model, motions):
+    refs = [c["poses"] for c in clips]
+    assert list(motions) == NAMES
+    for name, entry in motions.items():
+        assert all(r is c for r, c in zip(entry[0], refs)), name
+        assert [g.shape for g in entry[1]] == [r.shape for r in refs], name
+    # the mean pose of the training split, held still
+    mean = normalize_pose(np.concatenate(refs).mean(axis=0))
+    assert all(np.allclose(g, mean[None], atol=1e-6) for g in motions["mean pose"][1])
+    for i, (clip, ref) in enumerate(zip(clips, refs)):
+        frames = M.pcs_frames(len(ref))
+        pose_ctl = motions["model+pose"][2][i]
+        assert np.flatnonzero(pose_ctl.pose_mask).tolist() == list(range(frames.start, frames.stop))
+        assert np.array_equal(pose_ctl.pose[frames], ref[frames])
+        # the blend makes the controlled frames exact; the raw network only comes close
+        assert np.abs(motions["model+pose"][1][i][frames] - ref[frames]).max() < 1e-6
+        raw = motions["model+pose raw"][1][i]
+        assert 0 < np.abs(raw[frames] - ref[frames]).mean() < np.abs(mean - ref[frames]).mean()
+        # the style control is the reference's own style on every frame (not its mean)
+        style_ctl = motions["model+style"][2][i]
+        assert np.allclose(style_ctl.style, style(ref), atol=1e-6) and style_ctl.style_mask.all()
+        assert style_ctl.style.std(axis=0).max() > 0.05
+        # the free model: the neural engine with no controls and clip i's seed (3 + i)
+        empty = ControlArrays.empty(len(ref))
+        raw_free = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], empty, 3 + i)
+        assert np.array_equal(motions["model"][1][i], postprocess.finish(raw_free, empty.pose, empty.pose_mask))
+        # keyframe: splines through the same pose control, the mean pose at the ends
+        key = motions["keyframe"][1][i]
+        assert np.abs(key[frames] - ref[frames]).max() < 1e-6 and np.allclose(key[[0, -1]], mean, atol=1e-6)
+        # rules: the teacher on the clip's words, style and side, with another seed
+        meta = clip["meta"]
+        teacher = teach([TimedWord.from_dict(w) for w in meta["words"]], len(ref), style=meta["teacher_style"],
+                        lead_in=meta["lead_in"], rng=np.random.default_rng(10_000 + 3 + i))
+        assert np.array_equal(motions["rules"][1][i], mirror_pose(teacher) if meta["mirror"] else teacher)
+    # the mean-pose row is scored against both controls
+    both = motions["mean pose"][2][0]
+    assert both["pose_mask"].sum() == M.PCS_LENGTH and both["style_mask"].all()
+
+
+def test_smoothing_option_reaches_the_model_rows_only(clips, model, motions):
+    plain = E.condition_motions(clips[:1], model, E.mean_pose(clips), seed=3, smoothing="none")
+    for name in ("model", "model+pose", "model+style"):
+        assert not np.array_equal(plain[name][1][0], motions[name][1][0]), name
+    for name in ("model+pose raw", "mean pose", "rules", "keyframe"):
+        assert np.array_equal(plain[name][1][0], motions[name][1][0]), name
+
+
+def test_table_rows_are_the_metrics_of_the_conditions(corpus, clips, model):
+    rows = E.evaluate_corpus(corpus, split="train", seed=3, limit=3)
+    assert [r["name"] for r in rows] == NAMES and all(r["n_clips"] == 3 for r in rows)
+    expected = M.report(E.condition_motions(clips[:3], model, E.mean_pose(clips), seed=3))
+    for got, want in zip(rows, expected):
+        for key in M.ROW_KEYS:
+            assert got[key] == pytest.approx(want[key], rel=1e-6, nan_ok=True), (got["name"], key)
+    by = {r["name"]: r for r in rows}
+    assert by["model+pose"]["pcs"] < 1e-6 and by["keyframe"]["pcs"] < 1e-6 < by["model+pose raw"]["pcs"]
+    assert by["model+pose raw"]["pcs"] < by["mean pose"]["pcs"]
+    for name in ("model", "rules"):
+        assert np.isnan(by[name]["pcs"]) and np.isnan(by[name]["scs"])
+    assert np.isnan(by["model+style"]["pcs"]) and by["model+style"]["scs"] < by["mean pose"]["scs"]
+    # the mean pose is that of the training split, whatever split is evaluated
+    test_clip = load_corpus(corpus, "test")[0]["poses"]
+    frames = M.pcs_frames(len(test_clip))
+    mean = E.mean_pose(clips)
+    row = {r["name"]: r for r in E.evaluate_corpus(corpus, split="test", extractor=None)}["mean pose"]
+    assert row["pcs"] == pytest.approx(np.abs(test_clip[frames] - mean).mean(), rel=1e-6)
+
+
+def test_sgt_eval_writes_the_rows(corpus, tmp_path, capsys):
+    from sgt_tui.cli import main
+
+    out = tmp_path / "eval.json"
+    assert main(["eval", "--corpus", str(corpus), "--split", "train", "--limit", "2", "--seed", "3", "-o", str(out)]) == 0
+    table = capsys.readouterr().out
+    rows = json.loads(out.read_text())
+    assert [r["name"] for r in rows] == NAMES and rows[0]["n_clips"] == 2
+    assert rows[2]["pcs"] == pytest.approx(0.0, abs=1e-6) and rows[1]["pcs"] > 0
+    assert rows[0]["pcs"] is None  # NaN (not applicable) is written as null
+    assert table.splitlines()[2].startswith("model ") and "FGD" in table
+
+
+def test_train_default_extractor_on_a_corpus(corpus, tmp_path):
+    """The documented way to retrain the shipped FGD extractor (fgd.load's fix message)."""
+    from model.training import fgd
+
+    out = tmp_path / "fgd.pt"
+    ext = fgd.train_default_extractor(corpus, out, epochs=2, seed=1)
+    assert fgd.load(out).config == ext.config and ext.meta["epochs"] == 2
+    assert ext.meta["n_motions"] == 4 and ext.meta["n_val_motions"] == 1 and np.isfinite(ext.meta["corpus_val_mae"])
+    train = [c["poses"] for c in load_corpus(corpus, "train")]
+    again = fgd.train_extractor(train, epochs=2, seed=1)  # the same training, on the train split
+    assert np.array_equal(again.features(train), ext.features(train))

@@ -1,0 +1,53 @@
+"""Names vulture reports that are used, each with why (tests/test_dead_code.py runs vulture with
+this file; framework conventions are ignored by pattern in pyproject.toml's [tool.vulture]).
+
+Vulture only parses this file: ``_.name`` marks ``name`` as used. Add a name here only with its
+reason; delete the code instead when it really is dead.
+"""
+
+_ = object  # vulture reads the attribute accesses below; nothing here runs
+
+# -- called by a framework ---------------------------------------------------------------------
+# Lark calls transformer methods named after the grammar's rules (dsl/sgt.lark, dsl/body.py).
+_.escape
+_.style_item
+_.style_open
+_.style_close
+# Textual's TextArea: the script area overrides these to keep one history and its own
+# highlighting (sgt_tui/app/script_area.py), and Textual reads them.
+_.record
+_.history
+_._highlights
+_.theme
+_._build_highlight_map
+
+# -- used outside the scanned code -------------------------------------------------------------
+# The documented command that retrains the shipped FGD extractor (fgd.load's fix message,
+# docs/metrics.md); tests/test_evaluate.py runs it on a tiny corpus.
+_.train_default_extractor
+# The espeak-ng C event enum (dsl/speech/_espeak.py), kept whole next to the members used.
+_.EVENT_SENTENCE
+_.EVENT_END
+_.EVENT_MSG_TERMINATED
+_.EVENT_SAMPLERATE
+# Read by the tests to observe the editor (sgt_tui/editor, sgt_tui/app): state that tests need
+# and the app does not.
+_.animating  # tests/test_editor_app.py: the preview timer runs only while visible
+_.chunks_analysed  # tests/test_editor_core.py: incremental analysis re-analyses one chunk
+_.can_undo  # tests/test_editor_core.py
+_.can_redo  # tests/test_editor_core.py
+_.reload  # tests/test_editor_core.py: ScriptFile.reload
+_.worker_pid  # tests/test_editor_jobs.py: the job worker process is reused
+
+# -- left to their owners (issue 9), reported to the lead -----------------------------------------
+# core.rules' registry API: the diagnostics engineer registers the rules with it.
+_.rule
+# Dead in dsl/, removed by the diagnostics engineer on their branch (issue 9 item 9).
+_.speaker_col
+_.own_values
+_.has_errors
+_.voiced_start_in
+_.rel  # dsl/parser.py: _tag_syntax_message's unused parameter
+# Dead in sgt_tui/editor (the editor engineer's files): never called.
+_.preset_values
+_._body_start
