@@ -51,3 +51,10 @@ _.rel  # dsl/parser.py: _tag_syntax_message's unused parameter
 # Dead in sgt_tui/editor (the editor engineer's files): never called.
 _.preset_values
 _._body_start
+
+# -- PyAV stream and frame settings (renders/video.py): PyAV reads these attributes -------------
+_.pix_fmt
+_.time_base
+# renders/video.py: the MP4 writer of `sgt render -o take.mp4`; tests/test_video.py covers
+# encode_mp4, which it wraps.
+_.write_mp4

@@ -64,7 +64,6 @@ class Robot:
     velocity: dict[str, float]  # rad/s
     upper_arm: tuple[float, float, float]  # shoulder -> elbow in the ShoulderRoll frame, left arm
     elbow_pitch: float  # fixed pitch of the ElbowYaw frame relative to the ShoulderRoll frame
-    forearm: float
 
 
 def _mirror(left: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
@@ -93,7 +92,7 @@ NAO = Robot(
         "LElbowYaw": _RPM / 150.27, "LElbowRoll": _RPM / 173.22,
         "LWristYaw": 12300 * 2 * math.pi / 60 / 50.61, "LHand": 13206 * 2 * math.pi / 60 / 36.24,
     }),
-    upper_arm=(0.105, 0.015, 0.0), elbow_pitch=0.0, forearm=0.05595,
+    upper_arm=(0.105, 0.015, 0.0), elbow_pitch=0.0,
 )
 
 PEPPER = Robot(
@@ -108,7 +107,7 @@ PEPPER = Robot(
         "HeadYaw": 7.33998, "HeadPitch": 9.22756, "LShoulderPitch": 7.33998, "LShoulderRoll": 9.22756,
         "LElbowYaw": 7.33998, "LElbowRoll": 9.22756, "LWristYaw": 17.3835, "LHand": 12.56,
     }),
-    upper_arm=(0.1812, 0.015, 0.00013), elbow_pitch=-0.157079, forearm=0.15,
+    upper_arm=(0.1812, 0.015, 0.00013), elbow_pitch=-0.157079,
 )
 
 ROBOTS = {"nao": NAO, "pepper": PEPPER}
@@ -127,12 +126,6 @@ def _rz(a):
     c, s = np.cos(a), np.sin(a)
     z, o = np.zeros_like(a), np.ones_like(a)
     return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
-
-
-def _rx(a):
-    c, s = np.cos(a), np.sin(a)
-    z, o = np.zeros_like(a), np.ones_like(a)
-    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
 
 
 def _frame(j: dict, primary: tuple[str, str], secondary: tuple[str, str]) -> np.ndarray:
@@ -232,23 +225,6 @@ def solve(clip: MotionClip, robot: Robot) -> Solution:
                 vc[t] = True
         angles[n], vel_c[n] = out, vc
     return Solution(robot=robot, angles=angles, raw=raw, position_clamped=pos_c, velocity_clamped=vel_c)
-
-
-def forward_directions(angles: dict[str, np.ndarray], robot: Robot) -> dict[str, np.ndarray]:
-    """Forward kinematics of joint angles: upper arm and forearm directions and the head's
-    forward axis in the torso frame (NAOqi axes), (T, 3) each."""
-    out = {}
-    yaw, pitch = angles["HeadYaw"], angles["HeadPitch"]
-    out["head"] = (_rz(yaw) @ _ry(pitch))[..., :, 0]
-    for side, p, sign in (("left", "L", 1.0), ("right", "R", -1.0)):
-        ux, uy, uz = robot.upper_arm
-        shoulder = _ry(angles[p + "ShoulderPitch"]) @ _rz(angles[p + "ShoulderRoll"])
-        upper = shoulder @ np.array([ux, sign * uy, uz])
-        elbow = shoulder @ _ry(np.full_like(yaw, robot.elbow_pitch)) @ _rx(angles[p + "ElbowYaw"]) @ _rz(angles[p + "ElbowRoll"])
-        fore = elbow @ np.array([robot.forearm, 0.0, 0.0])
-        out[f"{side}_upper"] = upper / np.linalg.norm(upper, axis=-1, keepdims=True)
-        out[f"{side}_fore"] = fore / np.linalg.norm(fore, axis=-1, keepdims=True)
-    return out
 
 
 def angle_interpolation(solution: Solution) -> dict:
