@@ -203,8 +203,14 @@ class JobBar(Horizontal):
 
 
 class StatusLine(Static):
-    pass
+    """File, problems, utterance, engine (plain text: file names may hold brackets)."""
+
+    def __init__(self, text: str = "", **kw) -> None:
+        super().__init__(text, markup=False, **kw)
 
 
 class MessageLine(Static):
-    pass
+    """The problem under the cursor, else the last message (plain text: it quotes ``[pose:...]``)."""
+
+    def __init__(self, text: str = "", **kw) -> None:
+        super().__init__(text, markup=False, **kw)
