@@ -120,3 +120,20 @@ def test_worker_errors_are_told_apart_by_type_not_by_class_name():
                    fixes=(Fix("replace with 'wave'", (TextEdit(1, 8, 5, "wave"),)),))
     back = decode_event(encode_event(Failed("7", "the script has 1 error", (d,))))
     assert back == Failed("7", "the script has 1 error", (d,))
+
+
+def test_gif_names_count_utterances_from_one_like_the_status_line(tmp_path):
+    from sgt_tui.editor.analysis import Analyser
+    from sgt_tui.editor.jobs import JobRefused, plan_job
+
+    path = tmp_path / "lobby.sgt"
+    text = "guide: one [pose:wave]\nguide: two\nguide: three [pose:nope]\n"
+    a = Analyser(path).run(text)
+    plan = plan_job("render", a, 1, path=path, source=text, engine="rules", cache=tmp_path / "c")
+    assert plan.request.gif == str(tmp_path / "lobby.u2.gif") and plan.request.utterances == (1,)
+    assert plan.label == "gif utterance 2 (rules)" and len(plan.keys) == 3
+    whole = plan_job("generate", Analyser(path).run(text.replace("nope", "nod")), 0, path=path, source=text,
+                     engine="rules", whole=True, cache=tmp_path / "c")
+    assert whole.request.utterances is None and whole.request.gif is None
+    with pytest.raises(JobRefused, match="utterance 3 has errors"):
+        plan_job("render", a, 2, path=path, source=text, engine="rules", cache=tmp_path / "c")

@@ -59,6 +59,7 @@ class JobFlow:
         elif job.state == FAILED:
             app.job_problems = list(job.diagnostics) or [
                 Diagnostic(ERROR, f"{job.label} failed: {job.message}", str(app.script.path))]
+            app.job_text = job.request.source
             app.say(f"{job.label} failed: {job.message} (F2 lists it)", "error")
         elif job.state == CANCELLED and not app.last_message.startswith(f"cancelled {job.label}"):
             app.say(f"{job.label}: cancelled")

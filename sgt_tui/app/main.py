@@ -16,6 +16,7 @@ and the command palette).
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from textual import on
@@ -88,6 +89,7 @@ class EditorApp(App):
         self.disk_warned = False
         self.last_message = ""
         self.job_problems: list[Diagnostic] = []  # what the last failed job reported (F2 lists them)
+        self.job_text = ""  # the text that job worked on
 
     def check_action(self, action: str, parameters) -> bool | None:
         """The editor's keys act on the main screen only (dialogs have their own keys)."""
@@ -132,6 +134,11 @@ class EditorApp(App):
         self._w("#side").styles.width = max(24, min(60, w // 3))
         self.timeline.styles.height = 5 if h < 32 else 7
 
+    @property
+    def live(self) -> bool:
+        """Whether the editor's screen still has its widgets (messages can arrive while it closes)."""
+        return bool(self.screen_stack) and bool(self.screen_stack[0].query(StatusLine))
+
     def _w(self, selector, expect_type=None):
         """A widget of the editor's own screen (whatever dialog is on top)."""
         return self.screen_stack[0].query_one(selector, expect_type)
@@ -164,8 +171,8 @@ class EditorApp(App):
         self.analyses.schedule()
 
     def on_analysis_ready(self, event: AnalysisReady) -> None:
-        if event.version != self.doc.version or not self.screen_stack:
-            return  # a newer change is on its way
+        if event.version != self.doc.version or not self.live:
+            return  # a newer change is on its way, or the editor is closing
         self.area.set_diagnostics({line - 1: found for line, found in event.analysis.by_line.items() if line > 0})
         self.shown_version = event.version
         self.update_status()
@@ -313,7 +320,9 @@ class EditorApp(App):
         speech timing finds some the estimate cannot), without repeats."""
         found = list(self.analyses.now().diagnostics)
         seen = {(d.line, d.col, d.message) for d in found}
-        return found + [d for d in self.job_problems if (d.line, d.col, d.message) not in seen]
+        stale = self.job_text != self.doc.text  # their fixes were made for another text
+        return found + [dataclasses.replace(d, fixes=()) if stale else d
+                        for d in self.job_problems if (d.line, d.col, d.message) not in seen]
 
     def action_problems(self) -> None:
         def picked(answer: Picked | None) -> None:
@@ -381,10 +390,12 @@ class EditorApp(App):
         self.files.ask_save_as()
 
     def on_disk_changed(self, event: DiskChanged) -> None:
-        self.files.disk_changed(event.exists)
+        if self.live:
+            self.files.disk_changed(event.exists)
 
     def on_recovery_found(self, event: RecoveryFound) -> None:
-        self.files.offer_recovery(event.found)
+        if self.live:
+            self.files.offer_recovery(event.found)
 
     def action_quit(self) -> None:
         self.files.quit()
@@ -400,7 +411,8 @@ class EditorApp(App):
         self.job_flow.cancel()
 
     def on_job_updated(self, event: JobUpdated) -> None:
-        self.job_flow.updated(event.job)
+        if self.live:
+            self.job_flow.updated(event.job)
 
     def action_next_engine(self) -> None:
         i = ENGINE_ORDER.index(self.engine) if self.engine in ENGINE_ORDER else -1

@@ -142,7 +142,7 @@ class LibraryScreen(ModalScreen):
 
     Typing filters the list (by name and tag); the other keys are not letters."""
 
-    KEYS_HELP = "type to filter · ↑↓ choose · 1/2/3 speed · ^f flip · enter insert · f3/esc close"
+    KEYS_HELP = "type to filter · 1/2/3 speed · ^f flip · enter insert · f3 close"
     BINDINGS = [
         Binding("escape,f3", "dismiss(None)", "close"),
         Binding("up", "move(-1)", "previous", show=False, priority=True),
@@ -166,7 +166,7 @@ class LibraryScreen(ModalScreen):
 
     def compose(self):
         with Vertical(id="library-dialog"):
-            yield Static("Motion library · " + self.KEYS_HELP, id="dialog-title", markup=False)
+            yield Static("Library · " + self.KEYS_HELP, id="dialog-title", markup=False)
             yield FilterInput(placeholder="filter: type part of a name or tag", id="gesture-filter", compact=True)
             with Horizontal():
                 yield OptionList(*self._options(), id="gesture-list")
@@ -178,7 +178,9 @@ class LibraryScreen(ModalScreen):
         return [Option(f"{g.name:<14}{g.duration:>4.1f}s", id=g.name) for g in self.library if g.name in self.shown]
 
     def on_mount(self) -> None:
-        self.query_one(Input).focus()
+        box = self.query_one(Input)
+        box.cursor_blink = self.app.cursor_blink
+        box.focus()
         self._load()
 
     def on_input_changed(self, event: Input.Changed) -> None:
@@ -374,7 +376,9 @@ class AskScreen(ModalScreen):
             yield Input(self.value, placeholder=self.placeholder, id="ask-input", select_on_focus=False)
 
     def on_mount(self) -> None:
-        self.query_one(Input).focus()
+        box = self.query_one(Input)
+        box.cursor_blink = self.app.cursor_blink
+        box.focus()
 
     def on_input_submitted(self, event: Input.Submitted) -> None:
         event.stop()

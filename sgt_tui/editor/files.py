@@ -47,7 +47,7 @@ def check_regular(path: Path) -> bool:
     raises :class:`NotAFile` for anything else, without opening it (a FIFO would block)."""
     try:
         mode = path.stat().st_mode
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):
         return False
     except OSError as exc:
         raise FileError(f"cannot open {path}: {exc.strerror or exc}") from None
@@ -77,7 +77,7 @@ def disk_state(path: Path, previous: DiskState | None = None) -> DiskState:
     """The file's state now; reuses ``previous``'s digest when mtime and size are unchanged."""
     try:
         st = path.stat()
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):
         return MISSING
     if previous is not None and previous.mtime_ns == st.st_mtime_ns and previous.size == st.st_size:
         return previous
@@ -129,8 +129,9 @@ class ScriptFile:
         if not check_regular(path):
             if path.is_symlink():
                 raise FileError(f"{path} is a symlink to {os.readlink(path)}, which does not exist")
-            if path.parent != Path("") and not path.parent.exists():
-                raise FileError(f"cannot create {path}: the folder {path.parent} does not exist")
+            if path.parent != Path("") and not path.parent.is_dir():
+                what = "is not a folder" if path.parent.exists() else "does not exist"
+                raise FileError(f"cannot create {path}: {path.parent} {what}")
             return cls(path, Document(""))
         try:
             data = path.read_bytes()
@@ -193,7 +194,8 @@ class ScriptFile:
         if check_regular(path) and not overwrite and path.resolve() != self.path.resolve():
             raise TargetExists(f"{path} already exists")
         if not path.parent.is_dir():
-            raise FileError(f"cannot save as {path}: the folder {path.parent} does not exist")
+            what = "is not a folder" if path.parent.exists() else "does not exist"
+            raise FileError(f"cannot save as {path}: {path.parent} {what}")
         old = self.path, self.disk
         self.path, self.disk = path, disk_state(path)
         try:

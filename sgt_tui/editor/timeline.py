@@ -11,8 +11,9 @@ Pose-control spans are ``[name ...]`` filled with ``=``, style spans ``<name ...
 with ``~``, pauses ``‥pause‥`` in the words row. A label too long for its span is cut where
 one of its items ends (or before a value's colon) and ends with ``…``: ``<speed…~>``, never
 ``speed:+0`` for +0.5. Overlapping spans go to extra rows; when there is no room for them (at
-80x24 there is one row a kind) each hidden span is marked ``+`` where it starts, in the last row
-of its kind, and that row's name ends with ``+`` (``pose+``). The playhead column is reported
+80x24 there is one row a kind) each hidden span is marked ``+`` where it starts (just after a
+shown span's label when it starts on one), in the last row of its kind, and that row's name ends
+with ``+`` (``pose+``). The playhead column is reported
 separately so the view can draw it (reverse video) on every row.
 Data comes from an estimated plan (:class:`dsl.plan.UtterancePlan`) or from a generated
 motion clip (:class:`core.motion.MotionClip`, which carries the real speech timing).
@@ -185,6 +186,8 @@ def layout(data: TimelineData | None, width: int, playhead: int | None = None, m
             if hidden and li == len(shown) - 1:  # no room for their rows: a marker where each starts
                 for sp in hidden:
                     a = col(sp.start)
+                    while a + 1 < w and buf[a] not in "=~ ":  # not over a shown span's label
+                        a += 1
                     _put(buf, a, "+")
                     lm.append((a, a + 1, "overlap"))
                 name = (name or kind) + "+"
