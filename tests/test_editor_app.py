@@ -17,8 +17,7 @@ from textual.widgets import Button, Input, OptionList  # noqa: E402
 from textual.widgets._toast import Toast  # noqa: E402
 
 from sgt_tui.app.main import EditorApp  # noqa: E402
-from sgt_tui.app.screens import (AskScreen, ChoiceScreen, KeysScreen, LibraryScreen, ProblemsScreen,  # noqa: E402
-                                 StyleScreen)
+from sgt_tui.app.screens import AskScreen, ChoiceScreen, KeysScreen, LibraryScreen, ProblemsScreen, StyleScreen  # noqa: E402
 from sgt_tui.editor.files import ScriptFile  # noqa: E402
 from sgt_tui.editor.recovery import RecoveryFile  # noqa: E402
 

@@ -333,8 +333,8 @@ def test_player_loops_and_clamps():
 
 
 def test_braille_figure_follows_the_hand():
-    from library import load_library
     from core.skeleton import REST_POSE, positions_from_pose
+    from library import load_library
     from renders.terminal import stick_figure
 
     def top_dot_row(lines):

@@ -180,10 +180,6 @@ class JobService:
     def busy(self) -> bool:
         return self.runner.busy
 
-    @property
-    def queued(self) -> int:
-        return len(self.runner.queue)
-
     def submit(self, plan: JobPlan) -> Job:
         return self.runner.submit_plan(plan)
 

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Callable
 
 from core.diagnostics import Diagnostic
-from sgt_tui.editor.protocol import Done, Failed, JobRequest, JobResult, Progress, decode_event, encode_request
+from sgt_tui.editor.protocol import PHASES, Done, Failed, JobRequest, JobResult, Progress, decode_event, encode_request
 
 QUEUED, RUNNING, DONE, FAILED, CANCELLED = "queued", "running", "done", "failed", "cancelled"
 MAX_LOG = 1 << 20  # the worker's log starts afresh past this size (bytes)
@@ -56,7 +56,7 @@ class Job:
     @property
     def fraction(self) -> float:
         """Progress 0..1 over the phases (speech, motion, render)."""
-        phases = ["speech", "motion"] + (["render"] if self.op == "render" else [])
+        phases = PHASES if self.op == "render" else PHASES[:2]
         if self.state == DONE:
             return 1.0
         if self.phase not in phases:
