@@ -163,6 +163,7 @@ def test_ctrl_home_ctrl_end_and_home_on_a_wrapped_line_in_tmux(tmux, tmp_path):
     tmux.keys("A", literal=True)
     tmux.wait_for("Aguide: first")
     tmux.keys("Down")
+    tmux.wait_for("utterance 2")
     tmux.keys("End")
     tmux.keys("Home")  # the line wraps over several rows: home goes to its start
     tmux.keys("H", literal=True)

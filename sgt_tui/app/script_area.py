@@ -60,9 +60,14 @@ class _NoHistory(EditHistory):
 class ScriptArea(TextArea):
     """A TextArea bound to a :class:`Document` (the document is the source of truth)."""
 
+    # Priority: a moving key takes effect before the next typed character is inserted (a
+    # non-priority binding runs only once the key has bubbled up to the app, and a character
+    # typed right after it can get there first on a busy machine).
     BINDINGS = [
-        Binding("ctrl+home", "cursor_to('start')", "start of the script", show=False),
-        Binding("ctrl+end", "cursor_to('end')", "end of the script", show=False),
+        Binding("ctrl+home", "cursor_to('start')", "start of the script", show=False, priority=True),
+        Binding("ctrl+end", "cursor_to('end')", "end of the script", show=False, priority=True),
+        Binding("home", "cursor_line_start", "line start", show=False, priority=True),
+        Binding("end", "cursor_line_end", "line end", show=False, priority=True),
     ]
 
     def __init__(self, document: Document, **kw) -> None:
