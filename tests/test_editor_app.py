@@ -852,3 +852,19 @@ def test_a_burst_of_keys_leaves_one_analysis_in_the_exclusive_worker_group(tmp_p
         await settle(pilot, app)
 
     drive(app, steps)
+
+
+def test_text_from_the_script_is_shown_as_written_not_read_as_markup(tmp_path):
+    app = make_app(script(tmp_path, "guide: hello \\[s\\] [pose:wave] big world\n"))
+
+    async def steps(pilot):
+        app.area.move_cursor((0, 7))
+        await pilot.press(*["shift+right"] * 27, "f4")
+        assert isinstance(app.screen, StyleScreen)
+        assert app.screen.query_one("#dialog-title").render().plain == "Style for: hello \\[s\\] [pose:wave] big"
+        await pilot.press("escape")
+        app.say("inserted [pose:wave] [b]here[/b]")
+        await pilot.pause()
+        assert str(app.query_one("#message").render()) == "inserted [pose:wave] [b]here[/b]"
+
+    drive(app, steps)

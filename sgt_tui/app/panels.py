@@ -192,7 +192,7 @@ class JobBar(Horizontal):
     """The running job: what, a progress bar, and how to cancel it."""
 
     def compose(self):
-        yield Label("", id="job-label")
+        yield Label("", id="job-label", markup=False)
         yield ProgressBar(total=1000, show_eta=False, id="job-progress")
         yield Label(" ^t cancel", id="job-hint")
 

@@ -315,7 +315,7 @@ class StyleScreen(ModalScreen):
     def compose(self):
         with Vertical(id="dialog"):
             shown = self.selected if len(self.selected) <= 60 else self.selected[:57] + "..."
-            yield Static(f"Style for: {shown}", id="dialog-title")
+            yield Static(f"Style for: {shown}", id="dialog-title", markup=False)
             for name in STYLE_NAMES:
                 yield StyleSlider(name, id=f"slider-{name}")
             with Horizontal(id="preset-buttons"):
