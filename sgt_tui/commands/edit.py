@@ -29,15 +29,13 @@ def register(sub) -> None:
 def run(args) -> int:
     import signal
 
-    from pathlib import Path
-
+    from sgt_tui.editor.files import FileError, NotAFile, ScriptFile
     from sgt_tui.errors import UsageError
-    from sgt_tui.editor.files import FileError, ScriptFile
 
-    if Path(args.file).is_dir():
-        raise UsageError(f"{args.file} is a folder, not a script file")
     try:
         script = ScriptFile.open(args.file)
+    except NotAFile as exc:  # a folder, a device, a FIFO: the wrong kind of path on the command line
+        raise UsageError(str(exc)) from None
     except FileError as exc:
         print(f"sgt edit: error: {exc}", file=sys.stderr)
         return 1
@@ -56,7 +54,7 @@ def run(args) -> int:
 
     def hang_up(signum, frame):  # the terminal went away (a dropped SSH connection): keep the work
         try:
-            app.write_recovery()
+            app.recovery.write()
         finally:
             import os
 
