@@ -17,9 +17,7 @@ _.style_close
 # highlighting (sgt_tui/app/script_area.py), and Textual reads them.
 _.record
 _.history
-_._highlights
 _.theme
-_._build_highlight_map
 
 # -- used outside the scanned code -------------------------------------------------------------
 # The documented command that retrains the shipped FGD extractor (fgd.load's fix message,
@@ -58,3 +56,10 @@ _.time_base
 # renders/video.py: the MP4 writer of `sgt render -o take.mp4`; tests/test_video.py covers
 # encode_mp4, which it wraps.
 _.write_mp4
+# Textual calls these: a command Provider's discover (the palette's list before typing), and the
+# TextArea methods the script area overrides so Home/End go to the start/end of a wrapped line.
+_.discover
+_.get_cursor_line_start_location
+_.get_cursor_line_end_location
+# The utterance whose take is current; tests/test_editor_app.py reads it to check the preview.
+_.current_key

@@ -140,13 +140,8 @@ class JobRunner:
         self._next()
         return job
 
-    def newest(self) -> Job | None:
-        """The job the user asked for last that has not finished: the last queued, else the running one."""
-        with self._lock:
-            return self.queue[-1] if self.queue else self.current
-
     def cancel(self, job: Job | None = None) -> Job | None:
-        """Cancel ``job`` (default: :meth:`newest`). Returns it, or None when nothing was left to cancel."""
+        """Cancel ``job`` (default: the job asked for last that has not finished: the last queued, else the running one). Returns it, or None when nothing was left to cancel."""
         proc = None
         with self._lock:
             if job is None:

@@ -64,7 +64,6 @@ class JobResult:
     motion: str | None = None  # the saved motion file
     gif: str | None = None
     gif_frames: int = 0
-    gif_bytes: int = 0
 
     def to_dict(self) -> dict:
         d = asdict(self)

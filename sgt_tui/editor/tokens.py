@@ -28,7 +28,6 @@ class LineTokens:
     code_end: int  # where the comment starts (the line's length when there is none)
     directive: tuple[int, int] | None  # the ``@name`` of a directive line
     speaker: tuple[int, int] | None  # ``name:`` of an utterance's first line
-    body_start: int  # where the utterance text starts (0 on continuation lines)
     items: tuple[tuple, ...]  # scanner items, columns of the line
     bad: tuple[int, ...]  # columns the scanner could not read (a stray ``[``, ``>`` ...)
 
@@ -59,14 +58,14 @@ def line_tokens(line: str) -> LineTokens:
         end = 1
         while end < len(code) and not code[end].isspace():
             end += 1
-        return LineTokens(len(code), (0, end), None, len(code), (), ())
+        return LineTokens(len(code), (0, end), None, (), ())
     start, speaker = 0, None
     if code and code[0] not in " \t":
         m = SPEAKER_RE.match(code)
         if m:
             speaker, start = (m.start(1), m.end()), m.end()
     items, bad = _items(code[start:])
-    return LineTokens(len(code), None, speaker, start, tuple(_shifted(items, start)), tuple(b + start for b in bad))
+    return LineTokens(len(code), None, speaker, tuple(_shifted(items, start)), tuple(b + start for b in bad))
 
 
 def spoken_pieces(fragment: str) -> list[str]:

@@ -78,7 +78,7 @@ def handle(raw: dict, emit) -> JobResult:
         result = dataclasses.replace(result, motion=req.out)
     if req.op == "render":
         info = render_gif(concat_clips(clips), req.gif, size=req.size, progress=_progress(emit, raw["id"], "render"))
-        result = dataclasses.replace(result, gif=req.gif, gif_frames=info["frames"], gif_bytes=info["bytes"])
+        result = dataclasses.replace(result, gif=req.gif, gif_frames=info["frames"])
     return result
 
 
