@@ -2,6 +2,8 @@
 
 The rendered messages are compared with reviewed snapshots in tests/snapshots/. After an
 intended change of wording, regenerate them with SGT_UPDATE_SNAPSHOTS=1 and review the diff.
+A missing snapshot is written (and the test passes) only on a developer's machine: where the
+environment variable CI is set, a missing snapshot fails the test.
 """
 
 import json
@@ -25,6 +27,17 @@ CASES = {
     "directives": "@voise en-us\n@rate 9000\n@seed -1\n@preset happy = speed:1\n@preset x1 = sped:1\n@library nowhere\n@audio missing.wav\nhi\n@seed 3\n  indented continuation after a directive\n",
     "options": "a [pose:wave x2 x3 flip=1 mirror] b [pose:] c\n",
     "dangling_audio": "hello\n@audio missing.wav timings=x.txt\n",
+    # carets by display width: CJK and emoji take two columns, a combining accent none
+    "wide_characters": "guide: 日本語 🙂 cafe\u0301 [pose:wavee] ok\n",
+    # a long line is shown as a window around the caret
+    "long_line": "guide: " + "word " * 60 + "[pose:wavee] " + "more " * 60 + "\n",
+    # each root cause once: crossed spans, a broken preset and its uses
+    "cascades": "@preset Excited = speed:1\n@preset calm2 = sped:1\nhi <Excited>there</Excited> <calm2>now</calm2> ok\n"
+                "a <speed:1><space:1>x</speed> y </space> z\n",
+    "speakers": "mall guide: Hello\nJosé: hola\ng:hello\nguide: Lo[pose:nod]ok there\n",
+    "hidden_characters": "guide: hel\u200blo \u202eereht\x00\x00 x\n",
+    "duplicates": "@seed 1\n@seed 2\n@voice bob: en-us\n@voice bob: en-gb\n@preset p = speed:1 speed:2\n"
+                  "guide: <speed:1 speed:2>a</> [pose:wave flip flip hold=1s hold=2s] b\n",
 }
 
 
@@ -34,14 +47,32 @@ def render(name):
     return s, format_text(s.diagnostics, {f"{name}.sgt": src})
 
 
+def check_snapshot(snap: Path, text: str, environ=os.environ) -> None:
+    """Compare ``text`` with the reviewed snapshot file; write it when asked to, or when it is
+    missing on a developer's machine (never under CI, where a missing snapshot fails)."""
+    if environ.get("SGT_UPDATE_SNAPSHOTS") or (not snap.exists() and not environ.get("CI")):
+        snap.write_text(text + "\n", encoding="utf-8")
+    if not snap.exists():
+        pytest.fail(f"snapshot {snap.name} is missing: run the tests once locally (without CI set) and commit it")
+    assert text + "\n" == snap.read_text(encoding="utf-8")
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_message_snapshot(name):
     _, text = render(name)
     text = text.replace("/nonexistent-base/", "")
-    snap = SNAPSHOTS / f"{name}.txt"
-    if os.environ.get("SGT_UPDATE_SNAPSHOTS") or not snap.exists():
-        snap.write_text(text + "\n")
-    assert text + "\n" == snap.read_text()
+    check_snapshot(SNAPSHOTS / f"{name}.txt", text)
+
+
+def test_a_missing_snapshot_fails_under_ci_and_is_written_locally(tmp_path):
+    snap = tmp_path / "new.txt"
+    with pytest.raises(pytest.fail.Exception, match="missing"):
+        check_snapshot(snap, "text", environ={"CI": "true"})
+    assert not snap.exists()
+    check_snapshot(snap, "text", environ={})
+    assert snap.read_text() == "text\n"
+    with pytest.raises(AssertionError):
+        check_snapshot(snap, "other", environ={"CI": "true"})
 
 
 def test_every_error_in_a_file_is_reported_not_just_the_first():
@@ -53,9 +84,9 @@ def test_every_error_in_a_file_is_reported_not_just_the_first():
 
 def test_suggestions_for_misspelt_names():
     s, _ = render("unknown_names")
-    sugg = {d.code: d.suggestions for d in s.diagnostics}
+    sugg = {d.name: d.suggestions for d in s.diagnostics}
     assert "point_right" in sugg["unknown-gesture"]
-    assert "happy" in sugg["bad-style"]
+    assert "happy" in sugg["unknown-style"]
     assert "pause" in sugg["unknown-tag"]
 
 
@@ -66,7 +97,7 @@ def test_positions_point_at_the_offending_text():
         line = src.splitlines()[d.line - 1]
         snippet = line[d.col - 1 : d.col - 1 + d.length]
         assert snippet.strip(), (d, snippet)
-    g = next(d for d in s.diagnostics if d.code == "unknown-gesture")
+    g = next(d for d in s.diagnostics if d.name == "unknown-gesture")
     assert src.splitlines()[0][g.col - 1 : g.col - 1 + g.length] == "point_rigth"
 
 

@@ -208,7 +208,7 @@ def test_incremental_analysis_equals_the_whole_file_analysis():
         full = compile_file(path, timing="estimate", source=text)
         if any(d.is_error for d in full.diagnostics):
             static = load_script(path, source=text)[2]
-            assert _key(d for d in mine if d.code != "overlap") == _key(static), text
+            assert _key(d for d in mine if d.name != "overlap") == _key(static), text
         else:
             assert _key(mine) == _key(full.diagnostics), text
 
@@ -332,8 +332,8 @@ def test_player_loops_and_clamps():
 
 
 def test_braille_figure_follows_the_hand():
-    from library import load_library
     from core.skeleton import REST_POSE, positions_from_pose
+    from library import load_library
     from renders.terminal import stick_figure
 
     def top_dot_row(lines):
