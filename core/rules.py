@@ -128,6 +128,8 @@ A line that starts with spaces or tabs continues the utterance above it. Directi
 (`@voice`, `@rate`, ...) are one line each, so an indented line after a directive, or at the
 top of the file, has nothing to continue and is not read at all.
 
+Example: an indented `Hello there.` right under `@rate 150`.
+
 Fix: remove the indentation to make the line an utterance of its own, or move it under
 the utterance it belongs to.
 """,
@@ -220,7 +222,7 @@ TRAILING_BACKSLASH = rule(
     "write '\\\\' for a literal backslash",
     """
 A backslash escapes the next character; at the end of a line there is none. (Lines are not
-joined with a backslash: indent the next line to continue an utterance.)
+joined with a backslash as in a shell: indent the next line to continue an utterance.)
 
 Example: `guide: the path is C:\\`.
 
@@ -267,7 +269,8 @@ DIRECTIVE_NAME = rule(
     "directives are: {names}",
     """
 A line starting with `@` is a directive, and the directive's name must follow the `@`
-directly.
+directly, without a space (`@voice`, `@rate`, `@pitch`, `@seed`, `@library`, `@preset`,
+`@audio`).
 
 Example: `@ voice en-us`.
 
@@ -314,7 +317,9 @@ MISSING_VALUE = rule(
     "'@{directive}' needs {what}",
     "for example: {example}",
     """
-The directive has no value, or a `@preset` has a name but no style values.
+The directive has no value, or a `@preset` has a name but no style values. A directive
+without its value would silently keep the default (`@rate` 165 words per minute, `@voice`
+en-us, `@seed` 0), so it is an error rather than a no-op.
 
 Example: `@rate` on its own.
 
@@ -328,7 +333,10 @@ EXTRA_ARGUMENT = rule(
     "unexpected '{text}' after the '@{directive}' value",
     "for example: {example}",
     """
-The directive takes one value, and there is more on the line. (A comment starts with `#`.)
+The directive takes one value, and there is more on the line. Values are not lists: only
+the first one would be used, so the rest is an error rather than silently ignored. (A
+comment starts with `#`; `@preset` takes several style items and `@audio` a `timings=`
+option, and are not concerned.)
 
 Example: `@seed 7 8`.
 
@@ -411,7 +419,9 @@ UNKNOWN_TAG = rule(
     "unknown tag '{kind}'",
     "tags are [pose:NAME ...] and [pause DURATION]; write '\\[' for a literal '['",
     """
-Square-bracket tags are `[pose:NAME options]` and `[pause DURATION]`; nothing else.
+Square-bracket tags are `[pose:NAME options]` (play a gesture) and `[pause DURATION]`
+(insert silence); nothing else. A misspelt kind is reported rather than spoken, since a
+bracket in speech must be escaped anyway.
 
 Example: `guide: wait [paws 300ms] now`.
 
@@ -425,7 +435,9 @@ MISSING_NAME = rule(
     "a pose control needs a gesture name: [pose:NAME]",
     "for example [pose:point_right]; 'sgt library list' shows the names",
     """
-A pose control says which gesture to play: `[pose:NAME]`.
+A pose control says which gesture to play: `[pose:NAME]`, with the name of a gesture of
+the motion library (`sgt library list`), then its options. Without a name there is nothing
+to play.
 
 Example: `guide: look [pose:] there` or `guide: look [pose] there`.
 
@@ -439,8 +451,9 @@ UNKNOWN_OPTION = rule(
     "unknown pose option '{key}'",
     "options are x1, x2, x3 (speed), flip (mirror) and hold=DURATION",
     """
-A pose control takes the options `x1`, `x2`, `x3` (speed), `flip` (mirror left and right)
-and `hold=DURATION` (keep the key pose longer).
+A pose control takes the options `x1`, `x2`, `x3` (speed: a 2x gesture takes half the
+time), `flip` (mirror left and right) and `hold=DURATION` (keep the key pose longer). Any
+other word inside the tag is an error, so that a typo never changes a gesture silently.
 
 Example: `guide: there [pose:point_right x4] it is`.
 
@@ -471,7 +484,8 @@ UNKNOWN_DIRECTIVE = rule(
     "directives are: {names}",
     """
 The directives are `@voice`, `@rate`, `@pitch`, `@seed`, `@library`, `@preset` and
-`@audio` (docs/language.md#directives).
+`@audio` (docs/language.md#directives). A line that starts with `@` is always a directive,
+so a misspelt one is reported rather than spoken.
 
 Example: `@voise en-us`.
 
@@ -570,7 +584,9 @@ BAD_NUMBER = rule(
     "{what} must be a whole number, not '{text}'",
     "use a value from {lo} to {hi}",
     """
-`@rate`, `@pitch` and `@seed` take whole numbers.
+`@rate` (words per minute, 80-450), `@pitch` (0-100) and `@seed` (0-2147483647) take
+whole numbers, optionally after a speaker for `@rate` and `@pitch` (`@rate bot: 200`).
+Words and decimals are not accepted.
 
 Example: `@rate fast`.
 
@@ -601,7 +617,9 @@ BAD_DURATION = rule(
     "{what} needs a duration like 300ms or 1.2s{given}",
     "a duration is a number and a unit, ms or s",
     """
-Durations (`[pause 300ms]`, `hold=1.5s`) are a number with the unit `ms` or `s`.
+Durations (`[pause 300ms]`, `hold=1.5s`) are a number with the unit `ms` (milliseconds)
+or `s` (seconds), without a space. A bare number is refused because 3 could mean 3 seconds
+or 3 milliseconds; the fixes offer both.
 
 Example: `guide: wait [pause 3] now` (no unit).
 
@@ -615,8 +633,9 @@ BAD_PAUSE = rule(
     "a pause needs one duration: [pause 300ms] or [pause 1.2s]",
     None,
     """
-`[pause DURATION]` inserts that much silence into the speech; it takes exactly one
-duration and nothing else.
+`[pause DURATION]` inserts that much silence into the speech at that point (everything
+after it moves later); it takes exactly one duration and nothing else: no name after a
+colon, no options.
 
 Example: `guide: wait [pause] now` or `[pause 1s 2s]`.
 
@@ -631,6 +650,8 @@ STYLE_VALUE = rule(
     "style items are speed:V, space:V and handedness:V with V from -3 to 3 (e.g. <speed:-1 space:+0.5>), or a preset such as <happy>",
     """
 A style element takes a value after a colon: `speed:-1`, `space:+0.5`, `handedness:2`.
+Values are numbers from -3 to 3 (normalised statistics of the training motion: 0 is the
+average, 1 one standard deviation); words like `fast` or `wide` are not values.
 
 Example: `guide: <space:wide>arms out</>`.
 
@@ -645,7 +666,8 @@ OPTION_VALUE = rule(
     "write just '{key}'",
     """
 The pose options `x1`, `x2`, `x3` and `flip` are words on their own; only `hold` takes a
-value (`hold=500ms`).
+value (`hold=500ms`). `flip=1` or `x2=yes` would suggest that `flip=0` turns mirroring off,
+which it does not, so a value is an error.
 
 Example: `guide: there [pose:point_right flip=1] it is`.
 
@@ -659,8 +681,9 @@ PRESET_VALUE = rule(
     "preset '{name}' takes no value",
     "write <{name}>, or combine: <{name} speed:-1>",
     """
-A preset is a named set of style values; it takes no value of its own. To change one of its
-values, add the element after it.
+A preset is a named set of style values (`happy` is speed +2.5 and space +1.5); it takes
+no value of its own, so `<happy:2>` has no meaning. To change one of its values, add the
+element after it: later items win.
 
 Example: `guide: <happy:2>yes</>`.
 
@@ -675,7 +698,8 @@ EMPTY_UTTERANCE = rule(
     "a pose control is anchored to a word; add speech text",
     """
 A pose control lands its stroke on the onset of the next word (or the end of the previous
-one); an utterance without words has nothing to anchor it to.
+one); an utterance without words (only tags, pauses or punctuation) has nothing to anchor it
+to, and no speech to time it against.
 
 Example: `guide: [pose:wave]`.
 
@@ -689,7 +713,9 @@ EMPTY_SPAN = rule(
     "style span holds no words",
     "put words between the opening and closing tags",
     """
-A style span covers the frames of its words; one with no words has no effect.
+A style span covers the frames from the onset of its first word to the end of its last
+word; one with no words between its tags covers no frames and has no effect. It is a
+warning: the script still compiles.
 
 Example: `guide: hello <speed:-1></> there`.
 
@@ -869,8 +895,9 @@ UTF16 = rule(
     "this file is UTF-16 ({order}); sgt reads UTF-8",
     "save it as UTF-8, e.g. iconv -f UTF-16 -t UTF-8 in.sgt > out.sgt",
     """
-Some Windows editors save text as UTF-16. Read as UTF-8 it would be garbage, so the file
-is not analysed further.
+Some Windows editors save text as UTF-16 ("Unicode" in Notepad's save dialog). Read as
+UTF-8 it would be garbage (every other byte a NUL), so the file is recognised by its
+byte-order mark or its NUL bytes and not analysed further.
 
 Example: a script saved as "Unicode" by Notepad.
 
@@ -886,7 +913,8 @@ MISSING_FILE = rule(
     "looked for {path}; paths are relative to the script's folder",
     """
 A file named by `@audio` (the recording or its `timings=` file) does not exist. Paths are
-relative to the script's folder, `~` is expanded.
+relative to the script's folder (not to the current directory), `~` is expanded, and names
+with spaces can be quoted (`@audio "take 1.wav"`).
 
 Example: `@audio missing.wav`.
 
@@ -900,8 +928,9 @@ MISSING_FOLDER = rule(
     "gesture folder '{text}' does not exist",
     "looked for {path}; paths are relative to the script's folder",
     """
-`@library FOLDER` adds a folder of gesture specs; it must exist. Paths are relative to the
-script's folder, `~` is expanded.
+`@library FOLDER` adds a folder of gesture specs whose gestures override built-ins of the
+same name; it must exist. Paths are relative to the script's folder (not to the current
+directory), `~` is expanded.
 
 Example: `@library nowhere`.
 
@@ -998,8 +1027,9 @@ NUL_CHARACTER = rule(
     "{count} NUL character{s} (U+0000)",
     "remove them: a text file never holds NUL bytes (is this a binary file?)",
     """
-NUL bytes are not text: a file with them is binary, truncated by a crash, or in another
-encoding. They are not spoken.
+NUL bytes are not text: a file with them is binary, was cut short by a crash, or is in
+another encoding (UTF-16 is recognised and reported on its own). They are not spoken, and
+each run of them on a line is reported once.
 
 Example: a line with a U+0000 byte.
 
