@@ -107,3 +107,68 @@ def test_json_format_carries_the_same_diagnostics():
     assert data["errors"] == sum(d.is_error for d in s.diagnostics)
     first = data["diagnostics"][0]
     assert {"file", "line", "col", "length", "severity", "message", "hint", "suggestions"} <= set(first)
+
+
+# -- rendering: carets by display width, long lines, invisible characters -------------------
+
+
+def _caret_column(rendered: str) -> int:
+    """Terminal column (0-based, after the gutter) of the caret in a rendered excerpt."""
+    caret_line = [line for line in rendered.splitlines() if line.strip().startswith("|") and "^" in line][0]
+    return caret_line.index("^") - caret_line.index("|") - 2
+
+
+@pytest.mark.parametrize("prefix, columns", [
+    ("guide: ", 7), ("日本語 ", 7), ("🙂🙂 ", 5), ("cafe\u0301 ", 5), ("ｆｕｌｌ ", 9), ("a\t", 2),
+])
+def test_the_caret_sits_under_the_name_whatever_comes_before(prefix, columns):
+    src = f"{prefix}[pose:wavee] x\n"
+    s = analyse(src, "w.sgt", gesture_names=NAMES)
+    (d,) = s.diagnostics
+    assert d.col == len(prefix) + 7  # columns count characters
+    assert _caret_column(format_text(s.diagnostics, {"w.sgt": src})) == columns + 6  # terminal columns
+
+
+def test_a_long_line_is_cut_around_the_caret():
+    src = "g: " + "x" * 5000 + " [pose:wavee] " + "y" * 5000 + "\n"
+    s = analyse(src, "l.sgt", gesture_names=NAMES)
+    text = format_text(s.diagnostics, {"l.sgt": src})
+    shown = [line for line in text.splitlines() if line.startswith("     1 |")][0]
+    assert len(shown) < 120 and shown.count("…") == 2 and "[pose:wavee]" in shown
+    caret = _caret_column(text)
+    assert shown[9 + caret : 9 + caret + 5] == "wavee"
+
+
+def test_invisible_characters_are_shown_not_echoed():
+    src = "g: a\u202eb\x00c [pose:wavee]\n"
+    s = analyse(src, "v.sgt", gesture_names=NAMES)
+    text = format_text(s.diagnostics, {"v.sgt": src})
+    assert "\u202e" not in text and "\x00" not in text and "a\ufffdb\u2400c" in text
+    d = next(d for d in s.diagnostics if d.name == "unknown-gesture")
+    assert _caret_column(format_text([d], {"v.sgt": src})) == src.index("wavee")
+
+
+def test_json_format_carries_the_same_diagnostics_as_data():
+    s, _ = render("unclosed_and_mismatched")
+    data = json.loads(format_json(s.diagnostics))
+    assert data["errors"] == sum(d.is_error for d in s.diagnostics)
+    first = data["diagnostics"][0]
+    assert {"file", "line", "col", "length", "severity", "code", "name", "message", "hint", "suggestions",
+            "related", "fixes"} <= set(first)
+    mismatched = next(d for d in data["diagnostics"] if d["name"] == "mismatched-close")
+    assert mismatched["related"][0]["line"] == 1 and mismatched["related"][0]["col"] == 16
+    assert "(line" not in mismatched["message"] + mismatched["hint"]  # places are data, never text
+
+
+def test_the_editor_moves_related_spans_and_fixes_with_their_chunk():
+    from sgt_tui.editor.analysis import Analyser
+
+    text = "@preset p = speed:1\nfirst line here\n\n\nsecond <speed:1><space:1>x</speed> y [pose:wavee] z\n"
+    mine = Analyser("m.sgt").run(text).diagnostics
+    close = next(d for d in mine if d.name == "mismatched-close")
+    assert (close.line, close.related[0].line, close.related[0].col) == (5, 5, 17)
+    gesture = next(d for d in mine if d.name == "unknown-gesture")
+    assert all(e.line == 5 for f in gesture.fixes for e in f.edits) and gesture.fixes
+    text2 = "@seed 1\nfirst\n\nsecond\n@seed 2\n"  # a related span in the header is not moved
+    (late,) = [d for d in Analyser("m.sgt").run(text2).diagnostics if d.name == "header-only"]
+    assert (late.line, late.related[0].line) == (5, 2)
