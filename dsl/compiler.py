@@ -148,8 +148,10 @@ def _timing(script: Script, utt: Utterance, mode: str, cache_dir, diags: list[Di
     return t
 
 
-def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, int, int]]:
-    """(mark, gesture, start frame, frames) per pose control: its stroke lands on its anchor frame.
+def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, int, int, int]]:
+    """(mark, gesture, start frame, frames, key frames) per pose control: its stroke lands on
+    its anchor frame; the first ``key frames`` run to the end of its stroke and hold (the whole
+    clip when it marks no stroke), which :func:`resolve_overlaps` never cuts.
 
     The clip itself is built only when the control arrays are (``sgt check`` never needs them)."""
     out = []
@@ -158,44 +160,46 @@ def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, i
         if gesture is None:  # already reported by the analyser
             continue
         at = t.words[mark.word_index].start if mark.word_index is not None else t.words[mark.after_word].end
-        start = seconds_to_frame(at) - (gesture.stroke_frame(mark.speed) or 0)
-        out.append((mark, gesture, start, gesture.clip_length(speed=mark.speed, hold=mark.hold)))
+        stroke = gesture.stroke_frame(mark.speed)
+        length = gesture.clip_length(speed=mark.speed, hold=mark.hold)
+        keep = length if stroke is None else stroke + 1 + (frame_count(mark.hold) if mark.hold > 0 else 0)
+        out.append((mark, gesture, seconds_to_frame(at) - (stroke or 0), length, keep))
     return out
 
 
-def resolve_overlaps(poses):
+def resolve_overlaps(poses) -> list[tuple]:
     """Place pose controls that would overlap, the same way under any timing.
 
-    ``poses`` are (mark, gesture, start frame, frames) in source order. Returns, in that
-    order, (mark, gesture, start, frames, keep, note): where each plays and for how long, and
-    for one that collided with the previous gesture, ``note`` = (previous mark, first and last
-    overlapping frame, what was done). The rule (as behaviour realisers resolve colliding
-    gestures): the earlier gesture keeps everything up to the end of its stroke and hold (its
-    key pose; the whole clip when it marks no stroke) and its retraction is cut where the later
-    one starts; a later one that would start before that waits until then. After this no two
-    controls overlap, so the last one placed is the only one a new one can collide with."""
-    out: list[list] = []
-    for mark, gesture, start, length in sorted(poses, key=lambda p: p[2]):  # stable: source order on ties
-        stroke = gesture.stroke_frame(mark.speed)
-        hold = frame_count(mark.hold) if mark.hold > 0 else 0
-        keep = (length if stroke is None else stroke + 1 + hold)  # frames that must not be cut
-        note = None
-        if out:
-            prev = out[-1]
-            p_mark, _, p_start, p_len, p_keep, _ = prev
+    ``poses`` are (mark, gesture, start frame, frames, key frames) in source order (see
+    :func:`_place_poses`). Returns, in that order, (mark, gesture, start, frames, note): where
+    each plays and for how long, and for one that collided with the previous gesture, ``note``
+    = (previous mark, first and last overlapping frame, what was done). The rule (as behaviour
+    realisers resolve colliding gestures): the earlier gesture keeps its key frames (up to the
+    end of its stroke and hold) and its retraction is cut where the later one starts; a later
+    one that would start before the earlier one's key frames are over waits until then. After
+    this no two controls overlap, so the last one placed is the only one a new one can meet."""
+    out = [[mark, gesture, start, length, None] for mark, gesture, start, length, _ in poses]
+    if len(poses) < 2:
+        return [tuple(p) for p in out]
+    order = sorted(range(len(poses)), key=lambda i: poses[i][2])  # stable: source order on ties
+    prev = None
+    for i in order:
+        p = out[i]
+        mark, start, length = p[0], p[2], p[3]
+        if prev is not None:
+            p_mark, p_start, p_len, p_keep = prev[0], prev[2], prev[3], poses[prev_i][4]
             if start < p_start + p_len:
                 first, last = max(start, p_start), min(start + length, p_start + p_len) - 1
                 if start >= p_start + p_keep:
                     resolution = f"'{p_mark.name}' is cut after its stroke, at frame {start}"
                 else:
                     wait = p_start + p_keep - start
-                    start += wait
+                    start = p[2] = start + wait
                     resolution = f"'{mark.name}' waits {wait} frame{'s' if wait != 1 else ''} ({wait / FPS:.2f} s) for the stroke of '{p_mark.name}'"
                 prev[3] = start - p_start  # the earlier one's retraction ends where this one starts
-                note = (p_mark, first, last, resolution)
-        out.append([mark, gesture, start, length, keep, note])
-    order = {id(p[0]): i for i, p in enumerate(poses)}
-    return [tuple(p) for p in sorted(out, key=lambda p: order[id(p[0])])]
+                p[4] = (p_mark, first, last, resolution)
+        prev, prev_i = p, i
+    return [tuple(p) for p in out]
 
 
 def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: bool, diags: list[Diagnostic]) -> UtterancePlan:
@@ -203,12 +207,12 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
     # a lead-in before the speech (whole frames, so onsets keep their frame phase) and a tail
     # after it, so that no gesture loses its preparation or its retraction.
     poses = _place_poses(utt, t, lib)
-    lead_frames = max([0] + [-start for _, _, start, _ in poses])
+    lead_frames = max([0] + [-p[2] for p in poses])
     lead = lead_frames / FPS
     if lead_frames:
         t = t.shifted(lead)
-        poses = [(m, g, start + lead_frames, n) for m, g, start, n in poses]
-    n_frames = max([frame_count(t.duration)] + [start + n for _, _, start, n in poses])
+        poses = [(m, g, start + lead_frames, n, keep) for m, g, start, n, keep in poses]
+    n_frames = max([frame_count(t.duration)] + [p[2] + p[3] for p in poses])
     requests = ArrayRequests(n_frames)
     controls: list[Control] = []
 
@@ -227,7 +231,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         b = max(a + 1, min(n_frames, seconds_to_frame(end)))
         controls.append(Control("pause", "pause", a, b, p.where.line, p.where.col, {"seconds": p.seconds}))
 
-    for mark, gesture, start, length, keep, note in resolve_overlaps(poses):
+    for mark, gesture, start, length, note in resolve_overlaps(poses):
         w = mark.where
         if note is not None:
             other, first, last, resolution = note
