@@ -163,10 +163,12 @@ def test_json_format_carries_the_same_diagnostics_as_data():
 def test_the_editor_moves_related_spans_and_fixes_with_their_chunk():
     from sgt_tui.editor.analysis import Analyser
 
-    text = "@preset p = speed:1\nfirst line here\n\n\nsecond <speed:1><space:1>x</speed> y [pose:wavee] z\n"
+    # the third utterance's chunk is analysed one line higher than it is (shift 1)
+    text = "@preset p = speed:1\nfirst line\nmiddle line\n\nsecond <speed:1><space:1>x</speed> y [pose:wavee] z\n"
     mine = Analyser("m.sgt").run(text).diagnostics
     close = next(d for d in mine if d.name == "mismatched-close")
     assert (close.line, close.related[0].line, close.related[0].col) == (5, 5, 17)
+    assert close.fixes[0].edits[0].line == 5
     gesture = next(d for d in mine if d.name == "unknown-gesture")
     assert all(e.line == 5 for f in gesture.fixes for e in f.edits) and gesture.fixes
     text2 = "@seed 1\nfirst\n\nsecond\n@seed 2\n"  # a related span in the header is not moved
