@@ -771,7 +771,7 @@ Fix: install espeak-ng (`apt-get install espeak-ng`), or give the recording a ti
 
 TIMING = rule(
     "SGT403", "timing", ERROR,
-    "speech timing returned {got} words for {expected}",
+    "speech timing returned times for {got} of {expected} words",
     None,
     """
 The speech timing gave a different number of words than the script has. Every control is
