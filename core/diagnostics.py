@@ -53,7 +53,10 @@ class TextEdit:
 
 @dataclass(frozen=True)
 class Fix:
-    """A suggested fix: a title for a menu ("replace with 'wave'") and the edits that make it."""
+    """A suggested fix: a title for a menu ("replace with 'wave'") and the edits that make it.
+
+    Every edit's position refers to the text as it was diagnosed, and edits do not overlap (as
+    in the Language Server Protocol): apply them from the last position to the first."""
 
     title: str
     edits: tuple[TextEdit, ...]

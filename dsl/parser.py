@@ -193,7 +193,8 @@ class _Analyser:
                 if number == 1 and m.start() == 0 and other and other[0] == "\ufeff":
                     other = other[1:]  # a byte-order mark at the start of the file is fine
                 if nul:
-                    self.diags.append(rules.NUL_CHARACTER.at(self.file, number, col, len(run), count=nul, s="s" if nul != 1 else ""))
+                    self.diags.append(rules.NUL_CHARACTER.at(self.file, number, col, len(run), count=nul, s="s" if nul != 1 else "",
+                                                             fixes=(Fix("remove them", (TextEdit(number, col, len(run), run.replace("\x00", "")),)),)))
                 if bidi:
                     self.diags.append(rules.BIDI_CONTROL.at(self.file, number, col, len(run), chars=_codepoints(bidi),
                                                             fixes=(Fix("remove it", (TextEdit(number, col, len(run), "".join(c for c in run if c not in _BIDI)),)),)))

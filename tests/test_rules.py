@@ -180,3 +180,32 @@ def test_explain_restores_the_environment(capsys, tmp_path, monkeypatch):
     assert cli.main(["explain", "library-folder"]) == 0
     assert "(from SGT_LIBRARY_PATH) does not exist" in capsys.readouterr().out
     assert "SGT_LIBRARY_PATH" not in os.environ and Path.cwd() == tmp_path
+
+
+def apply_fix(text: str, fix: Fix) -> str:
+    """``text`` with the fix's edits applied (positions refer to the unchanged text)."""
+    lines = text.split("\n")
+    for e in sorted(fix.edits, key=lambda e: (e.line, e.col), reverse=True):
+        line = lines[e.line - 1]
+        lines[e.line - 1] = line[: e.col - 1] + e.text + line[e.col - 1 + e.length :]
+    return "\n".join(lines)
+
+
+def test_each_fix_of_an_example_removes_its_diagnostic(tmp_path, monkeypatch):
+    checked = []
+    for r in rules.RULES.values():
+        if not r.example or r.encoding != "utf-8":
+            continue
+        folder = tmp_path / r.name
+        folder.mkdir()
+        with monkeypatch.context() as m:
+            result = _run_example(r, folder, m)
+            before = sum(x.code == r.code for x in result.diagnostics)
+            mine = [d for d in result.diagnostics if d.code == r.code and d.file == "example.sgt" and d.fixes]
+            for fix in mine[0].fixes if mine else ():
+                fixed = apply_fix(r.example, fix)
+                (folder / "example.sgt").write_text(fixed, encoding="utf-8")
+                after = [x for x in compile_file("example.sgt", timing="estimate").diagnostics if x.code == r.code]
+                assert len(after) < before, (r.name, fix.title, fixed, after)
+                checked.append((r.name, fix.title))
+    assert len({name for name, _ in checked}) >= 20, checked
