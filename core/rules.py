@@ -11,8 +11,15 @@ template's fields::
 
 The rule fills in the code, name, severity, message and hint; nothing else formats a
 diagnostic (the renderer in :mod:`core.diagnostics` is the only place that turns one into
-text). Code ranges: 1xx layout and syntax, 2xx names and references, 3xx values, 4xx speech
-and timing, 5xx gesture specs and configuration, 6xx files and encodings.
+text). Other places go in ``related=`` (:class:`~core.diagnostics.Related`, never "(line N,
+col M)" in a message) and suggested edits in ``fixes=`` (:func:`did_you_mean` makes them for a
+misspelt name, with the hint that names them).
+
+Code ranges: 1xx layout and syntax, 2xx names and references, 3xx values, 4xx speech and
+timing, 5xx gesture specs and configuration, 6xx files and encodings. Codes are stable: a
+retired rule keeps its code, documented as reserved. Each rule carries an ``example`` script
+that triggers it (tests/test_rules.py runs every one; ``sgt explain`` shows it with what
+``sgt check`` says about it).
 """
 
 from __future__ import annotations
