@@ -89,6 +89,8 @@ class LibraryProblem:
     source: str = ""
 
     def __str__(self) -> str:
+        if self.kind == "folder":
+            return f"gesture folder {self.path}" + (f" (from {self.source})" if self.source else "") + f" {self.message}"
         where = f"{self.path}"
         if self.line:
             where += f":{self.line}:{self.col}"
