@@ -182,7 +182,7 @@ def resolve_overlaps(poses) -> list[tuple]:
     if len(poses) < 2:
         return [tuple(p) for p in out]
     order = sorted(range(len(poses)), key=lambda i: poses[i][2])  # stable: source order on ties
-    prev = None
+    prev, prev_i = None, -1
     for i in order:
         p = out[i]
         mark, start, length = p[0], p[2], p[3]

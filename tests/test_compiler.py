@@ -133,7 +133,7 @@ def test_overlap_after_the_stroke_cuts_the_earlier_retraction(tmp_path, lib):
     assert r.ok
     u = r.plan.utterances[0]
     right_start, right_stroke, right_clip = _pose_frames(u, lib, 1, "point_right")
-    nod_start, nod_stroke, nod_clip = _pose_frames(u, lib, 3, "nod")
+    nod_start, _, nod_clip = _pose_frames(u, lib, 3, "nod")
     assert right_start + right_stroke < nod_start < right_start + len(right_clip.poses)  # the case
     right, nod = [c for c in u.controls if c.kind == "pose"]
     assert (right.start_frame, right.end_frame) == (right_start, nod_start)  # cut where nod starts

@@ -154,7 +154,7 @@ def test_a_speaker_is_one_word_of_any_alphabet():
 def test_lines_that_look_like_a_speaker_are_spoken_with_a_warning():
     s = analyse("mall guide: Hello\ng:hello\nmall guide\\: Hello\ng\\:hello\nhttps://example.com now\n", "t.sgt")
     assert _names(s) == [("speaker-space", 1, 1), ("speaker-colon", 2, 1)]
-    first, second, escaped, escaped2, url = s.utterances
+    first, second, escaped, escaped2, _url = s.utterances
     assert first.speaker is None and [w.text for w in first.words] == ["mall", "guide", "Hello"]
     assert second.speaker is None and [w.text for w in second.words] == ["g", "hello"]
     assert escaped.speaker is None and escaped2.speaker is None  # an escaped colon: text, no warning
@@ -195,7 +195,7 @@ def test_duplicates_warn_and_the_last_one_wins():
 def test_a_mismatched_closing_tag_is_one_error():
     s = analyse("a <speed:1><space:1>x</speed> y </space> z\n", "t.sgt")
     assert _names(s) == [("mismatched-close", 1, 22)]
-    speed, space = s.utterances[0].styles
+    _speed, space = s.utterances[0].styles
     assert [w.text for w in s.utterances[0].words][space.first_word : space.last_word + 1] == ["x", "y"]
     s = analyse("a <speed:1>x</space> y </speed> z\n", "t.sgt")
     assert _names(s) == [("mismatched-close", 1, 13)]  # closes nothing: </speed> still matches

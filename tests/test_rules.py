@@ -114,7 +114,7 @@ def test_rules_without_an_example_say_so_and_are_triggered_otherwise(tmp_path, m
             (d,) = json.loads(capsys.readouterr().out)["diagnostics"]
             assert (d["name"], d["line"]) == ("speech", 2) and "could not be loaded" in d["message"]
     # timing: the engine returns another number of words than the script has
-    import dsl.compiler as compiler
+    from dsl import compiler
     from dsl.timing import estimate_timing
 
     def short(utt, cache_dir=None):
