@@ -158,13 +158,6 @@ def char_width(c: str) -> int:
     return 2 if unicodedata.east_asian_width(c) in ("W", "F") else 1
 
 
-def text_width(text: str) -> int:
-    """Terminal columns of ``text`` (see :func:`char_width`)."""
-    if text.isascii():
-        return len(text)
-    return sum(char_width(c) for c in text)
-
-
 def _excerpt_lines(text: str, col: int, length: int, max_width: int = MAX_SOURCE_WIDTH) -> tuple[str, str]:
     """The source line as shown and its caret line (without the gutter), by display width.
 
@@ -173,7 +166,7 @@ def _excerpt_lines(text: str, col: int, length: int, max_width: int = MAX_SOURCE
     wider than ``max_width`` is cut to a window around the caret, with "…" where it was cut."""
     chars = [_visible(c) for c in text]
     a = min(max(col - 1, 0), len(chars))
-    b = min(max(a + max(1, length), a + 1), max(len(chars), a + 1))
+    b = min(a + max(1, length), max(len(chars), a + 1))
     widths = [char_width(c) for c in chars]
     total = sum(widths)
     lo, hi = 0, len(chars)
