@@ -174,3 +174,11 @@ def test_the_editor_moves_related_spans_and_fixes_with_their_chunk():
     text2 = "@seed 1\nfirst\n\nsecond\n@seed 2\n"  # a related span in the header is not moved
     (late,) = [d for d in Analyser("m.sgt").run(text2).diagnostics if d.name == "header-only"]
     assert (late.line, late.related[0].line) == (5, 2)
+
+
+def test_excerpts_split_lines_as_the_script_does():
+    # a form feed or U+2028 is not a line end for the language (nor for the excerpt)
+    src = "a\x0cb\u2028c\nhi [pose:wavee]\n"
+    s = analyse(src, "f.sgt", gesture_names=NAMES)
+    (d,) = [d for d in s.diagnostics if d.name == "unknown-gesture"]
+    assert d.line == 2 and "     2 | hi [pose:wavee]" in format_text([d], {"f.sgt": src})
