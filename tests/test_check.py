@@ -279,7 +279,7 @@ def test_sgt_voices_lists_the_voices_check_accepts(capsys):
     assert names == sorted(list_voices())
 
 
-def test_check_is_fast_enough_not_to_need_speech(tmp_path, capsys, monkeypatch):
+def test_check_never_synthesizes_speech(tmp_path, capsys, monkeypatch):
     # `sgt check` never synthesizes: it works with the speech engine's worker broken
     from dsl.speech import _espeak
 
