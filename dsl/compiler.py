@@ -243,8 +243,8 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
             ))
         requests.poses.append((start, gesture, mark, length))
         controls.append(Control("pose", mark.name, start, start + length, w.line, w.col, mark.options))
-    n_frames = max([n_frames] + [c.end_frame for c in controls if c.kind == "pose"])
-    requests.n_frames = n_frames
+        if start + length > n_frames:  # a gesture that waited may end after the others
+            n_frames = requests.n_frames = start + length
     tail = max(0.0, n_frames / FPS - t.duration)
 
     controls.sort(key=lambda c: (c.start_frame, c.kind, c.line, c.col))

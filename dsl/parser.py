@@ -151,7 +151,8 @@ class _Analyser:
     def run(self, source: str) -> tuple[Header, list[Utterance]]:
         statements, layout = split_statements(source, self.file)
         self.diags.extend(layout)
-        if _SUSPICIOUS_RE.search(source):
+        # (an ASCII text can only hold NUL of them: two fast scans instead of the regex)
+        if "\x00" in source or (not source.isascii() and _SUSPICIOUS_RE.search(source)):
             self._suspicious_characters(source)
         header = Header()
         ctx = DirectiveContext(self.file, self.base_dir, header, set(STYLE_NAMES) | set(BUILTIN_PRESETS))

@@ -128,6 +128,18 @@ def test_overlap_the_later_gesture_waits_for_the_earlier_stroke(tmp_path, lib):
     assert f"waits {keep - left_start} frames" in d.message
 
 
+def test_a_gesture_that_waits_past_the_end_extends_the_utterance(tmp_path, lib):
+    r = build(tmp_path, "[pose:point_right] [pose:point_left] hi\n", lib)  # both on the only word
+    u = r.plan.utterances[0]
+    right, left = [c for c in u.controls if c.kind == "pose"]
+    clip = lib.get("point_left").clip()
+    assert left.start_frame == right.end_frame and left.end_frame - left.start_frame == len(clip.poses)
+    assert u.n_frames == left.end_frame > seconds_to_frame(u.words[-1].end)  # nothing is cut
+    assert np.allclose(u.arrays.pose[left.start_frame : left.end_frame], clip.poses)
+    assert u.arrays.pose_mask.sum() == (right.end_frame - right.start_frame) + len(clip.poses)
+    assert u.speech["tail"] > 0 and u.duration == u.n_frames / FPS  # the motion runs on after the speech
+
+
 def test_overlap_after_the_stroke_cuts_the_earlier_retraction(tmp_path, lib):
     r = build(tmp_path, "look [pose:point_right] here and [pose:nod] there now more\n", lib)
     assert r.ok
