@@ -7,8 +7,9 @@ Public API::
     result = compile_file("my.sgt")             # + speech timing + control arrays
     result.diagnostics, result.plan
 
-Importing this package is cheap: Lark loads only for a body with a syntax error, the
-speech engine on the first synthesis.
+Importing this package is cheap: the analyser reads every body with a regular-expression
+scanner (Lark and the grammar, dsl/sgt.lark, are the reference it is tested against), and the
+speech engine loads when a voice is first checked or spoken.
 """
 
 from __future__ import annotations

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from core.words import TimedWord
 from core.controls import STYLE_NAMES, Control, ControlArrays
 from core.fileio import atomic_write
+from core.words import TimedWord
 
 PLAN_FORMAT = "sgt-plan"
 PLAN_VERSION = 1
@@ -27,15 +27,15 @@ class ArrayRequests:
     """What the control arrays must hold; they are built on first use (``sgt check`` never needs them)."""
 
     n_frames: int
-    poses: list = field(default_factory=list)  # (start frame, library Gesture, PoseMark)
+    poses: list = field(default_factory=list)  # (start frame, library Gesture, PoseMark, frames played)
     styles: list = field(default_factory=list)  # (start, end, {name: value}), outer spans first
 
     def build(self) -> ControlArrays:
         arrays = ControlArrays.empty(self.n_frames)
         for a, b, values in self.styles:
             arrays.set_style(a, b, values)
-        for start, gesture, mark in self.poses:
-            arrays.set_pose(start, gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).poses)
+        for start, gesture, mark, length in self.poses:  # length < the clip's: its retraction was cut
+            arrays.set_pose(start, gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).poses[:length])
         return arrays
 
 

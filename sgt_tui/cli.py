@@ -17,7 +17,8 @@ import sys
 from sgt_tui.errors import UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
-COMMANDS = ("check", "compile", "say", "library_cmd", "generate", "train", "render", "export", "corpus", "eval", "edit")
+COMMANDS = ("check", "compile", "explain", "say", "voices", "library_cmd", "generate", "train", "render", "export", "corpus",
+            "eval", "edit")
 
 EPILOG = """\
 exit status: 0 when clean, 1 when the input has errors (diagnostics are printed),

@@ -209,7 +209,7 @@ def test_incremental_analysis_equals_the_whole_file_analysis():
         full = compile_file(path, timing="estimate", source=text)
         if any(d.is_error for d in full.diagnostics):
             static = load_script(path, source=text)[2]
-            assert _key(d for d in mine if d.code != "overlap") == _key(static), text
+            assert _key(d for d in mine if d.name != "overlap") == _key(static), text
         else:
             assert _key(mine) == _key(full.diagnostics), text
 

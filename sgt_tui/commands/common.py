@@ -27,16 +27,30 @@ def use_color(stream) -> bool:
     return hasattr(stream, "isatty") and stream.isatty() and "NO_COLOR" not in os.environ
 
 
-def print_diagnostics(diags, sources: dict[str, str], fmt: str = "text", stream=None) -> None:
-    from core.diagnostics import format_json, format_text, summary
+def max_per_file(requested: int | None, fmt: str, default: int) -> int | None:
+    """``--max-errors``: None or 0 show everything; unset, text output shows ``default``."""
+    if requested is None:
+        return default if fmt == "text" else None
+    return requested or None
+
+
+def print_diagnostics(diags, sources: dict[str, str], fmt: str = "text", stream=None, *,
+                      max_per_file: int | None = None, summarise: bool = True) -> None:
+    """Diagnostics as text on ``stream`` (default stderr) with a summary line, or as JSON on
+    stdout; at most ``max_per_file`` per file, and a line that counts the rest."""
+    from core.diagnostics import cap, format_json, format_text, summary
 
     stream = stream or sys.stderr
     if fmt == "json":
-        sys.stdout.write(format_json(diags) + "\n")
+        sys.stdout.write(format_json(diags, max_per_file) + "\n")
         return
     if diags:
-        stream.write(format_text(diags, sources, color=use_color(stream)) + "\n")
-        stream.write(summary(diags) + "\n")
+        shown, left = cap(diags, max_per_file)
+        stream.write(format_text(shown, sources, color=use_color(stream)) + "\n")
+        for file, n in left.items():
+            stream.write(f"{file}: {n} more problem{'s' if n != 1 else ''} not shown (--max-errors 0 shows all)\n")
+        if summarise:
+            stream.write(summary(diags) + "\n")
 
 
 def exit_code(diags) -> int:

@@ -24,16 +24,23 @@ def register(sub) -> None:
     p.add_argument("--utterance", type=int, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
     p.add_argument("--estimate", action="store_true", help="estimate word times from the text instead of synthesizing speech")
     p.add_argument("--format", choices=("text", "json"), default="text", help="diagnostics format (default text, on stderr)")
+    p.add_argument("--max-errors", type=int, metavar="N", default=None,
+                   help="show at most N problems per file and count the rest (text default 50, JSON all; 0: all)")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
+    from pathlib import Path
+
     from dsl.compiler import compile_file
+    from sgt_tui.commands.check import DEFAULT_MAX
+    from sgt_tui.commands.common import exit_code, max_per_file, print_diagnostics
     from sgt_tui.errors import UsageError
-    from sgt_tui.commands.common import existing_file, exit_code, print_diagnostics
     from sgt_tui.progress import ProgressBar
 
-    path = existing_file(args.file)
+    if args.max_errors is not None and args.max_errors < 0:
+        raise UsageError("--max-errors must be 0 (show all) or more")
+    path = Path(args.file)  # an unreadable script is a diagnostic (exit 1), as in sgt check
     result = compile_file(path, timing="estimate" if args.estimate else "speech", progress=ProgressBar("speech"), utterances=args.utterance)
     diags = result.diagnostics
     if args.utterance and result.plan is not None:
@@ -41,7 +48,8 @@ def run(args) -> int:
         missing = [n for n in args.utterance if n not in known]
         if missing:
             raise UsageError(f"no utterance {missing[0]}: the script has {len(known)} (0..{len(known) - 1})")
-    print_diagnostics(diags, {str(path): result.script.source}, args.format)
+    print_diagnostics(diags, {str(path): result.script.source}, args.format,
+                      max_per_file=max_per_file(args.max_errors, args.format, DEFAULT_MAX))
     if result.plan is None:
         return exit_code(diags) or 1
     plan = result.plan

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import re
 from bisect import bisect_right
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -103,25 +102,21 @@ class _Chunk:
     extra: list[Diagnostic] = field(default_factory=list)  # not about this script (library specs)
 
 
-_LINE_REF = re.compile(r"\(line (\d+), col ")
-
-
-def _moved(d: Diagnostic, shift: int) -> Diagnostic:
-    """A chunk's diagnostic at its real line, with its related places and its fixes' edits (and
-    the lines its message refers to)."""
+def _moved(d: Diagnostic, shift: int, start: int) -> Diagnostic:
+    """A chunk's diagnostic at its real line. Its span, and the related spans and fix edits in
+    the chunk (canonical lines from ``start`` on), move by ``shift`` lines; places above the
+    chunk are the header's (and the stand-in's line is the first utterance's), already real,
+    and places in other files (a library spec) stay."""
     if not shift:
         return d
 
-    def fix(text):
-        return _LINE_REF.sub(lambda m: f"(line {int(m.group(1)) + shift}, col ", text) if text else text
+    def move(line: int) -> int:
+        return line + shift if line >= start else line
 
-    mine = d.file
-    related = tuple(dataclasses.replace(r, line=r.line + shift) if r.file == mine and r.line > 0 else r
-                    for r in d.related)
-    fixes = tuple(dataclasses.replace(f, edits=tuple(dataclasses.replace(e, line=e.line + shift) for e in f.edits))
+    related = tuple(dataclasses.replace(r, line=move(r.line)) if r.file == d.file and r.line else r for r in d.related)
+    fixes = tuple(dataclasses.replace(f, edits=tuple(dataclasses.replace(e, line=move(e.line)) for e in f.edits))
                   for f in d.fixes)
-    return dataclasses.replace(d, line=d.line + shift, message=fix(d.message), hint=fix(d.hint), related=related,
-                               fixes=fixes)
+    return dataclasses.replace(d, line=d.line + shift, related=related, fixes=fixes)
 
 
 def _digest(*parts: str) -> str:
@@ -189,7 +184,7 @@ class Analyser:
                 c = chunk("first" if k == 0 else "next", body)
                 real_start = 1 if k == 0 else prev_end + 1
                 shift = real_start - c.canonical_start
-                moved = [_moved(d, shift) for d in c.diagnostics]
+                moved = [_moved(d, shift, c.canonical_start) for d in c.diagnostics]
                 diags += moved
                 if k == 0:
                     diags += c.extra
@@ -205,7 +200,7 @@ class Analyser:
             if any(s.line > prev_end for s in statements):
                 c = chunk("tail", tail)
                 shift = prev_end + 1 - c.canonical_start
-                diags += [_moved(d, shift) for d in c.diagnostics]
+                diags += [_moved(d, shift, c.canonical_start) for d in c.diagnostics]
         self._chunks, self.chunks_analysed = used, analysed[0]
         diags.sort(key=sort_key)
         by_line: dict[int, list[Diagnostic]] = {}
