@@ -94,6 +94,16 @@ class Diagnostic:
             if len(f.edits) == 1 and (f.edits[0].line, f.edits[0].col, f.edits[0].length) == (self.line, self.col, self.length)
         )
 
+    @classmethod
+    def from_dict(cls, d: dict) -> "Diagnostic":
+        """The inverse of :meth:`to_dict` (diagnostics cross processes and files as JSON)."""
+        return cls(
+            severity=d["severity"], message=d["message"], file=d.get("file", "<string>"), line=int(d.get("line", 0)),
+            col=int(d.get("col", 0)), length=int(d.get("length", 1)), hint=d.get("hint"), code=d.get("code", ""),
+            name=d.get("name", ""), related=tuple(Related(**r) for r in d.get("related") or ()),
+            fixes=tuple(Fix(f["title"], tuple(TextEdit(**e) for e in f.get("edits") or ())) for f in d.get("fixes") or ()),
+        )
+
     def to_dict(self) -> dict:
         return {
             "severity": self.severity,

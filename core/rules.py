@@ -792,6 +792,22 @@ try again; report it if it persists.
 """,
 )
 
+GENERATION = rule(
+    "SGT405", "generation", ERROR,
+    "{detail}",
+    None,
+    """
+A generation or render job of the editor failed for a reason that is not in the script: the
+generator's weights are missing or do not fit this version of sgt, the worker process
+stopped, or the output could not be written. The message says which.
+
+No script triggers it on a working installation.
+
+Fix: follow the message (for weights: `sgt train`, or `--weights PATH` / the shipped
+model/weights/generator.pt); the editor's worker log is in ~/.cache/sgt/editor/worker.log.
+""",
+)
+
 TIMINGS_MISMATCH = rule(
     "SGT404", "timings-mismatch", ERROR,
     "{detail}",

@@ -3,7 +3,7 @@
 The grammar is the language's definition. The analyser itself reads every body with the
 regular-expression scanner (:mod:`dsl.scan`), which builds the same items about ten times
 faster and stops where the grammar fails; tests/test_scan.py checks the two against each
-other on random bodies. Lark is imported only by :func:`_lark` (the tests, and anyone who
+other on random bodies. Lark is imported only by :func:`lark_parser` (the tests, and anyone who
 wants the grammar's own parse).
 """
 
@@ -25,7 +25,7 @@ def _named(children):
 
 
 @lru_cache(maxsize=1)
-def _lark():
+def lark_parser():
     """The LALR parser; it builds the items while parsing (no parse tree)."""
     from lark import Lark, Transformer
 

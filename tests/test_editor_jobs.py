@@ -121,6 +121,17 @@ def test_worker_errors_are_told_apart_by_type_not_by_class_name():
     assert back == Failed("7", "the script has 1 error", (d,))
 
 
+def test_an_unreadable_answer_fails_its_job_instead_of_leaving_it_running():
+    from sgt_tui.editor.protocol import Failed, decode_event
+
+    assert decode_event("not json at all") is None  # not an event: ignored
+    assert decode_event('{"something": "else"}') is None
+    bad = decode_event('{"event": "error", "id": "3", "diagnostics": [{"message": "no severity"}]}')
+    assert isinstance(bad, Failed) and bad.id == "3" and "could not be read" in bad.message
+    bad = decode_event('{"event": "done", "id": "4", "result": {"utterances": "many"}}')
+    assert isinstance(bad, Failed) and bad.id == "4" and "could not be read" in bad.message
+
+
 def test_gif_names_count_utterances_from_one_like_the_status_line(tmp_path):
     from sgt_tui.editor.analysis import Analyser
     from sgt_tui.editor.jobs import JobRefused, plan_job

@@ -23,6 +23,7 @@ NO_EXAMPLE = {
     "speech": "the speech engine or aligner fails: not the script",
     "timing": "a broken engine or cache entry: not the script",
     "io": "the script file itself cannot be read",
+    "generation": "an editor job fails for a reason outside the script (tests/test_editor_app.py triggers it)",
 }
 
 

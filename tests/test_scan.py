@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from lark.exceptions import UnexpectedInput
 
-from dsl.body import _lark
+from dsl.body import lark_parser
 from dsl.scan import scan_body, scan_items
 
 PIECES = [
@@ -26,7 +26,7 @@ body_text = st.lists(st.one_of(st.sampled_from(PIECES), st.text(max_size=4)), ma
 
 def _lark_items(body):
     try:
-        return _lark().parse(body)
+        return lark_parser().parse(body)
     except UnexpectedInput:
         return None
 

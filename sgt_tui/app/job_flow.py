@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from core.diagnostics import ERROR, Diagnostic
+from core import rules
 from core.motion import MotionFileError, load_motion
 from core.skeleton import FPS
 from model.weights import DEFAULT_WEIGHTS
@@ -58,7 +58,7 @@ class JobFlow:
             self._done(job)
         elif job.state == FAILED:
             app.job_problems = list(job.diagnostics) or [
-                Diagnostic(ERROR, f"{job.label} failed: {job.message}", str(app.script.path))]
+                rules.GENERATION.at(str(app.script.path), 0, 0, detail=f"{job.label} failed: {job.message}")]
             app.job_text = job.request.source
             app.say(f"{job.label} failed: {job.message} (F2 lists it)", "error")
         elif job.state == CANCELLED and not app.last_message.startswith(f"cancelled {job.label}"):

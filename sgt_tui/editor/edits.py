@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from core.controls import STYLE_LIMIT, STYLE_NAMES
 from core.diagnostics import Fix
 from dsl.lines import split_statements, strip_comment
-from dsl.presets import BUILTIN_PRESETS
 from sgt_tui.editor.document import Document, Location, Replacement
 from sgt_tui.editor.tokens import line_tokens, spoken_pieces
 
@@ -72,10 +71,6 @@ def style_tags(values: dict[str, float] | None = None, preset: str | None = None
     return "<" + " ".join(items) + ">", f"</{first}>"
 
 
-def preset_values(name: str, user_presets: dict | None = None) -> dict[str, float]:
-    return dict({**BUILTIN_PRESETS, **(user_presets or {})}.get(name, {}))
-
-
 # -- where things are -----------------------------------------------------------------------
 
 def _statement_at(doc: Document, row: int):
@@ -85,11 +80,6 @@ def _statement_at(doc: Document, row: int):
         if s.kind == "utterance" and s.line - 1 <= row <= s.last_line - 1:
             return s
     return None
-
-
-def _body_start(doc: Document, stmt) -> Location:
-    row = stmt.line - 1
-    return (row, stmt.body_offset)
 
 
 def _in_tag(line: str, col: int) -> tuple[int, int] | None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass, field
 
-from core.diagnostics import Diagnostic, Fix, Related, TextEdit
+from core.diagnostics import Diagnostic
 
 OPS = ("generate", "render")
 PHASES = ("speech", "motion", "render")
@@ -118,29 +118,25 @@ def encode_event(event: Event) -> str:
 
 
 def decode_event(line: str) -> Event | None:
+    """The event on one line of the worker's output; None for a line that is not an event. An
+    event whose payload cannot be read fails its job (with why) instead of leaving it running."""
     try:
         d = json.loads(line)
-        kind = d.get("event")
+    except ValueError:
+        return None
+    if not isinstance(d, dict) or d.get("event") not in ("progress", "done", "error"):
+        return None
+    rid = d.get("id")
+    try:
+        kind = d["event"]
         if kind == "progress":
-            return Progress(str(d["id"]), str(d.get("phase", "")), int(d.get("done", 0)), int(d.get("total", 0)),
+            return Progress(str(rid), str(d.get("phase", "")), int(d.get("done", 0)), int(d.get("total", 0)),
                             str(d.get("what", "")))
         if kind == "done":
-            return Done(str(d["id"]), JobResult.from_dict(d.get("result") or {}))
-        if kind == "error":
-            rid = d.get("id")
-            return Failed(None if rid is None else str(rid), str(d.get("message") or "the job failed"),
-                          tuple(diagnostic_from_dict(x) for x in d.get("diagnostics") or ()))
-    except (ValueError, KeyError, TypeError, AttributeError):
-        return None
-    return None
+            return Done(str(rid), JobResult.from_dict(d.get("result") or {}))
+        return Failed(None if rid is None else str(rid), str(d.get("message") or "the job failed"),
+                      tuple(Diagnostic.from_dict(x) for x in d.get("diagnostics") or ()))
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        return Failed(None if rid is None else str(rid), f"the worker's answer could not be read ({type(exc).__name__}: {exc})")
 
 
-def diagnostic_from_dict(d: dict) -> Diagnostic:
-    """The inverse of :meth:`core.diagnostics.Diagnostic.to_dict` (diagnostics cross the pipe as JSON)."""
-    return Diagnostic(
-        severity=d["severity"], message=d["message"], file=d.get("file", "<string>"), line=int(d.get("line", 0)),
-        col=int(d.get("col", 0)), length=int(d.get("length", 1)), hint=d.get("hint"), code=d.get("code", ""),
-        suggestions=tuple(d.get("suggestions") or ()), name=d.get("name", ""),
-        related=tuple(Related(**r) for r in d.get("related") or ()),
-        fixes=tuple(Fix(f["title"], tuple(TextEdit(**e) for e in f.get("edits") or ())) for f in d.get("fixes") or ()),
-    )
