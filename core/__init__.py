@@ -13,4 +13,5 @@ and the import-linter contracts in pyproject.toml).
 - :mod:`core.rules`       the registry of diagnostic codes (``sgt explain``)
 - :mod:`core.fileio`      safe file writes
 - :mod:`core.paths`       user locations: config, cache, gesture folders (XDG honoured)
+- :mod:`core.seeds`       the range of random seeds (``@seed``, ``--seed``)
 """

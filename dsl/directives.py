@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean
+from core.seeds import SEED_MAX
 from dsl.script import AudioRef, Header, Span
 from dsl.styles import STYLE_ITEM_HELP, parse_style_value
 
@@ -148,7 +149,7 @@ def _do_pitch(ctx, args, line, where):
 def _do_seed(ctx, args, line, where):
     arg = _need_one(ctx, args, line, where, "seed", "@seed 7")
     if arg is not None:
-        value = _int_in_range(ctx, arg, line, "seed", 0, 2**31 - 1)
+        value = _int_in_range(ctx, arg, line, "seed", 0, SEED_MAX)
         if value is not None:
             ctx.header.seed = value
 

@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from library import load_library
 from core.motion import MotionClip, save_motion
 from core.skeleton import N_BONES
+from library import load_library
 from sgt_tui import cli
 
 
@@ -77,10 +77,11 @@ def test_show(capsys):
     assert len(doc["keyframes"]) == len(g.keyframes)
 
 
-def test_show_unknown(capsys):
+def test_show_unknown_is_a_usage_error(capsys):
+    """A name that matches nothing is a usage error (2), like `--utterance 50`."""
     code, out, err = _run(capsys, "library", "show", "point_rigth")
-    assert code == 1
-    assert "point_right" in err
+    assert code == 2
+    assert "point_right" in err and "Traceback" not in err
 
 
 def test_no_subcommand_is_usage_error(capsys):
@@ -125,20 +126,24 @@ def test_add_refuses_overwrite_and_bad_ranges(tmp_path, capsys):
     args = ["library", "add", "span", "--from", str(path), "--to", str(tmp_path / "lib")]
     assert _run(capsys, *args, "--frames", "0:10")[0] == 0
     code, _, err = _run(capsys, *args, "--frames", "0:12")
-    assert code == 1 and "--force" in err
+    assert code == 2 and "--force" in err
     assert _run(capsys, *args, "--frames", "0:12", "--force")[0] == 0
     assert len(load_library([tmp_path / "lib"], use_config=False).get("span").clip().poses) == 12
     code, _, err = _run(capsys, *args, "--frames", "10:5000", "--force")
-    assert code == 1 and str(len(poses)) in err
+    assert code == 2 and str(len(poses)) in err
     code, _, err = _run(capsys, *args, "--frames", "7:7", "--force")
-    assert code == 1 and "at least 2" in err
+    assert code == 2 and "at least 2" in err
     code, _, err = _run(capsys, *args, "--frames", "abc", "--force")
     assert code == 2 and "A:B" in err
     code, _, err = _run(capsys, *args, "--frames", "0:5", "--utterance", "7", "--force")
-    assert code == 1 and "utterance 7" in err
+    assert code == 2 and "utterance 7" in err
     code, _, err = _run(capsys, "library", "add", "x", "--from", str(tmp_path / "none.json"),
                         "--frames", "0:5")
-    assert code == 1 and "no such file" in err
+    assert code == 2 and "no such file" in err
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    code, _, err = _run(capsys, "library", "add", "x", "--from", str(bad), "--frames", "0:5", "--to", str(tmp_path / "lib"))
+    assert code == 1 and "bad.json" in err  # a file that exists but is not a motion file: the input's problem
 
 
 def test_add_default_folder(tmp_path, capsys, monkeypatch):

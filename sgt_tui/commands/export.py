@@ -17,15 +17,19 @@ Export a motion file (or a script, generated first) by the output's extension:
 BVH and CSV hold one take: without --utterance the utterances are joined one after
 another. Formats are documented in docs/formats.md."""
 
-SUFFIXES = (".bvh", ".csv", ".json", ".npz")
+FORMATS = ("bvh", "csv", "json", "npz")
 
 
 def register(sub) -> None:
+    from sgt_tui.commands.common import utterance_number
+
     p = sub.add_parser("export", help=HELP, description=DESCRIPTION,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("input", metavar="MOTION", help="motion file (.json/.npz) or script (.sgt)")
-    p.add_argument("-o", "--output", metavar="OUT", required=True, help="output file: .bvh, .csv, .json or .npz")
-    p.add_argument("--utterance", type=int, metavar="N", help="only utterance N (0-based)")
+    p.add_argument("-o", "--output", metavar="OUT", required=True,
+                   help="output file: .bvh, .csv, .json or .npz ('-': standard output, JSON unless --format)")
+    p.add_argument("--format", choices=FORMATS, help="output format (default: from OUT's extension)")
+    p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (0-based)")
     from sgt_tui.commands.render import add_script_options
 
     add_script_options(p)
@@ -33,35 +37,23 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from pathlib import Path
+    from sgt_tui.commands.clips import load_clips
+    from sgt_tui.commands.common import output_file, output_format, shown
 
-    from sgt_tui.errors import UsageError
-    from sgt_tui.commands.render import InputError, load_clips, report_input_error
+    fmt = output_format(args.output, args.format, FORMATS, what="export")
+    out = output_file(args.output, binary=fmt == "npz")
+    clips = load_clips(args.input, args.utterance, engine=args.engine, seed=args.seed)
 
-    suffix = Path(args.output).suffix.lower()
-    if suffix not in SUFFIXES:
-        raise UsageError(f"-o {args.output}: unknown export type '{suffix or '(none)'}' (use .bvh, .csv, .json or .npz)")
-    if args.utterance is not None and args.utterance < 0:
-        raise UsageError(f"--utterance must be 0 or more, not {args.utterance}")
-    try:
-        clips = load_clips(args.input, args.utterance, args.engine, args.seed)
-    except InputError as exc:
-        return report_input_error("export", exc)
-
-    from core.motion import MotionFileError, save_motion
+    from core.motion import save_motion
     from renders.clips import concat_clips
     from renders.export import write_bvh, write_csv
 
-    try:
-        if suffix in (".json", ".npz"):
-            save_motion(args.output, clips)
-            frames = sum(c.n_frames for c in clips)
-        else:
-            clip = concat_clips(clips)
-            (write_bvh if suffix == ".bvh" else write_csv)(args.output, clip)
-            frames = clip.n_frames
-    except (OSError, MotionFileError) as exc:
-        print(f"sgt export: error: cannot write {args.output}: {exc}", file=sys.stderr)
-        return 1
-    print(f"wrote {args.output}: {len(clips)} utterance(s), {frames} frames", file=sys.stderr)
+    if fmt in ("json", "npz"):
+        save_motion(out, clips, format=fmt)
+        frames = sum(c.n_frames for c in clips)
+    else:
+        clip = concat_clips(clips)
+        (write_bvh if fmt == "bvh" else write_csv)(out, clip)
+        frames = clip.n_frames
+    print(f"wrote {shown(out)}: {len(clips)} utterance(s), {frames} frames", file=sys.stderr)
     return 0
