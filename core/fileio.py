@@ -91,7 +91,7 @@ def check_output(path: Path | str) -> None:
 
 def check_output_folder(path: Path | str) -> None:
     """Raise :class:`OutputError` if ``path`` cannot be (made into) a folder to write files in."""
-    shown = _name(path)
+    shown = _name(path, folder=True)
     try:
         is_folder = stat.S_ISDIR(os.stat(shown).st_mode)
     except FileNotFoundError:
@@ -109,7 +109,7 @@ def check_output_folder(path: Path | str) -> None:
 
 def make_folder(path: Path | str) -> Path:
     """Create ``path`` and its parents (nothing if it exists); :class:`OutputError` if impossible."""
-    shown = _name(path)
+    shown = _name(path, folder=True)
     try:
         os.makedirs(shown, exist_ok=True)
     except (FileExistsError, NotADirectoryError):
@@ -122,7 +122,7 @@ def make_folder(path: Path | str) -> Path:
 # -- internals -----------------------------------------------------------------------------
 
 
-def _name(path) -> str:
+def _name(path, folder: bool = False) -> str:
     shown = os.fspath(path)
     if isinstance(shown, bytes):
         shown = os.fsdecode(shown)
@@ -130,6 +130,8 @@ def _name(path) -> str:
         raise OutputPathError("the output file name is empty")
     if "\0" in shown:
         raise OutputPathError(f"{shown!r}: a file name cannot contain a NUL character")
+    if not folder and shown.endswith("/") and shown.rstrip("/"):
+        raise OutputPathError(f"{shown} names a folder (it ends with '/'); name a file")
     return shown
 
 

@@ -13,47 +13,14 @@ import socket
 import stat
 import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import pytest
+from special_files import FifoReader, as_unprivileged, char_device, needs_root, shared_dir_for_others
 
 from core.fileio import OutputError, OutputPathError, atomic_write, atomic_write_text, check_output, check_output_folder, make_folder
 
 ROOT = Path(__file__).resolve().parent.parent
-needs_root = pytest.mark.skipif(os.geteuid() != 0, reason="creating a device node (os.mknod) needs root")
-
-
-def char_device(path: Path, like: str = "/dev/null") -> Path:
-    """A character device with the numbers of ``like`` (/dev/null: writes vanish; /dev/full:
-    writes fail, disk full), made with os.mknod in the test's folder.
-
-    Tests never write to the machine's own /dev/null or /dev/full: if the code under test
-    regressed, running them as root would replace those devices with regular files."""
-    os.mknod(path, 0o666 | stat.S_IFCHR, os.stat(like).st_rdev)
-    return path
-
-
-class FifoReader:
-    """Reads everything written to a FIFO (each open/close by a writer) in a thread."""
-
-    def __init__(self, path: Path) -> None:
-        os.mkfifo(path)
-        self.path, self.data, self.stop = path, bytearray(), False
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        while not self.stop:
-            with open(self.path, "rb") as f:
-                self.data += f.read()
-
-    def close(self) -> bytes:
-        self.stop = True
-        fd = os.open(self.path, os.O_WRONLY | os.O_NONBLOCK)  # wakes the reader blocked in open()
-        os.close(fd)
-        self.thread.join(5)
-        return bytes(self.data)
 
 
 def test_regular_file_replaced_atomically(tmp_path):
@@ -173,42 +140,8 @@ def test_missing_parents_are_created_when_written_not_when_checked(tmp_path):
 
 
 @pytest.fixture
-def shared_dir():
-    """A folder that another user can reach (pytest's tmp_path is private to root)."""
-    import shutil
-    import tempfile
-
-    d = Path(tempfile.mkdtemp(prefix="sgt-fileio-"))
-    d.chmod(0o777)
-    yield d
-    shutil.rmtree(d, ignore_errors=True)
-
-
-def as_unprivileged(fn) -> list[str]:
-    """``fn()``'s lines, computed in a child process of an ordinary user: nobody (65534) when
-    the tests run as root, who may write anywhere."""
-    import traceback
-
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # the child
-        os.close(r)
-        status = 0
-        try:
-            if os.geteuid() == 0:
-                os.setgid(65534)
-                os.setuid(65534)
-            text = "\n".join(fn())
-        except BaseException:
-            text, status = traceback.format_exc(), 1
-        os.write(w, text.encode())
-        os._exit(status)
-    os.close(w)
-    with os.fdopen(r, "rb") as f:
-        out = f.read().decode()
-    _, status = os.waitpid(pid, 0)
-    assert os.waitstatus_to_exitcode(status) == 0, out
-    return out.splitlines()
+def shared_dir(tmp_path_factory):
+    return shared_dir_for_others(tmp_path_factory)
 
 
 def refused(fn, *args) -> str:

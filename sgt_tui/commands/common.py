@@ -26,7 +26,7 @@ from pathlib import Path
 
 from core.fileio import check_output, check_output_folder
 from core.seeds import SEED_MAX
-from sgt_tui.errors import UsageError
+from sgt_tui.errors import InputError, UsageError
 
 #: ``--smoothing`` choices of the neural engine, first the default. The same names as
 #: ``model.postprocess.SMOOTHERS`` (a test checks), spelt out here so that building the parser
@@ -104,32 +104,31 @@ def add_seed_option(p, help_text: str) -> None:
 
 
 def existing_file(path: str) -> Path:
-    """An input file named on the command line: missing or a folder is a usage error (exit 2);
-    one that exists but cannot be read is reported by whoever reads it (exit 1)."""
-    p = Path(path)
-    try:
-        exists, folder = p.exists(), p.is_dir()
-    except (OSError, ValueError):
-        exists = folder = False
-    if not exists:
-        raise UsageError(f"no such file: {path}")
-    if folder:
-        raise UsageError(f"{path} is a folder, not a file")
-    return p
+    """An input file named on the command line. Missing, or a folder: a usage error (exit 2);
+    there but out of reach (permissions): an input problem (exit 1)."""
+    return _existing(path, "file")
 
 
 def existing_folder(path: str, option: str) -> Path:
-    """An input folder named on the command line: missing or a file is a usage error (exit 2)."""
-    p = Path(path)
+    """An input folder named on the command line, by :func:`existing_file`'s rule."""
+    return _existing(path, "folder", option)
+
+
+def _existing(path: str, kind: str, option: str = "") -> Path:
+    import stat
+
+    where = f"{option} {path}" if option else path
     try:
-        exists, folder = p.exists(), p.is_dir()
-    except (OSError, ValueError):
-        exists = folder = False
-    if not exists:
-        raise UsageError(f"{option} {path}: no such folder")
-    if not folder:
-        raise UsageError(f"{option} {path} is a file, not a folder")
-    return p
+        st = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError, ValueError):
+        raise UsageError(f"no such {kind}: {where}") from None
+    except OSError as exc:
+        raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
+    if kind == "file" and stat.S_ISDIR(st.st_mode):
+        raise UsageError(f"{where} is a folder, not a file")
+    if kind == "folder" and not stat.S_ISDIR(st.st_mode):
+        raise UsageError(f"{where} is a file, not a folder")
+    return Path(path)
 
 
 def check_utterances(script, requested) -> None:
