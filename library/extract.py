@@ -9,12 +9,12 @@ the round-trip error of the file.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-from library.spec import REST_DIRS, parse_spec_text, sample
 from core.skeleton import (
     BONE_NAMES,
     FPS,
@@ -23,6 +23,7 @@ from core.skeleton import (
     frame_count,
     positions_from_pose,
 )
+from library.spec import REST_DIRS, parse_spec_text, sample
 
 #: Bones are written only when they moved more than this since the previous keyframe.
 SAME_DEG = 0.3
@@ -42,8 +43,9 @@ def _num(x: float) -> str:
 
 
 def _toml_str(s: str) -> str:
-    out = s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ")
-    return f'"{out}"'
+    """A TOML basic string on one line: control characters escaped (JSON's escapes are TOML's,
+    all but DEL, which JSON leaves as it is)."""
+    return json.dumps(s.replace("\n", " "), ensure_ascii=False).replace("\x7f", "\\u007f")
 
 
 def render_spec(name: str, dirs: np.ndarray, frames: list[int], n: int, *, description: str,

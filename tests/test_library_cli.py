@@ -165,3 +165,25 @@ def test_python_m_usage_error_is_a_message_not_a_traceback(tmp_path, module):
                        capture_output=True, text=True)
     assert r.returncode == 2, r.stderr
     assert "Traceback" not in r.stderr and "sgt export: error:" in r.stderr
+
+
+def test_add_keeps_any_text_in_tags_and_description(tmp_path, capsys):
+    """Control characters, quotes and backslashes are escaped in the spec (they made invalid TOML)."""
+    path, _ = _motion(tmp_path)
+    odd = 'a\x08b "q" back\\slash del\x7f tab\t'
+    code, _, err = _run(capsys, "library", "add", "odd", "--from", str(path), "--frames", "0:8",
+                        "--to", str(tmp_path / "lib"), "--tags", odd + ",x", "--description", odd)
+    assert code == 0, err
+    lib = load_library([tmp_path / "lib"], use_config=False)
+    assert lib.problems == []
+    g = lib.get("odd")
+    assert g.tags == [odd.strip(), "x"] and g.description == odd
+
+
+def test_add_refuses_text_that_is_not_utf8(tmp_path, capsys):
+    """Bytes that are not UTF-8 on the command line (kept by Python as lone surrogates)."""
+    path, _ = _motion(tmp_path)
+    code, _, err = _run(capsys, "library", "add", "odd", "--from", str(path), "--frames", "0:8",
+                        "--to", str(tmp_path / "lib"), "--tags", "caf\udce9")
+    assert code == 2 and "--tags must be UTF-8" in err
+    assert not (tmp_path / "lib" / "odd.toml").exists()

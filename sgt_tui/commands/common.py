@@ -96,6 +96,16 @@ def _number(text: str, kind, low, strict: bool = False):
     return value
 
 
+def text(value: str, option: str) -> str:
+    """A text option that ends up inside a file: it must be UTF-8 (a command line can carry
+    other bytes, which Python keeps as lone surrogates)."""
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise UsageError(f"{option} must be UTF-8 text") from None
+    return value
+
+
 def add_seed_option(p, help_text: str) -> None:
     p.add_argument("--seed", type=seed, metavar="N", help=f"{help_text} (0 to {SEED_MAX})")
 

@@ -170,7 +170,7 @@ def _add(args) -> int:
     from core.fileio import atomic_write_text
     from core.motion import MotionFileError, load_motion
     from library.extract import spec_text_from_poses
-    from sgt_tui.commands.common import existing_file, output_folder
+    from sgt_tui.commands.common import existing_file, output_folder, text
     from sgt_tui.errors import InputError, UsageError
 
     if not re.fullmatch(r"[a-z][a-z0-9_]*", args.name):
@@ -190,12 +190,13 @@ def _add(args) -> int:
     a, b = _parse_span(args.frames, len(poses))
     if args.stroke is not None and not a <= args.stroke < b:
         raise UsageError(f"--stroke {args.stroke} is outside the span {a}:{b}")
-    tags = [t.strip() for t in args.tags.split(",") if t.strip()]
-    description = args.description or f"Recorded from {Path(args.source).name}, frames {a}:{b}."
+    tags = [t.strip() for t in text(args.tags, "--tags").split(",") if t.strip()]
+    shown = Path(args.source).name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    description = text(args.description, "--description") or f"Recorded from {shown}, frames {a}:{b}."
     stroke = None if args.stroke is None else args.stroke - a
-    text, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
+    spec, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
                                      stroke=stroke)
-    atomic_write_text(target, text)
+    atomic_write_text(target, spec)
     print(f"wrote {target} ({b - a} frames; max error {err:.1f} degrees on re-load)")
     return 0
 
