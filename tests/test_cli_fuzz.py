@@ -25,6 +25,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from special_files import IS_ROOT, FifoReader, FifoWriter, char_device
+from test_fuzz import EXAMPLES, _mutate, script_text
 
 from sgt_tui.cli import main
 
@@ -316,3 +317,25 @@ def test_random_command_lines_never_give_a_traceback(command, world):
         run_once(command_line(command, data, world), world)
 
     check()
+
+
+@settings(max_examples=80, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_random_scripts_through_compile_estimate(data, world):
+    """`sgt compile --estimate` on random and mutated scripts: diagnostics (1) or a plan (0)."""
+    text = data.draw(st.one_of(script_text, st.sampled_from(EXAMPLES).map(lambda t: _mutate(data, t))))
+    path = world.root / "out" / f"fuzz{next(world.counter)}.sgt"
+    path.parent.mkdir(exist_ok=True)
+    path.write_bytes(text.encode("utf-8", errors="surrogatepass"))
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["compile", str(path), "--estimate", "-o", "-"])
+    assert code in (0, 1), (text, code, err.getvalue())
+    assert "Traceback" not in err.getvalue()
+    if code == 0:
+        import json
+
+        plan = json.loads(out.getvalue())
+        assert plan["format"] == "sgt-plan"
+    else:
+        assert "error" in err.getvalue()
