@@ -119,3 +119,20 @@ def test_commands_and_the_editor_worker_make_the_same_motion_and_errors(tmp_path
         _clips({"id": "2", "path": str(path), "source": BAD, "engine": "keyframe"}, lambda **event: None)
     assert [d.message for d in e.value.diagnostics] in [[line.split("error: ", 1)[1]] for line in errors[0].splitlines()
                                                         if "error: " in line]
+
+
+def test_engine_choices_and_seed_range_match_everywhere():
+    """`--engine` choices (numpy-free, for the parsers) are the engines; `--seed`, `@seed` and the
+    API accept the same range."""
+    from core.seeds import SEED_MAX
+    from model.generate import ENGINES
+    from sgt_tui.commands.common import ENGINE_CHOICES
+
+    assert set(ENGINE_CHOICES) == set(ENGINES)
+    top = compile_text(f"@seed {SEED_MAX}\nguide: hi\n", timing="estimate")
+    assert top.plan is not None and top.plan.seed == SEED_MAX
+    over = compile_text(f"@seed {SEED_MAX + 1}\nguide: hi\n", timing="estimate")
+    assert over.plan is None and any("seed" in d.message for d in over.diagnostics)
+    assert generate(top.plan, engine="rules", seed=SEED_MAX).clips
+    with pytest.raises(GenerateError):
+        generate(top.plan, engine="rules", seed=SEED_MAX + 1)
