@@ -28,9 +28,11 @@ from __future__ import annotations
 
 import os
 import stat
-import tempfile
 from pathlib import Path
-from typing import BinaryIO
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the sgt command imports this module before parsing its arguments: keep it light
+    from typing import BinaryIO
 
 #: Folders whose files are written in place (kernel interfaces: renaming over them is meaningless).
 _IN_PLACE_ROOTS = ("/proc", "/sys")
@@ -227,6 +229,8 @@ def _replace(target: str, data: bytes, shown: str) -> None:
     make_folder(folder)
     if os.path.exists(target) and not os.access(target, os.W_OK):
         raise OutputError(f"cannot write {shown}: the file is read-only")
+    import tempfile
+
     name = os.path.basename(target)
     try:
         fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name[:100]}.", suffix=".tmp")
