@@ -20,8 +20,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import numpy as np  # noqa: E402
 
 from core.fileio import atomic_write  # noqa: E402
-from library import load_library  # noqa: E402
 from core.skeleton import BONES, FPS, JOINT_INDEX, positions_from_pose  # noqa: E402
+from library import load_library  # noqa: E402
 
 CELL_W, CELL_H = 150, 170  # one view
 LABEL_W = 170
