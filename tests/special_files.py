@@ -11,6 +11,7 @@ import os
 import stat
 import threading
 import traceback
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -93,6 +94,7 @@ def as_unprivileged(fn) -> list[str]:
         status = 0
         try:
             if IS_ROOT:
+                os.setgroups([])
                 os.setgid(65534)
                 os.setuid(65534)
             text = "\n".join(fn())
@@ -108,14 +110,19 @@ def as_unprivileged(fn) -> list[str]:
     return out.splitlines()
 
 
-def shared_dir_for_others(tmp_path_factory) -> Path:
-    """A folder that another user can reach (pytest's folders are private to their owner)."""
+@contextmanager
+def shared_folder():
+    """A folder that another user can reach, in the system's temporary folder: pytest's own
+    folders are private, and a pytest starting in another session makes them private again."""
+    import shutil
     import tempfile
 
-    d = Path(tempfile.mkdtemp(prefix="sgt-shared-", dir=tmp_path_factory.getbasetemp()))
+    d = Path(tempfile.mkdtemp(prefix="sgt-shared-"))
     d.chmod(0o777)
-    base = d.parent
-    while not base.stat().st_mode & 0o001:  # pytest's own folders are 0o700: let others through
-        base.chmod(base.stat().st_mode | 0o011)
-        base = base.parent
-    return d
+    try:
+        yield d
+    finally:
+        for sub in d.rglob("*"):  # let rmtree into folders a test locked
+            if sub.is_dir() and not sub.is_symlink():
+                sub.chmod(0o755)
+        shutil.rmtree(d, ignore_errors=True)

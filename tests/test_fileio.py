@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from special_files import FifoReader, as_unprivileged, char_device, needs_root, shared_dir_for_others
+from special_files import FifoReader, as_unprivileged, char_device, needs_root
 
 from core.fileio import OutputError, OutputPathError, atomic_write, atomic_write_text, check_output, check_output_folder, make_folder
 
@@ -137,11 +137,6 @@ def test_missing_parents_are_created_when_written_not_when_checked(tmp_path):
     assert sorted(x.name for x in tmp_path.iterdir()) == []
     atomic_write(out, b"{}")
     assert out.read_bytes() == b"{}"
-
-
-@pytest.fixture
-def shared_dir(tmp_path_factory):
-    return shared_dir_for_others(tmp_path_factory)
 
 
 def refused(fn, *args) -> str:

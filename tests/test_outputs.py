@@ -204,18 +204,16 @@ def test_an_output_of_the_wrong_kind_is_a_usage_error_before_any_work(argv, inpu
     assert Path(inputs["script"]).read_text() == SCRIPT
 
 
-def test_an_unwritable_output_is_an_input_problem_in_one_line(inputs, tmp_path_factory):
+def test_an_unwritable_output_is_an_input_problem_in_one_line(inputs, shared_dir):
     """Permission denied (checked before any work) and a write that fails: exit 1."""
     import shutil
-
-    from special_files import shared_dir_for_others
 
     import sgt_tui.commands.compile  # noqa: F401  (the child cannot import as nobody)
     import sgt_tui.commands.export  # noqa: F401
     import sgt_tui.commands.say  # noqa: F401
     from sgt_tui.commands.common import output_file  # noqa: F401
 
-    shared = shared_dir_for_others(tmp_path_factory)
+    shared = shared_dir
     script, motion = shared / "hello.sgt", shared / "take.json"
     shutil.copy(inputs["script"], script)
     shutil.copy(inputs["motion"], motion)
@@ -297,16 +295,14 @@ def test_exit_status_rule(argv, code, message, inputs, tmp_path, capsys):
     assert not any(p.name in ("m.json", "m.bvh", "m.gif", "speech", "c") for p in tmp_path.iterdir())
 
 
-def test_an_unreadable_script_is_status_1(inputs, tmp_path_factory):
-    from special_files import shared_dir_for_others
-
+def test_an_unreadable_script_is_status_1(inputs, shared_dir):
     import dsl.compiler  # noqa: F401  (the child cannot import as nobody)
     import sgt_tui.commands.compile  # noqa: F401
     import sgt_tui.progress  # noqa: F401
 
     if not IS_ROOT and os.geteuid() == os.stat(inputs["script"]).st_uid and os.access("/", os.W_OK):
         pytest.skip("cannot make a file unreadable here")
-    shared = shared_dir_for_others(tmp_path_factory)
+    shared = shared_dir
     secret = shared / "secret.sgt"
     secret.write_text(SCRIPT)
     secret.chmod(0o000)
