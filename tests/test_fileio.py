@@ -189,3 +189,19 @@ def test_a_stream_is_written_and_flushed():
     buf = io.BytesIO()
     atomic_write(buf, b"abc")
     assert buf.getvalue() == b"abc"
+
+
+def test_the_editor_saves_a_symlinked_script_through_the_link(tmp_path):
+    """ctrl+s used to replace a symlinked script with a regular file and leave its target old."""
+    from sgt_tui.editor.files import ScriptFile
+
+    real = tmp_path / "scripts" / "lobby.sgt"
+    real.parent.mkdir()
+    real.write_text("guide: hello\n")
+    link = tmp_path / "lobby.sgt"
+    link.symlink_to("scripts/lobby.sgt")
+    f = ScriptFile.open(link)
+    f.document.set_text("guide: hello again\n")
+    f.save()
+    assert link.is_symlink() and real.read_text() == "guide: hello again\n"
+    assert not f.changed_on_disk()

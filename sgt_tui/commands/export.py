@@ -7,7 +7,8 @@ import sys
 
 HELP = "export motion as BVH, CSV, JSON or NPZ"
 DESCRIPTION = """\
-Export a motion file (or a script, generated first) by the output's extension:
+Export a motion file (or a script, generated first) by the output's extension, or
+--format ('-o -' writes to standard output: JSON unless --format says otherwise):
 
   .bvh   upper-body hierarchy with joint rotations (ZXY Euler, degrees), metres, 1/15 s
   .csv   one row per frame: frame,time,<joint>_x,<joint>_y,<joint>_z,... in metres

@@ -11,7 +11,8 @@ Generate upper-body motion for every utterance of a script: automatic gestures f
 the speech where you wrote nothing, your [pose:...] gestures where you wrote them, and
 the requested style where you wrote <speed:...> and friends.
 
-Output (.json or .npz, chosen by the extension): fps, joint names, and per utterance
+Output (.json or .npz, chosen by the extension or --format; '-o -' writes JSON to
+standard output): fps, joint names, and per utterance
 its words, controls, joint positions (T x 10 x 3, metres, y-up) and the 27-number poses.
 See docs/formats.md."""
 
