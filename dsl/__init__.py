@@ -2,9 +2,10 @@
 
 Public API::
 
-    from dsl import analyse, compile_file, load_script
+    from dsl import analyse, compile_file, compile_text, load_script
     script = analyse(text, "my.sgt")            # parse + static checks, no speech (fast)
     result = compile_file("my.sgt")             # + speech timing + control arrays
+    result = compile_text(text)                 # the same from a string, no file
     result.diagnostics, result.plan
 
 Importing this package is cheap: the analyser reads every body with a regular-expression
@@ -15,7 +16,7 @@ speech engine loads when a voice is first checked or spoken.
 from __future__ import annotations
 
 from core.diagnostics import Diagnostic
-from dsl.compiler import CompileResult, compile_file, load_script
+from dsl.compiler import CompileResult, compile_file, compile_text, load_script
 from dsl.parser import analyse
 
-__all__ = ["analyse", "compile_file", "load_script", "CompileResult", "Diagnostic"]
+__all__ = ["analyse", "compile_file", "compile_text", "load_script", "CompileResult", "Diagnostic"]

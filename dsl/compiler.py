@@ -2,10 +2,11 @@
 
 ::
 
-    from dsl import compile_file
+    from dsl import compile_file, compile_text
     result = compile_file("examples/mall_guide.sgt")
     if result.ok:
         arrays = result.plan.utterances[0].arrays   # pose (T,27), pose_mask (T,), style (T,3), style_mask (T,3)
+    result = compile_text("guide: Hello [pose:wave] there.")   # a script given as text, no file
 
 Every problem is a :class:`~core.diagnostics.Diagnostic` in ``result.diagnostics``; nothing a
 user writes raises.
@@ -111,6 +112,9 @@ def compile_file(
 ) -> CompileResult:
     """Compile a script file. ``timing`` is "speech" (real word times) or "estimate" (fast).
 
+    With ``source`` the text is compiled instead of the file's contents (the file need not
+    exist: see :func:`compile_text`); ``utterances`` (0-based numbers) compiles only those.
+
     The verdict (errors or not) does not depend on ``timing``: overlapping pose controls are
     warnings resolved the same way under both (:func:`resolve_overlaps`); only a failing speech
     engine or aligner is found by "speech" alone.
@@ -132,6 +136,16 @@ def compile_file(
     diags = sorted(diags, key=sort_key)
     plan = Plan(source=str(path), fps=FPS, seed=script.header.seed, utterances=plans)
     return CompileResult(script, plan if not any(d.is_error for d in diags) else None, diags)
+
+
+def compile_text(text: str, path: Path | str = "<text>", **options) -> CompileResult:
+    """Compile a script given as text; no file is read or written.
+
+    ``path`` names the script in diagnostics and in the plan; relative ``@audio`` and
+    ``@library`` paths resolve against its folder (the current folder for the default).
+    ``options`` are :func:`compile_file`'s (``timing``, ``utterances``, ``library``, ...).
+    """
+    return compile_file(path, source=text, **options)
 
 
 def _timing(script: Script, utt: Utterance, mode: str, cache_dir, diags: list[Diagnostic]) -> Timing | None:

@@ -25,6 +25,7 @@ from pathlib import Path
 from core import rules
 from core.controls import STYLE_NAMES
 from core.diagnostics import Diagnostic, Related
+from core.seeds import SEED_MAX
 from dsl.script import AudioRef, Header, Span
 from dsl.speech.synth import PITCH_RANGE, RATE_RANGE
 from dsl.styles import parse_style_value
@@ -167,7 +168,7 @@ def _do_pitch(ctx, args, line, where):
 def _do_seed(ctx, args, line, where):
     arg = _need_one(ctx, args, line, where, "seed", "@seed 7")
     if arg is not None:
-        value = _int_in_range(ctx, arg, line, "seed", 0, 2**31 - 1)
+        value = _int_in_range(ctx, arg, line, "seed", 0, SEED_MAX)
         if value is not None:
             ctx.setting("seed", "'@seed'", Span(line, arg.col, arg.length))
             ctx.header.seed = value

@@ -1,8 +1,8 @@
 """The compiled plan: per utterance its words, controls and the per-frame control arrays.
 
 ``plan.json`` is deterministic and human-readable (reviewable in a diff); ``--npz`` holds the
-arrays the generator consumes (layout owned by :mod:`core.controls`). Both are written
-atomically.
+arrays the generator consumes (layout owned by :mod:`core.controls`). Both are written by
+:mod:`core.fileio`'s rules (atomically for a regular file; a device or a link is never replaced).
 """
 
 from __future__ import annotations
@@ -98,15 +98,17 @@ class Plan:
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=2, ensure_ascii=False) + "\n"
 
-    def save_json(self, path: Path | str) -> None:
-        atomic_write(Path(path), self.to_json().encode("utf-8"))
+    def save_json(self, path) -> None:
+        """Write :meth:`to_json` to ``path`` (or a binary stream) by :mod:`core.fileio`'s rules."""
+        atomic_write(path, self.to_json().encode("utf-8"))
 
-    def save_npz(self, path: Path | str) -> None:
-        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I`` per utterance I, plus ``plan`` (JSON)."""
+    def save_npz(self, path) -> None:
+        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I`` per utterance I, plus ``plan`` (JSON);
+        to ``path`` (or a binary stream) by :mod:`core.fileio`'s rules."""
         arrays: dict[str, np.ndarray] = {"plan": np.array(self.to_json())}
         for i, u in enumerate(self.utterances):
             for key, value in u.arrays.as_dict().items():
                 arrays[f"{key}_{i}"] = value
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
-        atomic_write(Path(path), buf.getvalue())
+        atomic_write(path, buf.getvalue())

@@ -31,7 +31,11 @@ GAP_S = 0.5
 
 def join_recordings(out_wav: Path) -> str:
     """Concatenate the alsa phrases with short gaps; return the transcript."""
+    import io
+
     import soundfile as sf
+
+    from core.fileio import atomic_write
 
     parts, rate = [], None
     for name in PHRASES:
@@ -40,7 +44,9 @@ def join_recordings(out_wav: Path) -> str:
         if sr != rate:
             raise SystemExit(f"{name}.wav has sample rate {sr}, expected {rate}")
         parts += [data if data.ndim == 1 else data.mean(axis=1), np.zeros(int(GAP_S * rate), np.float32)]
-    sf.write(out_wav, np.concatenate(parts), rate)
+    buf = io.BytesIO()
+    sf.write(buf, np.concatenate(parts), rate, format="WAV")
+    atomic_write(out_wav, buf.getvalue())
     return ". ".join(p.replace("_", " ").lower() for p in PHRASES).capitalize() + "."
 
 
@@ -72,6 +78,7 @@ def main() -> int:
     if not (ALSA / "Front_Left.wav").exists():
         print(f"no recordings in {ALSA}: apt-get install alsa-utils", file=sys.stderr)
         return 1
+    from core.fileio import atomic_write_text
     from dsl.compiler import compile_file
     from model import neural
     from model.generate import EngineInputs
@@ -80,8 +87,8 @@ def main() -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     text = join_recordings(out / "alsa_voice.wav")
-    (out / "real.sgt").write_text(f"@audio alsa_voice.wav\n{text}\n", encoding="utf-8")
-    (out / "tts.sgt").write_text(f"{text}\n", encoding="utf-8")
+    atomic_write_text(out / "real.sgt", f"@audio alsa_voice.wav\n{text}\n")
+    atomic_write_text(out / "tts.sgt", f"{text}\n")
     options = neural.Options(weights=args.weights)
     rows = []
     for label, script in (("real voice", "real.sgt"), ("espeak-ng", "tts.sgt"), ("silence", "real.sgt")):

@@ -15,16 +15,17 @@ all joints, elbows and wrists. See docs/metrics.md."""
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import SMOOTHING_CHOICES
+    from sgt_tui.commands.common import SMOOTHING_CHOICES, positive_int, seed
 
     p = sub.add_parser("eval", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
     p.add_argument("--split", default="test", choices=("test", "val", "train"))
     p.add_argument("--weights", help="generator weights (default: the shipped ones)")
     p.add_argument("--extractor", default="default", help="FGD feature extractor weights (default: the shipped ones)")
-    p.add_argument("-o", "--output", metavar="JSON", help="also write the rows as JSON")
-    p.add_argument("--limit", type=int, help="only the first N clips (quick look)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("-o", "--output", metavar="JSON",
+                   help="also write the rows as JSON ('-': standard output, the table then goes to stderr)")
+    p.add_argument("--limit", type=positive_int, help="only the first N clips (quick look)")
+    p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0],
                    help="the neural engine's post-filter for the model rows (default one_euro, as sgt generate)")
     p.set_defaults(run=run)
@@ -35,6 +36,16 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
+    from core.fileio import atomic_write_text
+    from sgt_tui.commands.common import existing_file, is_stdout, output_file, shown
+    from sgt_tui.errors import InputError, UsageError
+
+    if not Path(args.corpus).exists():
+        raise UsageError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
+    weights = str(existing_file(args.weights)) if args.weights else None
+    extractor = args.extractor if args.extractor == "default" else str(existing_file(args.extractor))
+    out = output_file(args.output) if args.output else None
+
     from model.training.corpus import CorpusError
     from model.training.evaluate import evaluate_corpus
     from model.training.fgd import ExtractorError
@@ -43,20 +54,17 @@ def run(args) -> int:
     from sgt_tui.progress import ProgressBar
 
     try:
-        rows = evaluate_corpus(args.corpus, split=args.split, weights=args.weights, extractor=args.extractor,
+        rows = evaluate_corpus(args.corpus, split=args.split, weights=weights, extractor=extractor,
                                seed=args.seed, progress=ProgressBar("eval"), limit=args.limit,
                                smoothing=args.smoothing)
-    except (WeightsError, ExtractorError) as exc:
-        print(f"sgt eval: error: {exc}", file=sys.stderr)
-        return 1
-    except (CorpusError, FileNotFoundError) as exc:
-        print(f"sgt eval: error: {exc}\n  make a corpus with: sgt corpus -o {args.corpus}", file=sys.stderr)
-        return 1
-    print(format_table(rows))
-    if args.output:
-        from core.fileio import atomic_write_text
-
+    except (WeightsError, ExtractorError, CorpusError) as exc:
+        raise InputError(str(exc)) from None
+    except (FileNotFoundError, ValueError) as exc:
+        raise InputError(f"{exc}\n  make a corpus with: sgt corpus -o {args.corpus}") from None
+    print(format_table(rows), file=sys.stderr if out is not None and is_stdout(out) else sys.stdout)
+    if out is not None:
         clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()} for r in rows]
-        atomic_write_text(Path(args.output), json.dumps(clean, indent=2) + "\n")
-        print(f"wrote {args.output}", file=sys.stderr)
+        atomic_write_text(out, json.dumps(clean, indent=2) + "\n")
+        if not is_stdout(out):
+            print(f"wrote {shown(out)}", file=sys.stderr)
     return 0

@@ -18,11 +18,9 @@ import dataclasses
 import json
 import os
 import sys
-from pathlib import Path
 
 from core.motion import save_motion
-from dsl.compiler import compile_file
-from model.generate import DEFAULT_ENGINE, GenerateError, clips_from_plan, engine_function
+from model.generate import generate
 from model.neural import Options
 from renders.animate import render_gif
 from renders.clips import concat_clips
@@ -53,19 +51,10 @@ def _progress(emit, rid: str, phase: str):
 def _clips(req: dict, emit):
     """Compile the request's text and generate motion; raises GenerateError."""
     rid = req["id"]
-    engine = req.get("engine") or DEFAULT_ENGINE
-    options = Options(weights=req.get("weights"))
-    engine_function(engine, options)  # a clear error (with the fix) when weights are missing
-    result = compile_file(Path(req["path"]), timing=req.get("timing", "speech"), source=req["source"],
-                          utterances=req.get("utterances"), progress=_progress(emit, rid, "speech"))
-    if result.plan is None:
-        errors = [d for d in result.diagnostics if d.is_error]
-        first = errors[0] if errors else None
-        where = f" (line {first.line}: {first.message})" if first else ""
-        raise GenerateError(f"the script has {len(errors)} error{'s' if len(errors) != 1 else ''}{where}", result.diagnostics)
-    clips = clips_from_plan(result.plan, engine=engine, seed=req.get("seed"),
-                            progress=_progress(emit, rid, "motion"), options=options)
-    return clips, [u.index for u in result.plan.utterances], result.plan.utterances[0].speech.get("engine") if result.plan.utterances else None
+    take = generate(req["path"], source=req["source"], engine=req.get("engine"), utterances=req.get("utterances"),
+                    seed=req.get("seed"), timing=req.get("timing", "speech"), options=Options(weights=req.get("weights")),
+                    progress=_progress(emit, rid, "motion"), speech_progress=_progress(emit, rid, "speech"))
+    return take.clips, take.utterances, take.timing
 
 
 def handle(raw: dict, emit) -> JobResult:
