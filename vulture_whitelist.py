@@ -54,3 +54,6 @@ _.current_key
 # The grammar's own parser (dsl/body.py): the definition the scanner is proved equal to
 # (tests/test_scan.py parses random bodies with both).
 _.lark_parser
+# The Python API's one-call form (README "Python API", model/generate.py's docstring; the README
+# block is run by tests/test_readme_api.py).
+_.generate_clips

@@ -80,7 +80,7 @@ def load_script(path: Path | str, *, library=None, source: str | None = None):
         try:
             source, diags = read_source(path)
         except OSError as exc:
-            reason = "it is a folder" if path.is_dir() else (exc.strerror or str(exc)).lower()
+            reason = "it is a folder" if isinstance(exc, IsADirectoryError) else (exc.strerror or str(exc)).lower()
             d = rules.IO.at(str(path), 0, 0, reason=reason)
             return Script(str(path), "", None, [], [d]), None, [d]  # type: ignore[arg-type]
     holder = {}

@@ -830,8 +830,6 @@ def test_a_save_into_a_vanished_folder_offers_save_as(tmp_path):
     drive(app, steps)
 
 
-@pytest.mark.xfail(strict=True, reason="core.fileio.atomic_write replaces a symlink with a regular file until "
-                                      "its write-through change (issue 13 §1, another branch) is merged")
 def test_saving_a_symlinked_script_keeps_the_link(tmp_path):
     real = script(tmp_path, "guide: one\n", "real.sgt")
     link = tmp_path / "link.sgt"

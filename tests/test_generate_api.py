@@ -99,7 +99,7 @@ def test_commands_and_the_editor_worker_make_the_same_motion_and_errors(tmp_path
     assert main(["generate", str(path), "-o", str(tmp_path / "g.json"), "--engine", "rules", "--seed", "4"]) == 0
     assert main(["export", str(path), "-o", str(tmp_path / "e.json"), "--engine", "rules", "--seed", "4"]) == 0
     clips, indices, timing = _clips({"id": "1", "path": str(path), "source": TEXT, "engine": "rules", "seed": 4},
-                                    lambda **event: None)
+                                    lambda event: None)
     by_generate, by_export = load_motion(tmp_path / "g.json"), load_motion(tmp_path / "e.json")
     assert indices == [0, 1] and timing == "espeak-ng"
     for a, b, c in zip(by_generate, by_export, clips):
@@ -116,9 +116,9 @@ def test_commands_and_the_editor_worker_make_the_same_motion_and_errors(tmp_path
         errors.append(capsys.readouterr().err)
     assert errors[0] == errors[1] == errors[2] and "lobby.sgt:1:" in errors[0] and "point_right" in errors[0]
     with pytest.raises(GenerateError) as e:
-        _clips({"id": "2", "path": str(path), "source": BAD, "engine": "keyframe"}, lambda **event: None)
-    assert [d.message for d in e.value.diagnostics] in [[line.split("error: ", 1)[1]] for line in errors[0].splitlines()
-                                                        if "error: " in line]
+        _clips({"id": "2", "path": str(path), "source": BAD, "engine": "keyframe"}, lambda event: None)
+    assert [f"[{d.code}] {d.message}" for d in e.value.diagnostics] in [[line.split("error: ", 1)[1]] for line in errors[0].splitlines()
+                                                                       if "error: " in line]
 
 
 def test_engine_choices_and_seed_range_match_everywhere():

@@ -160,7 +160,7 @@ def test_add_refuses_overwrite_and_bad_ranges(tmp_path, capsys):
     assert code == 2 and "utterance 7" in err
     code, _, err = _run(capsys, "library", "add", "x", "--from", str(tmp_path / "none.json"),
                         "--frames", "0:5")
-    assert code == 2 and "no such file" in err
+    assert code == 1 and "no such file" in err  # a missing input: the input's problem
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
     code, _, err = _run(capsys, "library", "add", "x", "--from", str(bad), "--frames", "0:5", "--to", str(tmp_path / "lib"))

@@ -6,14 +6,16 @@ Numpy-free: parsers are built from here for ``sgt --help``.
 Exit status, the same for every command (``sgt_tui.cli`` maps the errors):
 
 - 0: done;
-- 1: a problem in the input: errors in a script (diagnostics are printed), a file that exists
-  but cannot be read or is not in the expected format, an output that cannot be written
-  (permission denied, a full disk): :class:`~sgt_tui.errors.InputError`,
+- 1: a problem in the input: errors in a script (diagnostics are printed), an input file or
+  folder that is missing, unreadable, of the wrong kind or not in the expected format (as
+  ``sgt check`` reports a missing script among others and goes on), an output that cannot be
+  written (permission denied, a full disk): :class:`~sgt_tui.errors.InputError`,
   :class:`core.fileio.OutputError`;
-- 2: the command line is wrong: an unknown option or a bad value, a file that does not exist,
-  a path of the wrong kind (a folder for a file, a file for a folder, an output under a file),
-  a name or number that matches nothing (``--utterance 50``, ``library show nope``), binary
-  output to a terminal: :class:`~sgt_tui.errors.UsageError`, :class:`core.fileio.OutputPathError`;
+- 2: the command line is wrong: an unknown option or a bad value, a name or number that
+  matches nothing (``--utterance 50``, ``library show nope``, ``--engine foo``), an output
+  path that can never be written (a folder, a name ending in ``/``, a path under a file),
+  binary output to a terminal: :class:`~sgt_tui.errors.UsageError`,
+  :class:`core.fileio.OutputPathError`;
 - 130: interrupted (ctrl+c).
 """
 
@@ -114,8 +116,8 @@ def add_seed_option(p, help_text: str) -> None:
 
 
 def existing_file(path: str) -> Path:
-    """An input file named on the command line. Missing, or a folder: a usage error (exit 2);
-    there but out of reach (permissions): an input problem (exit 1)."""
+    """An input file named on the command line; missing, a folder, or out of reach
+    (permissions): an input problem (exit 1), as a script that ``sgt check`` cannot read."""
     return _existing(path, "file")
 
 
@@ -131,13 +133,13 @@ def _existing(path: str, kind: str, option: str = "") -> Path:
     try:
         st = os.stat(path)
     except (FileNotFoundError, NotADirectoryError, ValueError):
-        raise UsageError(f"no such {kind}: {where}") from None
+        raise InputError(f"no such {kind}: {where}") from None
     except OSError as exc:
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
     if kind == "file" and stat.S_ISDIR(st.st_mode):
-        raise UsageError(f"{where} is a folder, not a file")
+        raise InputError(f"{where} is a folder, not a file")
     if kind == "folder" and not stat.S_ISDIR(st.st_mode):
-        raise UsageError(f"{where} is a file, not a folder")
+        raise InputError(f"{where} is a file, not a folder")
     return Path(path)
 
 

@@ -38,10 +38,10 @@ def run(args) -> int:
 
     from core.fileio import atomic_write_text
     from sgt_tui.commands.common import existing_file, is_stdout, output_file, shown
-    from sgt_tui.errors import InputError, UsageError
+    from sgt_tui.errors import InputError
 
     if not Path(args.corpus).exists():
-        raise UsageError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
+        raise InputError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
     weights = str(existing_file(args.weights)) if args.weights else None
     extractor = args.extractor if args.extractor == "default" else str(existing_file(args.extractor))
     out = output_file(args.output) if args.output else None

@@ -58,7 +58,7 @@ def run(args) -> int:
     if args.data:
         existing_folder(args.data, "--data")
     elif not Path(args.corpus).exists():
-        raise UsageError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
+        raise InputError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
     output_folder(args.out)
 
     from model.training.train import TrainConfig, train

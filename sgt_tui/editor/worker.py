@@ -20,7 +20,7 @@ import os
 import sys
 
 from core.motion import save_motion
-from model.generate import generate
+from model.generate import GenerateError, generate
 from model.neural import Options
 from renders.animate import render_gif
 from renders.clips import concat_clips
@@ -29,7 +29,7 @@ from sgt_tui.editor.protocol import Done, Event, Failed, JobRequest, JobResult, 
 
 #: Failures whose message is written for the user as it is; any other exception is a bug and
 #: its message is prefixed with its type.
-USER_ERRORS = (GenerateError, RenderSetupError, ProtocolError, ValueError, OSError)
+USER_ERRORS = (GenerateError, RenderSetupError, ProtocolError, ValueError, OSError)  # NoSuchUtterance is a GenerateError
 
 
 class _Emitter:
