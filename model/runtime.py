@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from core.controls import STYLE_NAMES
+from core.fileio import atomic_write
 from core.skeleton import POSE_DIM
 from model.features import AUDIO_DIM
 from model.weights import DEFAULT_WEIGHTS, WeightsError, check_info, file_hash, load_weights
@@ -144,8 +145,6 @@ def export_onnx(weights: Path | str | None = None, out: Path | str | None = None
 
     import onnx
     import torch
-
-    from core.fileio import atomic_write
 
     weights = Path(weights) if weights is not None else DEFAULT_WEIGHTS
     out = Path(out) if out is not None else onnx_path(weights)
