@@ -284,6 +284,7 @@ def test_an_unexpected_failure_is_a_500_without_a_traceback(monkeypatch, api):
     monkeypatch.setattr(app_module, "check", broken)
     r = api.post("/v1/check", json={"script": "a: b"})
     assert r.status_code == 500 and "secret" not in r.text and "Traceback" not in r.text
+    assert r.json() == {"error": "internal error; the server's log has the details"}
 
 
 # -- streaming ------------------------------------------------------------------------------
