@@ -189,6 +189,12 @@ def test_a_token_is_required_when_set_and_when_exposed(monkeypatch):
 
 
 def test_sgt_serve_refuses_to_expose_itself_without_a_token(capsys, monkeypatch):
+    import uvicorn
+
+    def started(*args, **kwargs):
+        raise AssertionError("sgt serve started listening")  # never hang the suite on a real server
+
+    monkeypatch.setattr(uvicorn, "run", started)
     monkeypatch.delenv("SGT_SERVE_TOKEN", raising=False)
     assert main(["serve", "--host", "0.0.0.0"]) == 2
     assert "token" in capsys.readouterr().err
