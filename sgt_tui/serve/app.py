@@ -193,7 +193,7 @@ def create_app(config: ServeConfig) -> FastAPI:
     @app.websocket("/v1/stream")
     async def stream(socket: WebSocket):
         await socket.accept()
-        session = StreamSession(state["runner"])
+        session = StreamSession(state["runner"], state["library"])
         pool: Pool = state["pool"]
         try:
             while not session.closed:

@@ -34,8 +34,11 @@ _DUMMY = "sgtnextword"
 
 
 class StreamSession:
-    def __init__(self, runner) -> None:
+    """One stream; ``library`` is the loaded motion library the text is compiled with."""
+
+    def __init__(self, runner, library) -> None:
         self.runner = runner
+        self.library = library
         self.generator: StreamGenerator | None = None
         self.rate: int | None = None
         self.pending = ""  # text not yet timed (the last word may be incomplete)
@@ -132,7 +135,7 @@ class StreamSession:
     def _time_text(self, text: str) -> tuple[list[TimedWord], float]:
         """Times for the words of ``text`` by the language's estimate, placed at the stream's
         clock; and where the next word would start (a dummy word gives the estimate's pause)."""
-        result = compile_text(plain_script(f"{text} {_DUMMY}", rate=self.rate), timing="estimate")
+        result = compile_text(plain_script(f"{text} {_DUMMY}", rate=self.rate), timing="estimate", library=self.library)
         if result.plan is None:  # plain text always compiles; say so if it ever does not
             raise StreamError(f"cannot time this text: {next(d.message for d in result.diagnostics if d.is_error)}")
         timed = list(result.plan.utterances[0].words)
