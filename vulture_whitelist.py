@@ -57,3 +57,10 @@ _.lark_parser
 # The Python API's one-call form (README "Python API", model/generate.py's docstring; the README
 # block is run by tests/test_readme_api.py).
 _.generate_clips
+# onnxruntime reads these SessionOptions attributes (model/runtime.py: one thread per session, quiet logs).
+_.intra_op_num_threads
+_.inter_op_num_threads
+_.log_severity_level
+# pydantic reads each model's model_config, and Style's fields through model_dump (sgt_tui/serve/requests.py).
+_.model_config
+_.handedness

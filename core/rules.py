@@ -827,6 +827,26 @@ Fix: correct the utterance or the timings file (re-run the aligner on the right 
     files={"rec.wav": "@silence:2.0", "rec.json": '[{"word": "hello", "start": 0.2, "end": 0.6}, {"word": "there", "start": 0.7, "end": 1.2}]'},
 )
 
+REFUSED_PATH = rule(
+    "SGT406", "refused-path", ERROR,
+    "the service does not read '{text}': {reason}",
+    "send the script without @{directive}, or ask the operator to start 'sgt serve --allow FOLDER'",
+    """
+A script sent to `sgt serve` may not make the server read its own files: `@audio` and
+`@library` paths (and `timings=` files) are refused unless they lie inside a folder the
+operator allow-listed with `sgt serve --allow FOLDER`. Relative paths resolve against the
+first allowed folder; links are followed before the check, so a link inside an allowed
+folder that points outside it is refused too. Files are never opened before the check, so
+the answer does not say whether a refused file exists.
+
+Example: `@audio /etc/passwd` in a request to a service started without `--allow`.
+
+Fix: upload the recording with the request (`POST /v1/generate` with a multipart `audio`
+file), drop the directive, or have the operator allow-list the folder that holds the files.
+""",
+)
+
+
 # -- 5xx: gesture specs and configuration ------------------------------------------------
 
 BAD_SPEC = rule(

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from core.skeleton import FPS
+from dsl.speech.audio import read_wav, resample_poly
 
 SAMPLE_RATE = 16000
 N_MELS = 32
@@ -32,16 +33,17 @@ HOP = SAMPLE_RATE // FPS  # samples per motion frame
 
 
 def load_audio(path: Path | str, sample_rate: int = SAMPLE_RATE) -> np.ndarray:
-    """Mono float32 audio at ``sample_rate``."""
-    import soundfile as sf
+    """Mono float32 audio at ``sample_rate``. 16-bit WAV (what espeak-ng writes) is read with the
+    standard library, anything else with soundfile; resampling is numpy's (no scipy import)."""
+    wav = read_wav(path)
+    if wav is None:
+        import soundfile as sf
 
-    data, sr = sf.read(str(path), dtype="float32", always_2d=True)
+        wav = sf.read(str(path), dtype="float32", always_2d=True)
+    data, sr = wav
     mono = data.mean(axis=1)
     if sr != sample_rate:
-        from scipy.signal import resample_poly
-
-        g = np.gcd(int(sr), int(sample_rate))
-        mono = resample_poly(mono, sample_rate // g, int(sr) // g).astype(np.float32)
+        mono = resample_poly(mono, sample_rate, int(sr)).astype(np.float32)
     return mono
 
 

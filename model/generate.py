@@ -33,7 +33,7 @@ from core.seeds import SEED_MAX
 from core.words import TimedWord
 from dsl.compiler import compile_file
 from dsl.plan import Plan
-from model.neural import _model
+from model.runtime import load_runner
 from model.weights import WeightsError
 
 #: Engine name -> module with ``generate(inputs, *, seed, ...)``.
@@ -105,7 +105,7 @@ def engine_function(name: str, options=None) -> Callable:
     fn = importlib.import_module(ENGINES[name]).generate
     if name == "neural":
         try:  # fail early, with the fix, when the weights are missing or unusable
-            _model(getattr(options, "weights", None))
+            load_runner(getattr(options, "weights", None))
         except WeightsError as exc:
             raise GenerateError(str(exc)) from None
         return partial(fn, options=options)
@@ -132,7 +132,7 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
 
 def generate(script: Path | str | Plan | None = None, *, source: str | None = None, engine: str | None = None,
              utterances=None, seed: int | None = None, timing: str = "speech", options=None, progress=None,
-             speech_progress=None) -> Take:
+             speech_progress=None, library=None) -> Take:
     """Compile a script and generate its motion: the one way from a script to motion.
 
     ``script`` is a script file's path, or a compiled :class:`~dsl.plan.Plan` (generated as it
@@ -142,7 +142,8 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
     written. ``utterances`` picks utterance numbers (0-based; all by default), ``seed``
     overrides the script's ``@seed``, ``timing`` is "speech" or "estimate".
     ``speech_progress`` and ``progress`` are called ``(done, total, what)`` while compiling and
-    while generating.
+    while generating. ``library`` is a loaded :class:`~library.Library` to compile with (default:
+    the built-in and user gestures plus the script's ``@library`` folders, loaded per call).
 
     Raises :class:`GenerateError` (script errors, with their diagnostics; an unknown engine;
     missing weights) or :class:`NoSuchUtterance`.
@@ -167,7 +168,8 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
         if script is None and source is None:
             raise TypeError("generate() needs a script path, a plan or a source text")
         path = Path(script) if script is not None else Path("<text>")
-        result = compile_file(path, timing=timing, source=source, utterances=utterances, progress=speech_progress)
+        result = compile_file(path, timing=timing, source=source, utterances=utterances, progress=speech_progress,
+                              library=library)
         problem = result.script.missing_utterance(utterances) if result.script.header is not None else None
         if result.plan is None:
             raise GenerateError(_errors_message(path, result.diagnostics), result.diagnostics, result.script.source)

@@ -16,7 +16,6 @@ Post-processing (:mod:`model.postprocess`) is switchable through :class:`Options
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +23,7 @@ import numpy as np
 from core.skeleton import FPS, POSE_DIM
 from model import postprocess
 from model.features import AUDIO_DIM, audio_features, load_audio, word_features
-from model.weights import load_weights
+from model.runtime import as_runner, load_runner
 
 WINDOW = 60
 HOP = 30
@@ -37,11 +36,6 @@ class Options:
     blend: bool = True  # exact pose-control blend
     ramp: int = 6  # frames of easing into and out of a controlled span
     weights: str | None = None  # path; None = the shipped weights
-
-
-@lru_cache(maxsize=4)
-def _model(weights: str | None):
-    return load_weights(weights)[0]
 
 
 def speech_inputs(inputs, n_frames: int):
@@ -60,49 +54,43 @@ def _fade_weights(overlap: int) -> np.ndarray:
 
 
 def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
-    """Sliding-window generation: (T, 27) raw network output."""
-    import torch
-
+    """Sliding-window generation: (T, 27) raw network output. ``model`` is a runner of
+    :mod:`model.runtime` (onnxruntime or PyTorch) or a :class:`model.net.GestureNet`."""
+    runner = as_runner(model)
     t_count = arrays.n_frames
     out = np.zeros((t_count, POSE_DIM), np.float32)
     rng = np.random.default_rng(seed)
-    noise_dim = model.config["noise_dim"]
+    noise_dim = runner.noise_dim
     overlap = WINDOW - HOP
     fade = _fade_weights(overlap)
     start = 0
-    with torch.inference_mode():
-        while True:
-            end = min(start + WINDOW, t_count)
-            pose = arrays.pose[start:end].copy()
-            mask = arrays.pose_mask[start:end].copy()
-            if start > 0:  # seed poses from the previous window where the user asked for nothing
-                k = min(SEED, end - start)
-                free = mask[:k] < 0.5
-                pose[:k][free] = out[start : start + k][free]
-                mask[:k][free] = 1.0
-            z = rng.standard_normal(noise_dim).astype(np.float32)
-
-            def tens(a, dtype=torch.float32):
-                return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)[None]
-
-            y = model(tens(audio[start:end]), tens(ids[start:end], torch.long), tens(onsets[start:end]), tens(pose),
-                      tens(mask), tens(arrays.style[start:end]), tens(arrays.style_mask[start:end]), tens(z)[0][None])
-            y = y[0].numpy()
-            if start > 0:  # keep the old output over the seed frames, then cross-fade to the new
-                k = min(overlap, end - start)
-                w = fade[:k, None]
-                y[:k] = (1 - w) * out[start : start + k] + w * y[:k]
-            out[start:end] = y
-            if end >= t_count:
-                break
-            start += HOP
+    while True:
+        end = min(start + WINDOW, t_count)
+        pose = arrays.pose[start:end].copy()
+        mask = arrays.pose_mask[start:end].copy()
+        if start > 0:  # seed poses from the previous window where the user asked for nothing
+            k = min(SEED, end - start)
+            free = mask[:k] < 0.5
+            pose[:k][free] = out[start : start + k][free]
+            mask[:k][free] = 1.0
+        z = rng.standard_normal(noise_dim).astype(np.float32)
+        y = runner.run_window(audio[start:end], ids[start:end], onsets[start:end], pose, mask, arrays.style[start:end],
+                              arrays.style_mask[start:end], z)
+        if start > 0:  # keep the old output over the seed frames, then cross-fade to the new
+            k = min(overlap, end - start)
+            w = fade[:k, None]
+            y[:k] = (1 - w) * out[start : start + k] + w * y[:k]
+        out[start:end] = y
+        if end >= t_count:
+            break
+        start += HOP
     return out
 
 
 def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.ndarray:
     """Poses (T, 27) for one utterance (an :class:`~model.generate.EngineInputs`)."""
     opts = options or Options()
-    model = _model(opts.weights)
+    model = load_runner(opts.weights)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
     raw = run_windows(model, audio, ids, onsets, inputs.arrays, seed)

@@ -37,10 +37,12 @@ ONE_EURO_BETA = 0.5
 
 
 def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: float = ONE_EURO_BETA,
-             d_cutoff: float = 1.0, fps: float = FPS) -> np.ndarray:
-    """The 1-euro filter on every coordinate (cutoffs in Hz)."""
+             d_cutoff: float = 1.0, fps: float = FPS, state: dict | None = None) -> np.ndarray:
+    """The 1-euro filter on every coordinate (cutoffs in Hz). It is causal: with ``state`` (a
+    dict, empty at the start of a stream, updated by each call), a motion fed in pieces comes
+    out exactly as when fed whole (:mod:`model.streaming` uses it)."""
     x = np.asarray(poses, np.float64)
-    if len(x) < 2:
+    if state is None and len(x) < 2 or len(x) == 0:
         return np.asarray(poses, np.float32).copy()
 
     def alpha(cutoff):
@@ -48,17 +50,22 @@ def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: f
         return 1.0 / (1.0 + tau * fps)
 
     out = np.empty_like(x)
-    out[0] = x[0]
-    dx_prev = np.zeros(x.shape[1])
+    if state:
+        prev, dx_prev, first = state["out"], state["dx"], 0
+    else:
+        out[0] = prev = x[0]
+        dx_prev, first = np.zeros(x.shape[1]), 1
     a_d = alpha(d_cutoff)
-    for i in range(1, len(x)):
-        dx = (x[i] - out[i - 1]) * fps
+    for i in range(first, len(x)):
+        dx = (x[i] - prev) * fps
         dx_hat = a_d * dx + (1 - a_d) * dx_prev
         cutoff = min_cutoff + beta * np.abs(dx_hat)
         tau = 1.0 / (2 * math.pi * cutoff)
         a = 1.0 / (1.0 + tau * fps)
-        out[i] = a * x[i] + (1 - a) * out[i - 1]
+        out[i] = prev = a * x[i] + (1 - a) * prev
         dx_prev = dx_hat
+    if state is not None:
+        state.update(out=prev, dx=dx_prev)
     return normalize_pose(out)
 
 

@@ -11,6 +11,7 @@ something else), is refused with a message that says how to fix it, never misrea
 
 from __future__ import annotations
 
+import hashlib
 import io
 from pathlib import Path
 
@@ -25,6 +26,7 @@ from model.style import STATS_PATH, load_stats
 FORMAT = "sgt-generator"
 VERSION = 1
 DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "generator.pt"
+FIX = "run 'sgt train' to make new weights, or restore the shipped file with 'git checkout model/weights/generator.pt'"
 
 
 class WeightsError(Exception):
@@ -87,6 +89,27 @@ def save_weights(path: Path | str, model, meta: dict | None = None) -> None:
     atomic_write(path, buf.getvalue())
 
 
+def check_info(path: Path, blob) -> None:
+    """Raise :class:`WeightsError` unless ``blob`` (a weights file's dict, or the copy an ONNX
+    export records) is this sgt's format, version, data layout and style statistics."""
+    if not isinstance(blob, dict) or blob.get("format") != FORMAT:
+        raise WeightsError(f"{path} is not an sgt generator weights file; {FIX}")
+    if blob.get("version") != VERSION:
+        raise WeightsError(f"{path} is weights format version {blob.get('version')}, this sgt reads version {VERSION}; {FIX}")
+    theirs, ours = blob.get("layout", {}), layout()
+    diff = sorted(k for k in ours if theirs.get(k, _LAYOUT_BEFORE_RECORDED.get(k)) != ours[k])
+    if diff:
+        raise WeightsError(f"{path} was trained for a different data layout ({', '.join(diff)} differ); {FIX}")
+    problem = _stats_problem(path, blob.get("style_stats"))
+    if problem:
+        raise WeightsError(problem)
+
+
+def file_hash(path: Path | str) -> str:
+    """SHA-256 of a weights file (what an ONNX export records to show which weights it holds)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
 def load_weights(path: Path | str | None = None):
     """(GestureNet in eval mode, the file's dict without the state_dict)."""
     import torch
@@ -94,31 +117,20 @@ def load_weights(path: Path | str | None = None):
     from model.net import GestureNet  # lazy: torch
 
     path = Path(path) if path is not None else DEFAULT_WEIGHTS
-    fix = "run 'sgt train' to make new weights, or restore the shipped file with 'git checkout model/weights/generator.pt'"
     if not path.exists():
-        raise WeightsError(f"generator weights not found: {path}; {fix}")
+        raise WeightsError(f"generator weights not found: {path}; {FIX}")
     try:
         blob = torch.load(str(path), map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - torch.load raises a dozen unrelated types on damaged files (UnpicklingError,
         # RuntimeError, EOFError, UnicodeDecodeError, IndexError, struct.error, KeyError, AssertionError...: measured on
         # truncated and mutated files); only torch.load is inside, and the error is reported with its type, not hidden
-        raise WeightsError(f"cannot read generator weights {path}: {exc.__class__.__name__}; the file is corrupt. {fix}") from None
-    if not isinstance(blob, dict) or blob.get("format") != FORMAT:
-        raise WeightsError(f"{path} is not an sgt generator weights file; {fix}")
-    if blob.get("version") != VERSION:
-        raise WeightsError(f"{path} is weights format version {blob.get('version')}, this sgt reads version {VERSION}; {fix}")
-    theirs, ours = blob.get("layout", {}), layout()
-    diff = sorted(k for k in ours if theirs.get(k, _LAYOUT_BEFORE_RECORDED.get(k)) != ours[k])
-    if diff:
-        raise WeightsError(f"{path} was trained for a different data layout ({', '.join(diff)} differ); {fix}")
-    problem = _stats_problem(path, blob.get("style_stats"))
-    if problem:
-        raise WeightsError(problem)
+        raise WeightsError(f"cannot read generator weights {path}: {exc.__class__.__name__}; the file is corrupt. {FIX}") from None
+    check_info(path, blob)
     model = GestureNet({"smooth": 0, **(blob.get("config") or {})})  # files from before the option: off
     try:
         model.load_state_dict(blob["state_dict"])
     except (RuntimeError, KeyError) as exc:
-        raise WeightsError(f"{path} does not match the network: {str(exc).splitlines()[0]}; {fix}") from None
+        raise WeightsError(f"{path} does not match the network: {str(exc).splitlines()[0]}; {FIX}") from None
     model.eval()
     info = {k: v for k, v in blob.items() if k != "state_dict"}
     return model, info

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.controls import Control
 from core.motion import MotionClip, save_motion
 from core.skeleton import FPS
-from core.controls import Control
 from core.words import TimedWord
 
 SIZE = (96, 96)
@@ -274,12 +274,14 @@ def test_cli_render_bad_inputs(tmp_path, motion_file, capsys):
 
 
 def test_help_does_not_import_heavy_libraries():
-    """`sgt --help` builds every subcommand's parser without GL, torch, librosa, textual or scipy."""
+    """`sgt --help` builds every subcommand's parser without GL, torch, librosa, textual, scipy,
+    onnxruntime or the service's web stack."""
     import subprocess
     import sys
 
     code = ("import sys; from sgt_tui.cli import build_parser; build_parser(); "
-            "bad = [m for m in ('pyrender', 'OpenGL', 'trimesh', 'PIL', 'torch', 'librosa', 'textual', 'scipy') "
+            "bad = [m for m in ('pyrender', 'OpenGL', 'trimesh', 'PIL', 'torch', 'librosa', 'textual', 'scipy', "
+            "'onnxruntime', 'fastapi', 'uvicorn', 'pydantic') "
             "if m in sys.modules]; "
             "print(bad); sys.exit(1 if bad else 0)")
     from pathlib import Path

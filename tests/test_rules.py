@@ -24,6 +24,7 @@ NO_EXAMPLE = {
     "timing": "a broken engine or cache entry: not the script",
     "io": "the script file itself cannot be read",
     "generation": "an editor job fails for a reason outside the script (tests/test_editor_app.py triggers it)",
+    "refused-path": "only a request to sgt serve triggers it (tests/test_serve.py)",
 }
 
 

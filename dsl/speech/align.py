@@ -19,6 +19,7 @@ import re
 
 import numpy as np
 
+from .audio import resample_poly
 from .types import SpeechError
 
 FRAME_RATE = 100  # pocketsphinx frames per second (default -frate)
@@ -139,13 +140,9 @@ class _Aligner:
 
     def align(self, samples: np.ndarray, sample_rate: int, words: list[str]) -> list[tuple[float, float]]:
         """(start, end) seconds for each word; raises SpeechError when alignment fails."""
-        from scipy.signal import resample_poly
-        from math import gcd
-
         x = np.asarray(samples, dtype=np.float64)
         if sample_rate != ALIGN_SR:
-            g = gcd(ALIGN_SR, int(sample_rate))
-            x = resample_poly(x, ALIGN_SR // g, int(sample_rate) // g)
+            x = resample_poly(x, ALIGN_SR, int(sample_rate))
         x = x + np.random.default_rng(12345).normal(0.0, 3e-4, len(x))
         pcm = (np.clip(x, -1.0, 1.0) * 32767.0).astype("<i2").tobytes()
         tokens: list[str | None] = []

@@ -6,6 +6,7 @@ All functions take mono ``numpy`` arrays (int16 or float) and work in *samples*.
 from __future__ import annotations
 
 import io
+import math
 import wave
 from typing import Sequence
 
@@ -125,4 +126,58 @@ def insert_silences(samples: np.ndarray, cuts: Sequence[tuple[int, int]]) -> np.
             k = min(fade, len(out) - start)
             ramp = np.linspace(0.0, 1.0, k + 1)[1:]
             out[start : start + k] = (out[start : start + k].astype(np.float64) * ramp).astype(x.dtype)
+    return out
+
+
+def read_wav(path) -> tuple[np.ndarray, int] | None:
+    """(float32 samples (n, channels) in -1..1, sample rate) of a 16-bit PCM WAV file, read with
+    the standard library (the same numbers as ``soundfile.read(dtype="float32")``); None for any
+    other kind of file, which the caller reads with soundfile."""
+    try:
+        with wave.open(str(path), "rb") as w:
+            if w.getsampwidth() != 2 or w.getcomptype() != "NONE":
+                return None
+            channels, rate = w.getnchannels(), w.getframerate()
+            raw = w.readframes(w.getnframes())
+    except (wave.Error, EOFError):
+        return None
+    data = np.frombuffer(raw, "<i2")[: len(raw) // (2 * channels) * channels]
+    return (data.astype(np.float32) / 32768.0).reshape(-1, channels), rate
+
+
+def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
+    """Resample by ``up / down`` with a polyphase filter: the same numbers as
+    ``scipy.signal.resample_poly(x, up, down)`` with its defaults (a Kaiser-windowed sinc with
+    beta 5 and 10 zero crossings per side; tests/test_resample.py compares them), in float64,
+    without importing scipy.signal (about 1 s of imports)."""
+    g = math.gcd(int(up), int(down))
+    up, down = int(up) // g, int(down) // g
+    x = np.asarray(x, np.float64)
+    if up == down == 1:
+        return x.copy()
+    n_in = len(x)
+    n_out = -(-n_in * up // down)
+    max_rate = max(up, down)
+    half_len = 10 * max_rate
+    taps = 2 * half_len + 1
+    m = np.arange(taps) - half_len
+    h = np.sinc(m / max_rate) / max_rate * np.kaiser(taps, 5.0)
+    h = h / h.sum() * up
+    pre = down - half_len % down  # scipy's alignment: zeros before the filter, then whole outputs dropped
+    h = np.concatenate([np.zeros(pre), h])
+    first = (half_len + pre) // down
+    per_phase = -(-len(h) // up)
+    # Output k is input sample (k + first) * down // up filtered by the phase (k + first) * down % up
+    # of the filter; outputs k, k + up, k + 2 up... share their phase and step ``down`` inputs, so each
+    # of the ``up`` phases is one matrix product over a strided (no copy) view of the input.
+    bank = np.pad(h, (0, per_phase * up - len(h))).reshape(per_phase, up).T[:, ::-1]  # bank[phase, -1 - l] = h[phase + l up]
+    last = (n_out - 1 + first) * down // up + per_phase  # one past the last input any output reads
+    xp = np.concatenate([np.zeros(per_phase - 1), x, np.zeros(max(0, last - n_in - per_phase + 1))])
+    out = np.empty(n_out)
+    step = xp.strides[0]
+    for r in range(min(up, n_out)):
+        p = (r + first) * down
+        count = len(range(r, n_out, up))
+        rows = np.lib.stride_tricks.as_strided(xp[p // up :], (count, per_phase), (down * step, step))
+        out[r::up] = rows @ bank[p % up]
     return out

@@ -1,0 +1,227 @@
+"""Benchmark: sgt serve under load, and the streaming engine's latency and motion.
+
+    python benchmarks/bench_serve.py [--clients 8] [--seconds 60] [--workers 2] [--stream-only]
+
+Starts `sgt serve` on 127.0.0.1 (a free port, loopback only) in its own process and prints
+1. load: CLIENTS concurrent clients for SECONDS, each posting one 5 s utterance after another
+   (plain text, real espeak-ng speech timing, the neural engine; 16 sentences in turn, so the
+   speech cache warms up as a game's dialogue would): latency p50/p95/p99, throughput, errors
+   (anything but 200) and the server's memory (RSS) at the start and the end;
+2. streaming: the stated lookahead and the measured one (time advancing frame by frame, each
+   word sent when it starts: how far the known speech runs ahead of the last decided frame
+   after each message), the compute per network call (median, p99), and how the stream's
+   motion compares with the offline engine on the same words (mean angle per bone, speed and
+   jerk ratios).
+The load is bounded in count (CLIENTS threads) and in time (SECONDS), and never leaves the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import threading
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+SENTENCES = [
+    "Welcome to the mall! The shops you want are over there, past the fountain.",
+    "Good morning everyone, today we will talk about how robots learn to move.",
+    "I am sorry, I did not catch that. Could you say it again a little slower?",
+    "The food court is upstairs, next to the cinema and the big bookshop.",
+    "Please follow me, I will show you the way to the information desk.",
+    "Our museum opens at nine and closes at six, every day except Monday.",
+    "This painting was made in the sixteenth century by an unknown artist.",
+    "You can pay at any counter, or use the machines near the exit doors.",
+    "Thank you for waiting. Your table is ready, please come this way now.",
+    "On the left you can see the old harbour, where the ships used to land.",
+    "If you need help, just wave at me or press the green button on my chest.",
+    "The next train to the airport leaves from platform four in ten minutes.",
+    "Let me think about that for a second, it is a very good question.",
+    "Three things matter here: the speed, the size and the hand you use.",
+    "Lunch is served in the garden today, because the weather is so nice.",
+    "Goodbye, and have a wonderful afternoon. Come back and see us soon!",
+]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Server:
+    """`sgt serve` in a child process on 127.0.0.1; stopped with SIGINT on exit."""
+
+    def __init__(self, *args: str, env: dict | None = None) -> None:
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.proc = subprocess.Popen([sys.executable, "-m", "sgt_tui.cli", "serve", "--port", str(self.port), *args],
+                                     cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})},
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    def __enter__(self) -> "Server":
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"sgt serve exited with {self.proc.returncode}: {self.proc.stderr.read()}")
+            try:
+                with urllib.request.urlopen(self.url + "/healthz", timeout=2) as r:
+                    if r.status == 200:
+                        return self
+            except (OSError, urllib.error.URLError):
+                time.sleep(0.2)
+        self.stop()
+        raise RuntimeError("sgt serve did not answer /healthz within 120 s")
+
+    def rss_mb(self) -> float:
+        for line in Path(f"/proc/{self.proc.pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+        return float("nan")
+
+    def stop(self) -> tuple[int, str]:
+        if self.proc.poll() is None:
+            self.proc.send_signal(2)  # SIGINT: uvicorn shuts down gracefully
+            try:
+                self.proc.wait(30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        return self.proc.returncode, self.proc.stderr.read()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+
+def post(url: str, body: dict, timeout: float = 60.0) -> tuple[int, float]:
+    """(status, seconds) of one POST; a refused connection is status 0."""
+    req = urllib.request.Request(url, data=json.dumps(body).encode(), headers={"Content-Type": "application/json"})
+    t = time.perf_counter()
+    try:
+        with urllib.request.urlopen(req, timeout=timeout) as r:
+            r.read()
+            status = r.status
+    except urllib.error.HTTPError as e:
+        status = e.code
+    except (OSError, urllib.error.URLError):
+        status = 0
+    return status, time.perf_counter() - t
+
+
+def load(url: str, clients: int, seconds: float, max_requests: int = 100_000) -> dict:
+    """``clients`` threads posting 5 s utterances for ``seconds`` (at most ``max_requests`` in all)."""
+    results: list[tuple[int, float]] = []
+    lock = threading.Lock()
+    stop_at = time.monotonic() + seconds
+
+    def client(k: int) -> None:
+        n = k
+        while time.monotonic() < stop_at:
+            with lock:
+                if len(results) >= max_requests:
+                    return
+            body = {"text": SENTENCES[n % len(SENTENCES)], "seed": n % 100}
+            out = post(url + "/v1/generate", body)
+            with lock:
+                results.append(out)
+            n += clients
+
+    started = time.monotonic()
+    threads = [threading.Thread(target=client, args=(k,)) for k in range(clients)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    wall = time.monotonic() - started
+    ok = sorted(s for status, s in results if status == 200)
+    q = statistics.quantiles(ok, n=100) if len(ok) >= 2 else [float("nan")] * 99
+    return {"requests": len(results), "ok": len(ok), "errors": len(results) - len(ok), "wall_s": wall,
+            "throughput": len(ok) / wall, "p50": q[49], "p95": q[94], "p99": q[98],
+            "statuses": sorted({status for status, _ in results})}
+
+
+def stream_figures() -> None:
+    import numpy as np
+
+    from core.controls import ControlArrays
+    from core.skeleton import FPS
+    from dsl import compile_text
+    from model import neural, postprocess
+    from model.features import AUDIO_DIM
+    from model.runtime import load_runner
+    from model.streaming import LOOKAHEAD_S, StreamGenerator
+
+    runner = load_runner(None)
+    lags, calls, angles, speed, jerk = [], [], [], [], []
+    for n, text in enumerate(SENTENCES):
+        words = list(compile_text(f"guide: {text}", timing="estimate").plan.utterances[0].words)
+        gen = StreamGenerator(runner, seed=n)
+        pending, frames, emitted = list(words), [], 0
+        for k in range(1, int(words[-1].end * FPS) + 2):
+            t = k / FPS
+            starting = [w for w in pending if w.start <= t]
+            pending = pending[len(starting):]
+            t0 = time.perf_counter()
+            got = [gen.add_words(starting)] if starting else []
+            got.append(gen.known_until(t))
+            calls.append((time.perf_counter() - t0, sum(map(len, got))))
+            for f in got:
+                emitted += len(f)
+                frames.append(f)
+            if emitted:  # how far the known speech runs ahead of the last decided frame
+                lags.append(gen.known - (emitted - 1) / FPS)
+        frames.append(gen.finish())
+        stream = np.concatenate(frames)
+        m = len(stream)
+        ids, onsets = neural.word_features(words, m)
+        offline = postprocess.one_euro(neural.run_windows(runner, np.zeros((m, AUDIO_DIM), np.float32), ids, onsets,
+                                                          ControlArrays.empty(m), n))
+        a, b = stream.reshape(-1, 9, 3), offline.reshape(-1, 9, 3)
+        angles.append(float(np.degrees(np.arccos(np.clip((a * b).sum(-1), -1, 1))).mean()))
+        speed.append(np.abs(np.diff(stream, axis=0)).mean() / np.abs(np.diff(offline, axis=0)).mean())
+        jerk.append(np.abs(np.diff(stream, 3, axis=0)).mean() / np.abs(np.diff(offline, 3, axis=0)).mean())
+    per_frame = sorted(s / k for s, k in calls if k)
+    print(f"streaming ({runner.kind}): stated lookahead {LOOKAHEAD_S:.3f} s; measured: after each of {len(lags)} messages "
+          f"(time advancing a frame at a time, each word sent when it starts) the last decided frame is "
+          f"{min(lags):.3f}-{max(lags):.3f} s behind the known speech (the frame grid adds < 1/{FPS} s)")
+    print(f"  compute per decided frame (one network call): median {statistics.median(per_frame) * 1000:.2f} ms, "
+          f"p99 {per_frame[int(0.99 * (len(per_frame) - 1))] * 1000:.2f} ms (n={len(per_frame)})")
+    print(f"  vs the offline engine on the same words ({len(SENTENCES)} sentences): mean angle per bone "
+          f"{statistics.mean(angles):.1f} deg, speed x{statistics.mean(speed):.2f}, jerk x{statistics.mean(jerk):.2f}")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--clients", type=int, default=8)
+    ap.add_argument("--seconds", type=float, default=60.0)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--stream-only", action="store_true")
+    args = ap.parse_args()
+    stream_figures()
+    if args.stream_only:
+        return 0
+    with Server("--workers", str(args.workers), "--queue", str(2 * args.clients)) as server:
+        post(server.url + "/v1/generate", {"text": SENTENCES[0]})  # one warm-up request
+        rss_start = server.rss_mb()
+        r = load(server.url, args.clients, args.seconds)
+        rss_end = server.rss_mb()
+    print(f"load: {args.clients} clients x {args.seconds:g} s, 5 s utterances, {args.workers} workers: "
+          f"{r['requests']} requests, {r['errors']} errors (statuses {r['statuses']}), "
+          f"throughput {r['throughput']:.1f}/s")
+    print(f"  latency p50 {r['p50'] * 1000:.0f} ms, p95 {r['p95'] * 1000:.0f} ms, p99 {r['p99'] * 1000:.0f} ms; "
+          f"server RSS {rss_start:.0f} MiB at the start, {rss_end:.0f} MiB at the end")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,139 @@
+"""Streaming generation: motion frames decided while the words are still arriving.
+
+The offline engine (:mod:`model.neural`) runs the bidirectional network over 4 s windows, so a
+frame depends on up to 3 s of speech after it. A running agent cannot wait for that. The stream
+runs the same network and weights on a window that ends ``LOOKAHEAD`` frames after the frames it
+decides: to decide frames ``[a, a + STEP)`` it runs the words of frames
+``[a - CONTEXT, a + STEP + LOOKAHEAD)`` and keeps the outputs for ``[a, a + STEP)``. Frames then
+go through the causal 1-euro filter of the offline engine (continued across calls, so exactly
+the same filter). Settings chosen by measurement (docs/serve.md has the table): feeding the
+decided frames back as seed poses made the motion about half as fast as the offline engine's
+and twice as jerky at these window lengths; without seeds, one frame per call and 3 s of
+context, the stream stays about 4 degrees per bone from the offline motion on average, with
+1.2-1.3 times its speed and jerk (benchmarks/bench_serve.py prints these figures).
+
+The algorithmic latency (lookahead) is therefore fixed and stated: a frame is emitted once the
+words up to at most ``(STEP + LOOKAHEAD) / FPS`` seconds after it are known (:data:`LOOKAHEAD_S`,
+0.47 s at 15 fps). One step is one network call on ``CONTEXT + STEP + LOOKAHEAD`` frames
+(benchmarks/bench_serve.py measures it: about 1 ms in onnxruntime).
+
+The network was trained on whole windows, so the stream's motion is not the offline motion:
+benchmarks/bench_serve.py compares the two (docs/serve.md quotes it). Audio features are not
+used (they are normalised over a whole utterance, which a stream does not have yet): the stream
+follows the words, their onsets and the style, as the offline engine does with estimated timing.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from core.controls import STYLE_INDEX, STYLE_LIMIT, STYLE_NAMES
+from core.skeleton import FPS, POSE_DIM
+from core.words import TimedWord
+from model.features import AUDIO_DIM, word_features
+from model.postprocess import one_euro
+
+CONTEXT = 45  # frames of words before the decided ones (3 s)
+STEP = 1  # frames decided per network call
+LOOKAHEAD = 6  # frames of words after the decided ones
+#: The longest a frame waits for words after it: the stated algorithmic latency, in seconds.
+LOOKAHEAD_S = (STEP + LOOKAHEAD) / FPS
+#: Motion after the last word when the stream ends (seconds): the speaker comes to rest.
+TAIL = 0.5
+
+
+class StreamError(ValueError):
+    """Input the stream cannot take (words out of order, an unknown style, ...)."""
+
+
+class StreamGenerator:
+    """Feed timed words (:meth:`add_words`) and say how far the speech is known
+    (:meth:`known_until`); each call returns the frames it could decide, (n, 27) poses.
+    :meth:`finish` returns the rest."""
+
+    def __init__(self, runner, *, seed: int = 0, style: dict[str, float] | None = None, smoothing: bool = True) -> None:
+        self.runner = runner
+        self.z = np.random.default_rng(seed).standard_normal(runner.noise_dim).astype(np.float32)
+        self.style = np.zeros(len(STYLE_NAMES), np.float32)
+        self.style_mask = np.zeros(len(STYLE_NAMES), np.float32)
+        for name, value in (style or {}).items():
+            if name not in STYLE_INDEX:
+                raise StreamError(f"unknown style '{name}': use {', '.join(STYLE_NAMES)}")
+            if not isinstance(value, (int, float)) or not -STYLE_LIMIT <= value <= STYLE_LIMIT:
+                raise StreamError(f"style {name} must be a number from -{STYLE_LIMIT} to {STYLE_LIMIT}")
+            self.style[STYLE_INDEX[name]], self.style_mask[STYLE_INDEX[name]] = value, 1.0
+        self.smoothing = smoothing
+        self.filter_state: dict = {}
+        self.words: list[TimedWord] = []
+        self.known = 0.0  # seconds of speech known
+        self.done = 0  # frames decided
+        self.finished = False
+
+    @property
+    def last_word_end(self) -> float:
+        return self.words[-1].end if self.words else 0.0
+
+    def add_words(self, words) -> np.ndarray:
+        """Append timed words ((text, start, end) seconds on the stream's timeline, in order);
+        the speech is then known up to the last one's end."""
+        for word in words:
+            text, start, end = word
+            if not isinstance(text, str) or not text.strip():
+                raise StreamError("a word must be non-empty text")
+            if not (math.isfinite(start) and math.isfinite(end)) or start < 0 or end < start:
+                raise StreamError(f"word '{text}' has times {start}..{end}: they must satisfy 0 <= start <= end")
+            if start < self.last_word_end - 1e-6:
+                raise StreamError(f"word '{text}' starts at {start:.3f} s, before the previous word ends "
+                                  f"({self.last_word_end:.3f} s): send words in order")
+            if start < self.known - 1e-6:
+                raise StreamError(f"word '{text}' starts at {start:.3f} s, but the speech was said to be known up to "
+                                  f"{self.known:.3f} s (silence after the last word): send words before saying so")
+            self.words.append(TimedWord(text, float(start), float(end)))
+        return self.known_until(max(self.known, self.last_word_end))
+
+    def known_until(self, seconds: float) -> np.ndarray:
+        """Say that the speech is known up to ``seconds`` (silence after the last word so far);
+        returns the frames that can now be decided."""
+        if self.finished:
+            raise StreamError("the stream has ended")
+        if not math.isfinite(seconds):
+            raise StreamError("the time must be a finite number of seconds")
+        self.known = max(self.known, float(seconds))
+        known_frames = int(math.floor(self.known * FPS + 1e-6))
+        out = []
+        while self.done + STEP + LOOKAHEAD <= known_frames:
+            out.append(self._step(self.done + STEP + LOOKAHEAD))
+        return self._emit(out)
+
+    def finish(self) -> np.ndarray:
+        """No more words: decide every frame up to ``TAIL`` seconds after the last word."""
+        total = max(self.done, int(math.ceil((max(self.known, self.last_word_end) + TAIL) * FPS - 1e-6)))
+        out = []
+        while self.done < total:
+            out.append(self._step(total))
+        self.finished = True
+        return self._emit(out)
+
+    def _step(self, limit: int) -> np.ndarray:
+        """Run the network for the next STEP frames (fewer at ``limit``); returns their raw poses."""
+        a = self.done
+        s = max(0, a - CONTEXT)
+        e = min(a + STEP + LOOKAHEAD, max(limit, a + 1))
+        n = e - s
+        t0 = s / FPS
+        recent = [TimedWord(w.word, w.start - t0, w.end - t0) for w in self.words if w.end > t0 - 1.0 / FPS]
+        ids, onsets = word_features(recent, n)
+        free = np.zeros((n, POSE_DIM), np.float32)
+        y = self.runner.run_window(np.zeros((n, AUDIO_DIM), np.float32), ids, onsets, free, np.zeros(n, np.float32),
+                                   np.repeat(self.style[None], n, 0), np.repeat(self.style_mask[None], n, 0), self.z)
+        k = min(STEP, e - a)
+        self.done += k
+        return y[a - s : a - s + k]
+
+    def _emit(self, pieces: list[np.ndarray]) -> np.ndarray:
+        if not pieces:
+            return np.zeros((0, POSE_DIM), np.float32)
+        raw = np.concatenate(pieces)
+        return one_euro(raw, state=self.filter_state) if self.smoothing else raw

@@ -1,0 +1,71 @@
+"""sgt serve: generation as an HTTP and WebSocket service (docs/serve.md)."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "run a generation service for agents (HTTP + WebSocket streaming)"
+DESCRIPTION = """\
+Serve generation over HTTP for running agents: POST /v1/generate (a script or plain
+text -> motion JSON, optionally BVH, glb, WAV), POST /v1/generate/upload (a recording
+and its transcript), POST /v1/check, GET /v1/library, GET /healthz, and the WebSocket
+/v1/stream (text or timed words in, motion frames out with a fixed 0.47 s lookahead).
+OpenAPI documentation at /docs. The model stays loaded; requests run in worker
+threads behind a bounded queue (503 with Retry-After when it is full).
+
+Secure by default: it listens on 127.0.0.1 only. --host exposes it, and then a token
+is required (--token, or the SGT_SERVE_TOKEN environment variable); clients send
+'Authorization: Bearer TOKEN'. Scripts in requests may not name server files with
+@audio or @library unless they lie in a folder given with --allow."""
+
+
+def register(sub) -> None:
+    from sgt_tui.commands.common import non_negative_int, positive_float, positive_int
+
+    p = sub.add_parser("serve", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=non_negative_int, default=8765, help="port (default 8765; 0 picks a free one)")
+    p.add_argument("--token", help="require 'Authorization: Bearer TOKEN' (default: $SGT_SERVE_TOKEN; required with --host)")
+    p.add_argument("--allow", action="append", default=[], metavar="FOLDER",
+                   help="a folder that @audio/@library paths in requests may name (repeatable; relative paths resolve in the first)")
+    p.add_argument("--workers", type=positive_int, default=2, help="generation threads (default 2)")
+    p.add_argument("--queue", type=non_negative_int, default=8, help="requests that may wait for a thread; more get 503 (default 8)")
+    p.add_argument("--max-body", type=positive_int, default=2_000_000, metavar="BYTES",
+                   help="largest request body, an upload included (default 2000000; larger: 413)")
+    p.add_argument("--max-text", type=positive_int, default=20_000, metavar="CHARS", help="longest script or text (default 20000)")
+    p.add_argument("--timeout", type=positive_float, default=30.0, metavar="SECONDS",
+                   help="longest a request may take, its body included (default 30; then 408)")
+    p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import sys
+    from pathlib import Path
+
+    from model.runtime import load_runner
+    from model.weights import WeightsError
+    from sgt_tui.commands.common import existing_file
+    from sgt_tui.errors import InputError, UsageError
+    from sgt_tui.serve.config import ConfigError, ServeConfig, checked
+
+    weights = str(existing_file(args.weights)) if args.weights else None
+    try:
+        config = checked(ServeConfig(host=args.host, port=args.port, token=args.token, allow=tuple(Path(a) for a in args.allow),
+                                     workers=args.workers, queue=args.queue, max_body=args.max_body, max_text=args.max_text,
+                                     timeout=args.timeout, weights=weights))
+    except ConfigError as exc:
+        raise UsageError(str(exc)) from None
+    try:
+        runner = load_runner(weights)  # fail before listening when the weights cannot run
+    except WeightsError as exc:
+        raise InputError(str(exc)) from None
+    import uvicorn
+
+    from sgt_tui.serve.app import create_app
+
+    print(f"sgt serve: http://{config.host}:{config.port} (model on {runner.kind}; OpenAPI at /docs; "
+          f"{'token required' if config.token else 'no token: this machine only'})", file=sys.stderr)
+    uvicorn.run(create_app(config), host=config.host, port=config.port, log_level="warning", ws_max_size=1 << 20,
+                timeout_graceful_shutdown=5)
+    return 0

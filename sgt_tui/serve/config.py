@@ -1,0 +1,71 @@
+"""The service's settings, checked before it starts."""
+
+from __future__ import annotations
+
+import ipaddress
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+#: Environment variable holding the token when ``--token`` is not given.
+TOKEN_ENV = "SGT_SERVE_TOKEN"
+LOOPBACK_NAMES = ("localhost",)
+
+
+class ConfigError(ValueError):
+    """Settings the service refuses to start with (the message says how to fix them)."""
+
+
+@dataclass(frozen=True)
+class ServeConfig:
+    host: str = "127.0.0.1"
+    port: int = 8765
+    token: str | None = None
+    allow: tuple[Path, ...] = ()  # folders that @audio / @library paths may name
+    workers: int = 2  # generation threads
+    queue: int = 8  # requests waiting beyond the running ones; more get 503
+    max_body: int = 2_000_000  # bytes of a request body (an upload included); more get 413
+    max_text: int = 20_000  # characters of a script or text
+    timeout: float = 30.0  # seconds a request may take (reading the body, waiting and working); then 408
+    weights: str | None = None  # generator weights; None = the shipped ones
+    stream_idle: float = 60.0  # seconds a stream may wait for its next message
+
+    @property
+    def base_dir(self) -> Path | None:
+        """Where relative @audio / @library paths resolve: the first allowed folder."""
+        return self.allow[0] if self.allow else None
+
+
+def is_loopback(host: str) -> bool:
+    if host in LOOPBACK_NAMES:
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def checked(config: ServeConfig) -> ServeConfig:
+    """``config`` with the token from the environment and the allowed folders resolved; raises
+    :class:`ConfigError` for settings that would be unsafe or cannot work."""
+    token = config.token if config.token is not None else os.environ.get(TOKEN_ENV) or None
+    if token is not None and len(token) < 16:
+        raise ConfigError("the token must be at least 16 characters (e.g. python -c 'import secrets; print(secrets.token_urlsafe())')")
+    if not is_loopback(config.host) and token is None:
+        raise ConfigError(f"--host {config.host} exposes the service beyond this machine: give a token with --token "
+                          f"or the {TOKEN_ENV} environment variable (clients send 'Authorization: Bearer TOKEN')")
+    allow = []
+    for folder in config.allow:
+        path = Path(folder).expanduser()
+        if not path.is_dir():
+            raise ConfigError(f"--allow {folder}: not a folder")
+        allow.append(path.resolve())
+    for name, value, low in (("--workers", config.workers, 1), ("--queue", config.queue, 0), ("--max-body", config.max_body, 1024),
+                             ("--max-text", config.max_text, 1), ("--port", config.port, 0)):
+        if value < low:
+            raise ConfigError(f"{name} must be at least {low}")
+    if config.port > 65535:
+        raise ConfigError("--port must be at most 65535")
+    if not config.timeout > 0:
+        raise ConfigError("--timeout must be more than 0 seconds")
+    return replace(config, token=token, allow=tuple(allow))
