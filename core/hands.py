@@ -107,13 +107,6 @@ def openness(fingers: np.ndarray) -> np.ndarray:
     return np.clip(1.0 - f.sum(axis=(-1, -2)) / fist.sum(), 0.0, 1.0)
 
 
-def nearest_shape(fingers: np.ndarray) -> str:
-    """The shape name whose finger angles (5, 4) are closest to ``fingers``."""
-    f = np.asarray(fingers, dtype=np.float64)
-    best = min(SHAPES, key=lambda s: float(np.abs(SHAPE_ANGLES[s] - f).sum()))
-    return best
-
-
 # -- tracks -------------------------------------------------------------------------------------
 
 
@@ -263,8 +256,6 @@ def interpolate_hands(times: np.ndarray, palms: np.ndarray, fingers: np.ndarray,
 HAND_JOINTS: tuple[str, ...] = tuple(
     f"{d}_{j}" for d in DIGITS for j in (("cmc", "mcp", "ip", "tip") if d == "thumb" else ("mcp", "pip", "dip", "tip"))
 )
-#: Each hand joint's parent: the previous joint of its digit, or None for the wrist.
-HAND_PARENTS: tuple[str | None, ...] = tuple(None if i % 4 == 0 else HAND_JOINTS[i - 1] for i in range(len(HAND_JOINTS)))
 
 # Hand geometry in the hand's frame (metres): x to the thumb side, y along the fingers, z out
 # of the palm. Roots of each digit (the thumb's CMC, the fingers' knuckles) and segment lengths.
