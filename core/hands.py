@@ -107,6 +107,17 @@ def openness(fingers: np.ndarray) -> np.ndarray:
     return np.clip(1.0 - f.sum(axis=(-1, -2)) / fist.sum(), 0.0, 1.0)
 
 
+def nearest_shape(fingers: np.ndarray) -> str:
+    """The shape name whose finger angles (5, 4) are closest to ``fingers`` (sum of |degrees|)."""
+    f = np.asarray(fingers, dtype=np.float64)
+    return min(SHAPES, key=lambda s: float(np.abs(SHAPE_ANGLES[s] - f).sum()))
+
+
+def nearest_palm(palm: np.ndarray, side: str) -> str:
+    """The palm name of ``side`` whose direction is closest to ``palm`` (3,)."""
+    return max(PALMS, key=lambda n: float(palm_direction(n, side) @ np.asarray(palm, dtype=np.float64)))
+
+
 # -- tracks -------------------------------------------------------------------------------------
 
 

@@ -17,16 +17,12 @@ from core.hands import (
     hand_frames,
     hand_positions,
     local_hand_joints,
+    nearest_shape,
     palm_direction,
 )
 from core.skeleton import positions_from_pose
 from library import load_library
 from library.spec import SpecError, parse_spec_text, sample_hands
-
-def nearest_shape(fingers) -> str:
-    """The shape whose finger angles (5, 4) are closest to ``fingers``."""
-    return min(SHAPES, key=lambda s: float(np.abs(SHAPE_ANGLES[s] - np.asarray(fingers)).sum()))
-
 
 SPEC = """name = "h"
 duration = 1.0
