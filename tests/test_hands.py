@@ -350,11 +350,11 @@ def test_terminal_figure_marks_hand_shapes():
         pts = figure_points(pos, HandTrack.constant(1, ("relaxed", shape), ("in", "forward")))
         assert pts.shape == (1, 50, 3)
         lines = stick_figure(pts[0], 40, 20)
-        return lines, sum(bin(ord(c) - 0x2800).count("1") for line in lines for c in line)
+        return lines, sum((ord(c) - 0x2800).bit_count() for line in lines for c in line)
 
     open_lines, open_dots = dots("open")
     fist_lines, fist_dots = dots("fist")
-    point_lines, point_dots = dots("point")
+    _, point_dots = dots("point")
     assert open_dots > point_dots > fist_dots  # five fingers, one, none
     assert open_lines != fist_lines
     # without hands: the old figure, a blob at each wrist
