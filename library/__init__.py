@@ -7,6 +7,7 @@
     clip = lib.get("point_right").clip(speed=2, flip=True, hold=0.5)
     clip.poses        # (T, 27) float32 unit bone directions at core.skeleton.FPS
     clip.stroke_frame # index into clip.poses, or None
+    clip.hands        # core.hands.HandTrack: the hand shapes and palms, frame by frame
 
 Built-in gestures live in ``library/gestures/``; user folders (see :mod:`library.config`
 and ``extra_dirs``) come after it, and a later gesture with the same name overrides the
@@ -23,9 +24,10 @@ from typing import Sequence
 
 import numpy as np
 
+from core.hands import HandTrack
 from core.skeleton import FPS, frame_count, mirror_pose
 from library.config import configured_sources
-from library.spec import GestureSpec, LibraryProblem, SpecError, read_spec, sample
+from library.spec import GestureSpec, LibraryProblem, SpecError, read_spec, sample, sample_hands
 
 __all__ = ["load_library", "Library", "Gesture", "Clip", "LibraryProblem", "BUILTIN_DIR"]
 
@@ -35,10 +37,12 @@ BUILTIN = "built-in"
 
 @dataclass(frozen=True)
 class Clip:
-    """A rendered gesture: poses (T, 27) float32 at FPS, and the stroke frame (or None)."""
+    """A rendered gesture: poses (T, 27) float32 at FPS, the stroke frame (or None), and the
+    hands (T frames)."""
 
     poses: np.ndarray
     stroke_frame: int | None
+    hands: HandTrack
 
     @property
     def n_frames(self) -> int:
@@ -56,7 +60,7 @@ class Gesture:
         self.spec = spec
         self.origin = origin
         self.overrides = overrides
-        self._base: dict[float, np.ndarray] = {}
+        self._base: dict[float, tuple[np.ndarray, HandTrack]] = {}
 
     name = property(lambda self: self.spec.name)
     description = property(lambda self: self.spec.description)
@@ -95,19 +99,22 @@ class Gesture:
         key = float(speed)
         base = self._base.get(key)
         if base is None:
-            base = sample(self.spec, self.n_frames(speed))
+            n = self.n_frames(speed)
+            base = (sample(self.spec, n), sample_hands(self.spec, n))
             self._base[key] = base
-        poses = base
+        poses, hands = base
         if flip:
-            poses = mirror_pose(poses)
+            poses, hands = mirror_pose(poses), hands.mirrored()
         stroke = self.stroke_frame(speed)
         if hold > 0:
             at = len(poses) - 1 if stroke is None else stroke
             extra = np.repeat(poses[at : at + 1], frame_count(hold), axis=0)
             poses = np.concatenate([poses[: at + 1], extra, poses[at + 1 :]], axis=0)
+            frames = np.concatenate([np.arange(at + 1), np.full(frame_count(hold), at), np.arange(at + 1, hands.n_frames)])
+            hands = hands.take(frames)
         else:
-            poses = poses.copy()
-        return Clip(poses=np.ascontiguousarray(poses, dtype=np.float32), stroke_frame=stroke)
+            poses, hands = poses.copy(), hands.take(slice(None))
+        return Clip(poses=np.ascontiguousarray(poses, dtype=np.float32), stroke_frame=stroke, hands=hands)
 
 
 @dataclass

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from library import load_library
 from core.controls import ControlArrays
+from core.skeleton import REST_POSE
+from library import load_library
 from model.generate import GenerateError, clips_from_plan, engine_function
 from model.keyframe import generate
-from core.skeleton import REST_POSE
 
 
 def test_passes_through_every_key_and_is_smooth_and_unit():

@@ -120,6 +120,7 @@ def _show(args) -> int:
             "keyframes": [{
                 "time": k.time, "label": k.label, "stroke": k.stroke,
                 "bones": {b: (list(v) if v is not None else "rest") for b, v in k.bones.items()},
+                "hands": dict(k.hands),
             } for k in g.keyframes],
         }, indent=2))
         return 0
@@ -139,7 +140,7 @@ def _show(args) -> int:
     print("  keyframes:")
     for k in g.keyframes:
         mark = " *stroke*" if k.stroke else ""
-        bones = ", ".join(k.bones) or "-"
+        bones = ", ".join([*k.bones, *(f"{h} {v}" for h, v in k.hands.items())]) or "-"
         head = f"    {k.time:5.2f}s {k.label or '':<9}{mark}"
         for i, line in enumerate(textwrap.wrap(bones, 80 - 30) or ["-"]):
             print(f"{head if i == 0 else '':<30}{line}")
@@ -186,7 +187,7 @@ def _add(args) -> int:
         raise InputError(str(exc)) from None
     if not 0 <= args.utterance < len(clips):
         raise UsageError(f"utterance {args.utterance} does not exist ({args.source} has {len(clips)}: 0..{len(clips) - 1})")
-    poses = clips[args.utterance].poses
+    poses, hands = clips[args.utterance].poses, clips[args.utterance].hands
     a, b = _parse_span(args.frames, len(poses))
     if args.stroke is not None and not a <= args.stroke < b:
         raise UsageError(f"--stroke {args.stroke} is outside the span {a}:{b}")
@@ -195,7 +196,7 @@ def _add(args) -> int:
     description = text(args.description, "--description") or f"Recorded from {shown}, frames {a}:{b}."
     stroke = None if args.stroke is None else args.stroke - a
     spec, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
-                                     stroke=stroke)
+                                     stroke=stroke, hands=hands.take(slice(a, b)))
     atomic_write_text(target, spec)
     print(f"wrote {target} ({b - a} frames; max error {err:.1f} degrees on re-load)")
     return 0
