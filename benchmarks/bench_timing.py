@@ -15,9 +15,14 @@ relative to the loudest window instead of -34 dB, no shared code):
    the energy (dB re. the loudest window) of the audio between the end of the inserted
    silence and the next word's start: anything above the threshold is audio of the previous
    word played after the pause.
-3. Recorded speech (the LibriVox sentences of pocketsphinx's test data, when installed),
-   aligned automatically: how far the first word's start is before the voice onset and the
-   last word's end after the voice offset (ms).
+3. Recorded speech (the sentences of 1 spoken by espeak-ng at @rate 130 and 200, padded with
+   0.3 s of noise 60 dB under the speech, which also runs under it), aligned automatically:
+   how far the first word's start is before the voice onset and the last word's end after the
+   voice offset (ms), the voice measured on the clean audio.
+4. Transcripts that do not match: each recording of 3, and the LibriVox sentences of
+   pocketsphinx's test data when installed, aligned with its transcript, with a word added
+   to it, and with a word left out (in the middle): how many are rejected as mismatches, and
+   whether the word named is the one changed (or a neighbour).
 
 Run it on another checkout (e.g. the commit before a change) with ``--root PATH`` to compare.
 """
@@ -154,37 +159,93 @@ def _peak_power(x, win, hop) -> float:
     return float(((frames * frames * w).sum(axis=1) / w.sum()).max())
 
 
-def recordings(cache: Path) -> None:
+def recordings(recs, cache: Path) -> None:
     from dsl.speech import load_recording
 
-    if not (LIBRIVOX / "transcription").is_file():
-        print("3. (pocketsphinx test data not installed: skipped)")
-        return
-    print("3. recorded speech (LibriVox, pocketsphinx test data), aligned automatically (ms):")
+    recs = [r for r in recs if r[2] is not None]
+    print(f"3. recorded speech ({len(recs)} espeak-ng sentences with noise, see 4), aligned automatically: first"
+          " word's start before the voice onset, last word's end after the voice offset (ms; the voice"
+          " measured on the clean audio)")
     lead, tail = [], []
-    for line in (LIBRIVOX / "transcription").read_text().splitlines():
-        m = re.match(r"<s> (.*) </s> \((.*)\)", line)
-        if not m:
-            continue
-        text, name = m.group(1), m.group(2)
-        wav = LIBRIVOX / f"{name}.wav"
+    for text, wav, (on, off) in recs:
         s = load_recording(wav, text, spans_of(text), cache_dir=cache)
-        x, sr = read_wav(wav)
-        db, win, hop = envelope(x, sr)
-        on = energy_onset(db, win, hop, sr)
-        off = energy_offset(db, win, hop, sr, 0.0, len(x) / sr)
         lead.append(on - s.words[0].start)
         tail.append(s.words[-1].end - off)
-        print(f"   {name[-4:]}: first word starts {1000 * lead[-1]:+6.0f} before the voice, "
-              f"last ends {1000 * tail[-1]:+6.0f} after it")
-    print(f"   first start before voice: median {1000 * statistics.median(lead):.0f} max {1000 * max(lead):.0f}; "
-          f"last end after voice: median {1000 * statistics.median(tail):.0f} max {1000 * max(tail):.0f}")
+    print(f"   first start before voice: median {1000 * statistics.median(lead):4.0f} max {1000 * max(lead):4.0f}"
+          f" min {1000 * min(lead):4.0f}; last end after voice: median {1000 * statistics.median(tail):4.0f}"
+          f" max {1000 * max(tail):4.0f} min {1000 * min(tail):4.0f}")
+
+
+EXTRA_WORDS = ["carriage", "really", "wonderful", "people", "yesterday"]
+
+
+def _recordings(cache: Path, folder: Path) -> list[tuple[str, Path, tuple[float, float] | None]]:
+    """(transcript, WAV, (voice onset, offset) s or None): the sentences spoken by espeak-ng at two rates, padded with 0.3 s of
+    -60 dB noise on each side and with the noise under the speech (as a recording would be),
+    and the LibriVox sentences when installed."""
+    import soundfile as sf
+
+    from dsl.speech import synthesize
+
+    out = []
+    rng = np.random.default_rng(0)
+    for rate in (130, 200):
+        for i, text in enumerate(SENTENCES):
+            s = synthesize(text, spans_of(text), rate=rate, cache_dir=cache)
+            x, sr = read_wav(s.audio_path)
+            pad = np.zeros(int(0.3 * sr))
+            y = np.concatenate([pad, x, pad])
+            y = y + rng.normal(0, 10 ** (-60 / 20) * np.abs(x).max(), len(y))
+            path = folder / f"espeak-{rate}-{i}.wav"
+            sf.write(str(path), y, sr)
+            db, win, hop = envelope(x, sr)
+            truth = (0.3 + energy_onset(db, win, hop, sr), 0.3 + energy_offset(db, win, hop, sr, 0.0, len(x) / sr))
+            out.append((text, path, truth))
+    if (LIBRIVOX / "transcription").is_file():
+        for line in (LIBRIVOX / "transcription").read_text().splitlines():
+            m = re.match(r"<s> (.*) </s> \((.*)\)", line)
+            if m:
+                out.append((m.group(1), LIBRIVOX / f"{m.group(2)}.wav", None))
+    return out
+
+
+def mismatches(recs, cache: Path) -> None:
+    from dsl.speech import SpeechError, load_recording
+
+    print(f"4. transcripts against recordings ({len(recs)}: espeak-ng at @rate 130 and 200 with noise, LibriVox),"
+          " aligned automatically:")
+    rejected = {"right": 0, "a word added": 0, "a word left out": 0}
+    total = dict.fromkeys(rejected, 0)
+    named = dict.fromkeys(rejected, 0)
+    for i, (text, wav, _) in enumerate(recs):
+        words = [text[a:b] for a, b in spans_of(text)]
+        k = len(words) // 2
+        cases = [("right", words, None),
+                 ("a word added", words[:k] + [EXTRA_WORDS[i % len(EXTRA_WORDS)]] + words[k:], k),
+                 ("a word left out", words[:k] + words[k + 1:], k)]
+        for kind, ws, at in cases:
+            t = " ".join(ws)
+            total[kind] += 1
+            try:
+                load_recording(wav, t, spans_of(t), cache_dir=cache)
+            except SpeechError as e:
+                if e.kind != "mismatch":
+                    print(f"   {wav.name} {kind}: {e.message}")
+                    continue
+                rejected[kind] += 1
+                named[kind] += at is not None and e.word_index is not None and abs(e.word_index - at) <= 1
+                if kind == "right":
+                    print(f"   wrongly rejected: {wav.name}: {e.reason}")
+    for kind in rejected:
+        extra = f", the word named within one of the change: {named[kind]}" if kind != "right" else ""
+        print(f"   {kind:16s}: rejected {rejected[kind]}/{total[kind]}{extra}")
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rates", type=int, nargs="+", default=[80, 160, 300])
     ap.add_argument("--cache", type=Path, default=None, help="speech cache (default: a fresh temporary folder)")
+    ap.add_argument("--quick", action="store_true", help="leave out 4 (the slowest: 63 alignments)")
     ap.add_argument("--root", type=Path, default=ROOT, help="checkout to measure (default: this one)")
     args = ap.parse_args(argv)
     sys.path.insert(0, str(args.root))
@@ -192,7 +253,10 @@ def main(argv=None) -> int:
         cache = args.cache or Path(tmp)
         word_ends(args.rates, cache)
         pauses(cache)
-        recordings(cache)
+        recs = _recordings(cache, Path(tmp))
+        recordings(recs, cache)
+        if not args.quick:
+            mismatches(recs, cache)
     return 0
 
 
