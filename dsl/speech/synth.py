@@ -13,13 +13,18 @@ spans by character position:
   the end of voiced audio before the next anchored span, in proportion to their character
   counts; spans before the first event / after the last are placed the same way against the
   start / end of voiced audio;
-* a word ends where the next one starts, except the last word before a pause and the final
-  word, which end where the voiced audio ends (energy threshold, 5 ms frames).
+* a word ends where its audio ends: the end of its last voiced frame (energy threshold, 5 ms
+  frames) before the next word starts (the end of the voiced audio for the last word). Inside
+  a phrase that is the next word's start; before a clause break or a pause, where the voice
+  stops.
 
 The whole text is synthesized in one call (so prosody is that of the whole utterance) and
-pauses are inserted afterwards as exact digital silence at the quietest point just before the
-first word after the pause; every later time is shifted by the pause length, so a pause
-lengthens the audio by exactly its length (to the sample).
+pauses are inserted afterwards as exact digital silence after the previous word's audio;
+every later time is shifted by the pause length. Inside a clause espeak-ng runs words
+together, so a comma is added to the text after the word before such a pause: espeak-ng
+then finishes that word, and the comma's silence is dropped (but for :data:`PAUSE_SETTLE`)
+for the pause. Where the text already breaks there, the pause lengthens the audio by exactly
+its length (to the sample).
 
 Leading silence is trimmed or padded to exactly :data:`LEAD_IN` seconds before the first voiced
 sample and trailing silence to exactly :data:`TAIL` seconds after the last one, so the first
