@@ -42,7 +42,8 @@ class Rule:
     explanation: str
     #: A script that triggers the rule (``sgt explain`` shows it and what ``sgt check`` says about
     #: it; tests/test_rules.py checks that it really does), the files it needs beside it
-    #: (relative path -> text; ``"@silence:SECONDS"`` stands for a silent WAV of that length),
+    #: (relative path -> text; ``"@silence:SECONDS"`` stands for a silent WAV of that length,
+    #: ``"@speech:TEXT"`` for a WAV of espeak-ng's command line saying TEXT),
     #: environment variables it needs, and the script's encoding ("utf-8" writes lone
     #: surrogates as the bytes they escape). "" when no script can (the explanation says why).
     example: str = ""
@@ -766,8 +767,8 @@ SPEECH = rule(
     """
 The speech engine (espeak-ng) or the aligner (pocketsphinx) failed: the library is not
 installed, its data is missing, or the automatic alignment of a recording found no match.
-`sgt check` asks the engine for the script's voices, so a missing engine is reported there
-too; an alignment failure is found only by running it (`sgt check --timing`).
+`sgt check` asks the engine for the script's voices and aligns the recordings that have no
+timings file (cached, as the compiler caches it), so both are reported there too.
 
 No script triggers it on a working installation.
 
@@ -846,6 +847,32 @@ file), drop the directive, or have the operator allow-list the folder that holds
 """,
 )
 
+
+RECORDING_MISMATCH = rule(
+    "SGT407", "recording-mismatch", ERROR,
+    "{detail}",
+    "the utterance must say exactly what the recording says; or give the words' times with timings=FILE",
+    """
+Without a timings file, a recording (`@audio FILE`) is aligned to its utterance's words
+with pocketsphinx, and the alignment is checked: a word the recording does not say (the
+aligner finds no audio for it when every word may be left out) or speech in the recording
+outside every word (0.1 s or more: a word the utterance lacks) is an error at the first
+place they disagree, with its time in the recording. Left alone, such a word would take
+the time of its neighbours and move every control placed on them.
+
+`sgt check` runs the same alignment (cached, as `sgt compile` caches it), so both give the
+same verdict. Words that differ only in sound (a synonym, a mispronounced name) may pass;
+the check is about words present or absent.
+
+Example: `@audio said.wav` before `bot: Well, hello there my dear friend.` when the
+recording says "Well, hello there my friend." (the error is at 'dear').
+
+Fix: make the utterance say what the recording says, or record it again; if the aligner is
+wrong, give the words' times with `timings=FILE` (a TextGrid or JSON).
+""",
+    example="@audio said.wav\nbot: Well, hello there my dear friend.\n",
+    files={"said.wav": "@speech:Well, hello there my friend."},
+)
 
 # -- 5xx: gesture specs and configuration ------------------------------------------------
 
@@ -1086,7 +1113,8 @@ def materialise_example(r: Rule, folder) -> Path:
     """Write ``r``'s example script and its files into ``folder``; returns the script's path.
 
     A file whose text is ``"@silence:SECONDS"`` becomes a silent 16 kHz mono WAV (standard
-    library only). The caller sets :attr:`Rule.env` and runs from ``folder`` when the example
+    library only); ``"@speech:TEXT"`` a WAV of TEXT spoken by the ``espeak-ng`` command (a
+    recording of speech, deterministic: a fresh process each time). The caller sets :attr:`Rule.env` and runs from ``folder`` when the example
     needs it (``./sgt.toml``)."""
     import wave
 
@@ -1100,6 +1128,11 @@ def materialise_example(r: Rule, folder) -> Path:
                 w.setsampwidth(2)
                 w.setframerate(16000)
                 w.writeframes(b"\0\0" * int(16000 * float(text.split(":", 1)[1])))
+        elif text.startswith("@speech:"):
+            import subprocess
+
+            subprocess.run(["espeak-ng", "-w", str(target), text.split(":", 1)[1]], check=True,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         else:
             target.write_text(text, encoding="utf-8")
     script = folder / "example.sgt"

@@ -7,7 +7,7 @@ with the very functions speech timing uses (:func:`dsl.speech.synth.check_voice`
 :func:`dsl.compiler.load_script`) accept and reject the same scripts. It also owns the one
 mapping from a :class:`~dsl.speech.SpeechError` to a diagnostic at the right place: the
 ``@voice`` value, the audio file's name, the ``timings=`` value, or the word that does not
-match.
+match (in the timings file, or in the recording itself when it is aligned automatically).
 """
 
 from __future__ import annotations
@@ -94,6 +94,13 @@ def speech_diagnostic(script: Script, utt: Utterance, exc: SpeechError) -> Diagn
     if exc.kind == "timings" and audio is not None and audio.timings_where is not None:
         w = audio.timings_where
         return rules.BAD_TIMINGS.at(file, w.line, w.col, w.length, timings=_shown(audio.timings, file), reason=exc.reason)
+    if exc.kind == "mismatch" and audio is not None and audio.timings is None:  # the automatic alignment
+        idx = exc.word_index
+        w = utt.words[idx].where if idx is not None and 0 <= idx < len(utt.words) else Span(utt.line, 1, 1)
+        a = audio.where
+        return rules.RECORDING_MISMATCH.at(
+            file, w.line, w.col, w.length, detail=f"{_shown(audio.path, file)}: {exc.reason}",
+            related=(Related("the recording", file, a.line, a.col, a.length),))
     if exc.kind == "mismatch":
         related = ()
         if audio is not None and audio.timings_where is not None:

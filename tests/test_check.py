@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from core import rules
+from dsl.speech import _espeak
 from sgt_tui import cli
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -239,6 +240,29 @@ def test_timings_that_do_not_match_point_at_the_word_and_note_the_file(tmp_path,
     (d,) = json.loads(capsys.readouterr().out)["diagnostics"]
     assert (d["name"], d["line"], d["col"]) == ("timings-mismatch", 2, 12)
     assert d["related"][0]["line"] == 1 and d["related"][0]["col"] == 24
+
+
+@pytest.mark.skipif(_espeak.find_library() is None, reason="libespeak-ng not installed")
+def test_a_recording_that_does_not_say_the_words_is_the_same_error_in_check_and_compile(tmp_path, capsys, monkeypatch):
+    """Issue 10: without a timings file, a word the recording does not say was accepted."""
+    from tests.test_speech_recording import spoken_recording
+
+    monkeypatch.setenv("SGT_CACHE_DIR", str(tmp_path / "cache"))
+    spoken_recording(tmp_path)  # rec.wav: "Well, hello there my friend. How are you today?"
+    path = tmp_path / "s.sgt"
+    for line, verdict in (("bot: Well, hello there my friend. How are you today?", 0),
+                          ("bot: Well, hello there my dear friend. How are you today?", 1)):
+        path.write_bytes(f"@audio rec.wav\n{line}\n".encode())
+        seen = []
+        for command in (["check", "--format", "json"], ["compile", "--format", "json", "-o", str(tmp_path / "p.json")]):
+            assert cli.main([*command, str(path)]) == verdict
+            out = capsys.readouterr().out
+            seen.append([(d["code"], d["line"], d["col"], d["message"]) for d in json.loads(out[out.index("{"):])["diagnostics"]]
+                        if "{" in out else [])
+        assert seen[0] == seen[1]
+    ((code, line, col, message),) = seen[0]
+    assert (code, line, col) == ("SGT407", 2, 27)  # at 'dear'
+    assert message.startswith("rec.wav: word 5 ('dear') is not in the recording")
 
 
 def test_library_problems_carry_the_toml_place_and_the_skipped_spec_is_noted(tmp_path, capsys):

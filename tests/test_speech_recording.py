@@ -198,3 +198,65 @@ def test_alignment_failure_says_supply_timings(tmp_path):
     with pytest.raises(SpeechError, match="TextGrid"):
         load_recording(audio, "extraordinary circumstances everywhere today", spans_of(
             "extraordinary circumstances everywhere today"), cache_dir=tmp_path / "c")
+
+
+SPOKEN = "Well, hello there my friend. How are you today?"
+
+
+def spoken_recording(tmp_path, text=SPOKEN, pad=0.3):
+    """``text`` spoken by espeak-ng, with ``pad`` s of room noise (60 dB under the speech)
+    before and after it and under it, as a recording; and where the voice starts and ends in
+    it (s), measured on the clean audio here."""
+    s = synthesize(text, spans_of(text), cache_dir=tmp_path / "syn")
+    x, sr = sf.read(str(s.audio_path))
+    loud = np.flatnonzero(np.abs(x) > 10 ** (-40 / 20) * np.abs(x).max())
+    p = np.zeros(int(pad * sr))
+    y = np.concatenate([p, x, p])
+    y = y + np.random.default_rng(0).normal(0, 1e-3 * np.abs(x).max(), len(y))
+    path = tmp_path / "rec.wav"
+    sf.write(str(path), y, sr)
+    return path, pad + loud[0] / sr, pad + (loud[-1] + 1) / sr
+
+
+@needs_espeak
+def test_aligned_words_are_trimmed_to_the_voice(tmp_path):
+    """Issue 10: the aligner started the first word ~40 ms before the voice and ended the last
+    one after it (its 10 ms frames, and silence given to the words next to it)."""
+    path, onset, offset = spoken_recording(tmp_path)
+    got = load_recording(path, SPOKEN, spans_of(SPOKEN), cache_dir=tmp_path / "c")
+    assert abs(got.words[0].start - onset) < 0.015, (got.words[0], onset)
+    assert abs(got.words[-1].end - offset) < 0.015, (got.words[-1], offset)
+    friend, how = got.words[4], got.words[5]
+    assert how.start - friend.end > 0.1  # the pause between the sentences belongs to no word
+
+
+@needs_espeak
+@pytest.mark.parametrize("transcript, index, named", [
+    ("Well, hello there my dear friend. How are you today?", 4, "'dear'"),  # a word the recording does not say
+    ("Well, hello my friend. How are you today?", 2, "between 'hello' and 'my'"),  # the recording says 'there'
+])
+def test_a_transcript_that_does_not_match_the_recording_is_rejected(tmp_path, transcript, index, named):
+    path, _, _ = spoken_recording(tmp_path)
+    truth = synthesize(SPOKEN, spans_of(SPOKEN), cache_dir=tmp_path / "syn").words
+    there = 0.3 + truth[2].start
+    with pytest.raises(SpeechError) as ei:
+        load_recording(path, transcript, spans_of(transcript), cache_dir=tmp_path / "c")
+    e = ei.value
+    assert e.kind == "mismatch" and e.word_index == index, e.message
+    assert named in e.message and "rec.wav" in e.message and f"{e.time:.2f} s" in e.message
+    if "between" in named:  # the time is where the unexpected speech starts
+        assert abs(e.time - there) < 0.05, (e.time, there)
+    else:  # between 'my' and 'friend'
+        assert 0.3 + truth[3].start - 0.05 < e.time < 0.3 + truth[4].end
+    # the verdict is cached with the alignment: the same error without the aligner
+    from dsl.speech import align
+
+    def boom(*a, **k):
+        raise AssertionError("aligned again")
+
+    import pytest as _pytest
+    with _pytest.MonkeyPatch.context() as mp:
+        mp.setattr(align, "align_words", boom)
+        with pytest.raises(SpeechError) as again:
+            load_recording(path, transcript, spans_of(transcript), cache_dir=tmp_path / "c")
+    assert again.value.message == e.message and again.value.word_index == index

@@ -9,6 +9,7 @@ import time
 import wave
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dsl import speech
@@ -201,3 +202,61 @@ def test_import_is_cheap():
     loaded = subprocess.run([sys.executable, "-c", "from dsl.speech import _espeak; _espeak.engine(); "
                              "print('espeak' in open('/proc/self/maps').read())"], capture_output=True, text=True)
     assert loaded.stdout.split() == ["True"], loaded.stderr  # the check above can see a loaded library
+
+
+def _offsets(x, sr, t0, t1):
+    """End (s) of the last 10 ms window in [t0, t1] above -40 dB of the loudest one: where the
+    audio of a word spoken from t0 on, before t1, ends (computed here, not with dsl.speech.audio)."""
+    win, hop = int(0.01 * sr), int(0.0025 * sr)
+    frames = np.lib.stride_tricks.sliding_window_view(np.asarray(x, float), win)[::hop]
+    db = 10 * np.log10(np.maximum((frames * frames).mean(axis=1), 1e-20))
+    db -= db.max()
+    first, last = int(np.ceil(t0 * sr / hop)), int((t1 * sr - win) // hop)
+    loud = np.flatnonzero(db[first:last + 1] > -40)
+    return None if len(loud) == 0 else ((first + loud[-1]) * hop + win) / sr
+
+
+def _samples(s):
+    with wave.open(str(s.audio_path)) as wf:
+        return np.frombuffer(wf.readframes(wf.getnframes()), "<i2").astype(float)
+
+
+@pytest.mark.parametrize("rate", [80, 160, 300])
+def test_a_word_ends_where_its_audio_ends(tmp_path, rate):
+    """Issue 10: 'friend' ended at the next sentence's first word (338 ms late at @rate 160)."""
+    text = "Well, hello there my friend. How are you today?"
+    spans = spans_of(text)
+    s = synthesize(text, spans, rate=rate, cache_dir=tmp_path)
+    x = _samples(s)
+    errors = []
+    for k, w in enumerate(s.words):
+        t1 = s.words[k + 1].start if k + 1 < len(s.words) else s.duration
+        off = _offsets(x, s.sample_rate, w.start, t1)
+        if off is not None:
+            errors.append(abs(w.end - off))
+    assert np.median(errors) < 0.04 and max(errors) < 1 / 15, errors
+    friend, how = s.words[4], s.words[5]
+    assert how.start - friend.end > 0.05  # the sentence break is silence, not part of 'friend'
+
+
+def test_a_pause_inside_a_clause_goes_between_words(tmp_path):
+    """Issue 10: a mid-clause [pause] cut into the word before it, whose end played after the silence."""
+    text = "I think that we should go now."
+    spans = spans_of(text)
+    s = synthesize(text, spans, [(text.index("that"), 0.5)], cache_dir=tmp_path)
+    check_invariants(s, text, spans)
+    x, sr = _samples(s), s.sample_rate
+    that = s.words[2]
+    zeros = np.flatnonzero(x[: int(that.start * sr)] == 0)
+    runs = np.split(zeros, np.flatnonzero(np.diff(zeros) > 1) + 1)
+    silence = max(runs, key=len)
+    assert len(silence) >= int(0.5 * sr) - 1
+    assert s.words[1].end <= silence[0] / sr + 0.005  # 'think' is over before the silence (5 ms frames)
+    after = x[silence[-1] + 1: int(that.start * sr)]  # between the silence and 'that'
+    loudest = np.sqrt(np.max(np.lib.stride_tricks.sliding_window_view(x * x, int(0.01 * sr)).mean(axis=1)))
+    assert len(after) == 0 or np.sqrt((after * after).mean()) < loudest * 0.01, len(after) / sr
+    # the words before the pause are those of the clause alone, to the end of 'think'
+    alone = synthesize("I think,", spans_of("I think,"), cache_dir=tmp_path)
+    y = _samples(alone)
+    end = int(s.words[1].end * sr)
+    assert np.array_equal(x[:end], y[:end])

@@ -19,10 +19,22 @@ import re
 
 import numpy as np
 
+from . import audio
 from .audio import resample_poly
 from .types import SpeechError
 
 FRAME_RATE = 100  # pocketsphinx frames per second (default -frate)
+#: Word insertion "penalty" of the decode that may leave words out (>1: a bonus per word kept),
+#: chosen on the 22 recordings of benchmarks/bench_timing.py (espeak-ng with noise, LibriVox,
+#: tests' sentence): at 1 (no bonus) correct transcripts lose words the acoustic model hears
+#: poorly ("How" after a sentence break, still lost at 10 in tests/test_speech_recording.py);
+#: at 30 no correct transcript lost a word and every added word was left out; from 100 on the
+#: search gets unstable (a correct sentence lost 9 words in a row).
+OPTIONAL_WORD_BONUS = 30.0
+#: Voice outside every aligned word, seconds, that makes the recording say more than the
+#: transcript (a breath or a click is shorter; on correct transcripts of the recordings in
+#: benchmarks/bench_timing.py, no gap held more than 5 ms of voice).
+EXTRA_SPEECH = 0.10
 ALIGN_SR = 16000
 
 _LETTERS = {
@@ -138,8 +150,9 @@ class _Aligner:
             tokens.append(name)
         return tokens
 
-    def align(self, samples: np.ndarray, sample_rate: int, words: list[str]) -> list[tuple[float, float]]:
-        """(start, end) seconds for each word; raises SpeechError when alignment fails."""
+    def align(self, samples: np.ndarray, sample_rate: int, words: list[str]) -> tuple[list[tuple[float, float]], list[int]]:
+        """(start, end) seconds for each word, and the indices of words the recording does not
+        say (:meth:`absent_words`); raises SpeechError when alignment fails."""
         x = np.asarray(samples, dtype=np.float64)
         if sample_rate != ALIGN_SR:
             x = resample_poly(x, ALIGN_SR, int(sample_rate))
@@ -176,7 +189,44 @@ class _Aligner:
             else:
                 _, a, b = next(it)
                 times.append((a / FRAME_RATE, (b + 1) / FRAME_RATE))
-        return _fill_gaps(times, words)
+        absent = self.absent_words(pcm, words)
+        return _fill_gaps(times, words), absent
+
+    def absent_words(self, pcm: bytes, words: list[str]) -> list[int]:
+        """Indices of the words the recording does not say: a second decode where every word
+        may be left out (a JSGF grammar of optional words, each rewarded by
+        :data:`OPTIONAL_WORD_BONUS`, so only a word whose audio is clearly not there is left
+        out). Words without a pronunciation are never reported."""
+        decoder = self.ps.Decoder(lm=None, loglevel="FATAL", wip=OPTIONAL_WORD_BONUS)
+        names = []
+        for i, w in enumerate(words):
+            variants = self.pronunciations(decoder, w)
+            key = normalise_for_dict(w)
+            if variants and key and not key.isdigit():  # the dictionary's other pronunciations too
+                v = 2
+                while (alt := decoder.lookup_word(f"{key}({v})")) and v < 10:
+                    variants.append(alt)
+                    v += 1
+            if not variants:
+                continue
+            for v, phones in enumerate(variants):
+                decoder.add_word(f"sgtw{i}" if v == 0 else f"sgtw{i}({v + 1})", phones, True)
+            names.append(f"[sgtw{i}]")
+        if not names:
+            return []
+        grammar = "#JSGF V1.0;\ngrammar transcript;\npublic <s> = " + " ".join(names) + ";\n"
+        try:
+            decoder.add_jsgf_string("transcript", grammar)
+            decoder.activate_search("transcript")
+            decoder.start_utt()
+            decoder.process_raw(pcm, full_utt=True)
+            decoder.end_utt()
+            said = {int(s.word[4:].split("(")[0]) for s in (decoder.seg() or []) if s.word.startswith("sgtw")}
+        except RuntimeError:
+            return []  # no verdict: the forced alignment stands
+        if not said:
+            return []
+        return [int(n[5:-1]) for n in names if int(n[5:-1]) not in said]
 
 
 def _fill_gaps(times: list[tuple[float, float] | None], words: list[str]) -> list[tuple[float, float]]:
@@ -205,8 +255,79 @@ def _fill_gaps(times: list[tuple[float, float] | None], words: list[str]) -> lis
 _aligner: _Aligner | None = None
 
 
-def align_words(samples: np.ndarray, sample_rate: int, words: list[str]) -> list[tuple[float, float]]:
+def align_words(samples: np.ndarray, sample_rate: int, words: list[str]):
+    """Align ``words`` to a recording: ((start, end) seconds per word, trimmed to the voice),
+    and the first place the recording and the words disagree, as (word index, seconds,
+    reason), or None. Raises SpeechError when the alignment fails altogether."""
     global _aligner
     if _aligner is None:
         _aligner = _Aligner()
-    return _aligner.align(samples, sample_rate, words)
+    times, absent = _aligner.align(samples, sample_rate, words)
+    mask, hop = audio.voice_activity(samples, sample_rate)
+    times = trim_to_voice(times, mask, hop, sample_rate)
+    return times, first_mismatch(words, times, absent, mask, hop, sample_rate)
+
+
+def trim_to_voice(times, mask: np.ndarray, hop: int, sample_rate: int) -> list[tuple[float, float]]:
+    """Each word's interval cut to its first and last voiced frame (the aligner's frames are
+    10 ms and it gives a word the silence next to it), then grown over voice the aligner left
+    outside every word next to it (up to :data:`EXTRA_SPEECH`: a soft onset such as an "n"
+    it started late). A word with no voiced frame is left as it is."""
+    out = []
+    for a, b in times:
+        fa, fb = int(a * sample_rate) // hop, -(-int(round(b * sample_rate)) // hop)
+        idx = np.flatnonzero(mask[fa:fb])
+        if len(idx):
+            a2 = max(a, (fa + int(idx[0])) * hop / sample_rate)
+            b2 = min(b, (fa + int(idx[-1]) + 1) * hop / sample_rate)
+            if a2 < b2:
+                a, b = a2, b2
+        out.append((a, b))
+    reach = int(EXTRA_SPEECH * sample_rate) // hop
+    for k, (a, b) in enumerate(out):
+        fa, fb = int(round(a * sample_rate)) // hop, -(-int(round(b * sample_rate)) // hop)
+        lo = -(-int(round(out[k - 1][1] * sample_rate)) // hop) if k else 0
+        hi = int(round(out[k + 1][0] * sample_rate)) // hop if k + 1 < len(out) else len(mask)
+        if 0 <= fa < len(mask) and mask[fa]:
+            f = fa
+            while f > lo and mask[f - 1] and fa - f <= reach:
+                f -= 1
+            if fa - f <= reach:
+                a = f * hop / sample_rate
+        if 0 < fb <= len(mask) and mask[fb - 1]:
+            g = fb
+            while g < min(hi, len(mask)) and mask[g] and g - fb <= reach:
+                g += 1
+            if g - fb <= reach:
+                b = min(g * hop / sample_rate, len(mask) * hop / sample_rate)
+        out[k] = (a, b)
+    return out
+
+
+def first_mismatch(words, times, absent, mask, hop, sample_rate):
+    """The earliest of: a word the recording does not say (``absent``), and a stretch of voice
+    of :data:`EXTRA_SPEECH` or more outside every word (speech the transcript lacks).
+    (word index, seconds, reason) or None."""
+    found = []
+    if absent:
+        k = absent[0]
+        found.append((times[k][0], k, f"word {k + 1} ({words[k]!r}) is not in the recording: the aligner "
+                                      f"finds no audio for it (it would be at {times[k][0]:.2f} s)"))
+    n_frames = len(mask)
+    bounds = [0] + [f for a, b in times for f in (int(a * sample_rate) // hop, -(-int(round(b * sample_rate)) // hop))]
+    bounds.append(n_frames)
+    for g in range(len(times) + 1):  # gap g lies before word g
+        lo, hi = bounds[2 * g], bounds[2 * g + 1]
+        idx = np.flatnonzero(mask[lo:hi]) if hi > lo else np.zeros(0, dtype=int)
+        if len(idx) * hop / sample_rate >= EXTRA_SPEECH:
+            t = (lo + int(idx[0])) * hop / sample_rate
+            where = (f"between {words[g - 1]!r} and {words[g]!r}" if 0 < g < len(words)
+                     else f"before {words[0]!r}" if g == 0 else f"after {words[-1]!r}")
+            found.append((t, min(g, len(words) - 1),
+                          f"the recording has {len(idx) * hop / sample_rate:.2f} s of speech at {t:.2f} s "
+                          f"{where} that the transcript does not have"))
+            break
+    if not found:
+        return None
+    t, k, reason = min(found)
+    return k, t, reason

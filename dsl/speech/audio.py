@@ -181,3 +181,33 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
         rows = np.lib.stride_tricks.as_strided(xp[p // up :], (count, per_phase), (down * step, step))
         out[r::up] = rows @ bank[p % up]
     return out
+
+
+#: Voice activity in recordings: a stretch is voice when it rises this far above the noise
+#: floor (dB) and extends while it stays this far above it (hysteresis); see :func:`voice_activity`.
+VOICE_ON_DB, VOICE_OFF_DB = 12.0, 6.0
+
+
+def voice_activity(samples: np.ndarray, sample_rate: int) -> tuple[np.ndarray, int]:
+    """Voiced frames of a recording (energy VAD, :data:`FRAME_S` frames) and the frame length.
+
+    Unlike :func:`voiced_mask` (for synthesized speech, whose silence is digital) it allows
+    for room noise: the noise floor is the 10th percentile of the frames' RMS; a stretch is
+    voice where the RMS rises :data:`VOICE_ON_DB` above that floor (and above the -34 dB of
+    :data:`VOICED_REL` below the loudest frame) and it extends to the frames around it that
+    stay :data:`VOICE_OFF_DB` above the floor (and above -40 dB)."""
+    rms, hop = frame_rms(samples, sample_rate)
+    if len(rms) == 0:
+        return np.zeros(0, dtype=bool), hop
+    peak = float(rms.max())
+    digital = 1e-4 if samples.dtype.kind == "f" else 3.0
+    noise = float(np.percentile(rms, 10))
+    on = max(peak * VOICED_REL, noise * 10 ** (VOICE_ON_DB / 20), digital)
+    off = max(peak * VOICED_REL / 2, noise * 10 ** (VOICE_OFF_DB / 20), digital)
+    weak = rms > off
+    mask = np.zeros(len(rms), dtype=bool)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], weak.astype(np.int8), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):
+        if (rms[a:b] > on).any():
+            mask[a:b] = True
+    return mask, hop

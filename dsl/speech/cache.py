@@ -10,7 +10,7 @@ from core.fileio import atomic_write
 from core.paths import cache_dir
 
 #: Bump when the timing algorithm changes so that old cache entries are not reused.
-ALGORITHM_VERSION = 1
+ALGORITHM_VERSION = 2
 
 
 def default_cache_dir() -> Path:

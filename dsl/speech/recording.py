@@ -272,16 +272,22 @@ def check_timings(text: str, spans, timings_path: Path, duration: float) -> tupl
     return times, source
 
 
-def check_recording(audio_path: Path, text: str, word_spans, timings_path: Path | None = None) -> None:
+def check_recording(audio_path: Path, text: str, word_spans, timings_path: Path | None = None,
+                    cache_dir: Path | None = None) -> None:
     """Everything :func:`load_recording` checks before it times the words: the audio can be read
-    and is not empty, and the timings file (if any) is well-formed and fits the transcript and
-    the recording. ``sgt check`` runs this, so it accepts exactly the recordings that
-    ``sgt compile`` accepts (only the automatic alignment, without a timings file, is left to
-    the compiler). Raises :class:`SpeechError`."""
+    and is not empty, the timings file (if any) is well-formed and fits the transcript and the
+    recording, and without one, the recording says the transcript's words (the automatic
+    alignment, cached in ``cache_dir`` as :func:`load_recording` caches it). ``sgt check``
+    runs this, so it accepts exactly the recordings that ``sgt compile`` accepts. Raises
+    :class:`SpeechError`."""
     spans = check_spans(text, word_spans)
-    samples, sr = read_audio(Path(audio_path))
+    audio_path = Path(audio_path)
+    samples, sr = read_audio(audio_path)
     if timings_path is not None:
         check_timings(text, spans, Path(timings_path), len(samples) / sr)
+    else:
+        cdir = Path(cache_dir) if cache_dir is not None else cache.default_cache_dir()
+        _cached_alignment(audio_path, text, spans, samples, sr, cdir)
 
 
 # -- public entry point ---------------------------------------------------------------------
@@ -376,16 +382,25 @@ def _insert_pauses(samples, sr, starts, ends, boundaries: dict[int, float]):
 
 
 def _cached_alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Path) -> list[tuple[float, float]]:
+    """Word times from pocketsphinx (cached by the audio's and the words' content); a
+    recording that does not say the transcript's words raises SpeechError ("mismatch") naming
+    the first word that differs and its time, cached too."""
     words = [text[s:e] for s, e in spans]
     key = cache.content_hash({"kind": "pocketsphinx-align", "algorithm": cache.ALGORITHM_VERSION,
                               "audio": cache.file_hash(audio_path), "words": words})
     meta_path = cdir / f"{key}.json"
     meta = cache.read_json(meta_path)
     if meta is not None and meta.get("key") == key and len(meta.get("times", [])) == len(words):
-        return [(float(a), float(b)) for a, b in meta["times"]]
-    if not words:
+        times, mismatch = [(float(a), float(b)) for a, b in meta["times"]], meta.get("mismatch")
+    elif not words:
         return []
-    times = align.align_words(samples, sr, words)
-    cdir.mkdir(parents=True, exist_ok=True)
-    cache.write_json(meta_path, {"key": key, "source": "pocketsphinx", "times": [list(t) for t in times]})
+    else:
+        times, mismatch = align.align_words(samples, sr, words)
+        cdir.mkdir(parents=True, exist_ok=True)
+        cache.write_json(meta_path, {"key": key, "source": "pocketsphinx", "times": [list(t) for t in times],
+                                     "mismatch": list(mismatch) if mismatch else None})
+    if mismatch:
+        k, t, reason = int(mismatch[0]), float(mismatch[1]), str(mismatch[2])
+        raise SpeechError(f"{audio_path}: {reason}", word_index=k, time=t, kind="mismatch", file=audio_path,
+                          reason=reason)
     return times

@@ -13,13 +13,18 @@ spans by character position:
   the end of voiced audio before the next anchored span, in proportion to their character
   counts; spans before the first event / after the last are placed the same way against the
   start / end of voiced audio;
-* a word ends where the next one starts, except the last word before a pause and the final
-  word, which end where the voiced audio ends (energy threshold, 5 ms frames).
+* a word ends where its audio ends: the end of its last voiced frame (energy threshold, 5 ms
+  frames) before the next word starts (the end of the voiced audio for the last word). Inside
+  a phrase that is the next word's start; before a clause break or a pause, where the voice
+  stops.
 
 The whole text is synthesized in one call (so prosody is that of the whole utterance) and
-pauses are inserted afterwards as exact digital silence at the quietest point just before the
-first word after the pause; every later time is shifted by the pause length, so a pause
-lengthens the audio by exactly its length (to the sample).
+pauses are inserted afterwards as exact digital silence after the previous word's audio;
+every later time is shifted by the pause length. Inside a clause espeak-ng runs words
+together, so a comma is added to the text after the word before such a pause: espeak-ng
+then finishes that word, and the comma's silence is dropped (but for :data:`PAUSE_SETTLE`)
+for the pause. Where the text already breaks there, the pause lengthens the audio by exactly
+its length (to the sample).
 
 Leading silence is trimmed or padded to exactly :data:`LEAD_IN` seconds before the first voiced
 sample and trailing silence to exactly :data:`TAIL` seconds after the last one, so the first
@@ -44,6 +49,10 @@ from .types import Speech, SpeechError
 LEAD_IN = 0.05
 #: Silence kept after the last voiced sample, seconds.
 TAIL = 0.10
+
+#: Of the silence after a word that ends before a mid-clause pause, this much is kept before
+#: the pause (its fade-out), seconds.
+PAUSE_SETTLE = 0.01
 
 #: Speaking rates (words per minute) and pitches espeak-ng accepts; ``@rate``/``@pitch`` check them.
 RATE_RANGE = (80, 450)
@@ -258,30 +267,58 @@ def _event_starts(spans, events, n_samples, mask, hop) -> list[float]:
     return starts
 
 
+def _word_ends(spans, starts: list[float], mask, hop, n_samples: int, v1: int) -> list[float]:
+    """End sample per span: the end of the last voiced frame between its start and the next
+    span's start (the end of the voiced audio for the last span), never before its start."""
+    n = len(spans)
+    ends = [0.0] * n
+    for k in range(n):
+        hi = int(starts[k + 1]) if k + 1 < n else v1
+        hi = max(hi, int(math.ceil(starts[k])))
+        ends[k] = float(max(audio.voiced_end_in(mask, hop, int(starts[k]), hi), starts[k]))
+    return ends
+
+
 def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float], pause_n: dict[int, int],
-              lead: float, tail: float):
-    """Trim/pad the ends, compute word ends, insert pauses. Returns (samples, starts, ends) in samples."""
+              joined: set[int], lead: float, tail: float):
+    """Word ends, pauses, trimmed/padded ends. Returns (samples, starts, ends) in samples.
+
+    A pause at boundary ``b`` goes after the previous word's audio (its end), never inside it:
+    where the text already had a clause break there, at the quietest point of the silence
+    espeak-ng left before the next word; where ``b`` is in ``joined`` (a comma was added to the
+    text so that espeak-ng finishes the word, see :func:`_clause_breaks`), that comma's own
+    silence is removed but for :data:`PAUSE_SETTLE` and the pause takes its place."""
     n = len(spans)
     mask, hop = audio.voiced_mask(samples, sample_rate)
     bounds = audio.voiced_bounds(mask, hop, len(samples))
     v0, v1 = bounds if bounds else (0, len(samples))
     lead_n, tail_n = int(round(lead * sample_rate)), int(round(tail * sample_rate))
-    # word ends before trimming
+    ends = _word_ends(spans, starts, mask, hop, len(samples), v1)
     cuts: dict[int, int] = {}
-    for b in pause_n:
+    removed: list[tuple[int, int]] = []
+    settle = int(round(PAUSE_SETTLE * sample_rate))
+    for b in sorted(pause_n):
         if 0 < b < n:
-            lo = int(max(starts[b - 1], starts[b] - 0.12 * sample_rate))
-            cuts[b] = audio.quiet_cut(samples, sample_rate, lo, int(starts[b]))
-    ends = [0.0] * n
-    for k in range(n):
-        if k + 1 < n and (k + 1) not in cuts:
-            ends[k] = starts[k + 1]
-        else:
-            hi = cuts.get(k + 1, v1 if k + 1 == n else len(samples))
-            hi = max(hi, int(math.ceil(starts[k])))
-            ends[k] = float(max(audio.voiced_end_in(mask, hop, int(starts[k]), hi), starts[k]))
-            if k + 1 == n:
-                ends[k] = min(max(ends[k], starts[k]), max(float(v1), starts[k]))
+            lo, hi = int(math.ceil(ends[b - 1])), int(starts[b])
+            if hi <= lo:
+                cuts[b] = int(starts[b])
+            elif b in joined:
+                cuts[b] = lo + min(settle, hi - lo)
+                removed.append((cuts[b], hi))
+            else:
+                cuts[b] = audio.quiet_cut(samples, sample_rate, lo, hi)
+    if removed:  # drop the added commas' silences; every position after one moves back
+        keep = np.ones(len(samples), dtype=bool)
+        for a, b in removed:
+            keep[a:b] = False
+        samples = samples[keep]
+
+        def moved(p: float) -> float:
+            return p - sum(min(max(p - a, 0), b - a) for a, b in removed)
+
+        starts, ends = [moved(x) for x in starts], [moved(x) for x in ends]
+        cuts = {b: int(moved(c)) for b, c in cuts.items()}
+        v0, v1 = int(moved(v0)), int(moved(v1))
     # trim/pad ends: keep exactly lead_n before v0 and tail_n after v1
     shift = lead_n - v0
     body = samples[v0:v1]
@@ -306,6 +343,28 @@ def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float],
     starts = [s + o for s, o in zip(starts, offs)]
     ends = [e + o for e, o in zip(ends, offs)]
     return out, starts, ends
+
+
+#: Characters after which espeak-ng ends a clause (and so a word's audio) before going on.
+_CLAUSE_MARKS = ",.;:!?"
+
+
+def _clause_breaks(text: str, spans, boundaries: dict[int, float]) -> tuple[str, list[int], set[int]]:
+    """The text espeak-ng speaks, with a comma after the word before each pause that is not
+    already at a clause break (inside a clause, espeak-ng runs the words together: a cut there
+    would split a word); the original character index of every character of that text (an
+    added comma maps to where it was added), and the boundaries that got a comma."""
+    joined = {b for b in boundaries if 0 < b < len(spans)
+              and not any(c in _CLAUSE_MARKS for c in text[spans[b - 1][1]:spans[b][0]])}
+    at = sorted(spans[b - 1][1] for b in joined)
+    pieces, origin, prev = [], [], 0
+    for pos in at:
+        pieces += [text[prev:pos], ","]
+        origin += list(range(prev, pos)) + [pos]
+        prev = pos
+    pieces.append(text[prev:])
+    origin += list(range(prev, len(text) + 1))
+    return "".join(pieces), origin, joined
 
 
 def _build_words(text, spans, starts, ends, sample_rate, n_samples) -> list[TimedWord]:
@@ -345,6 +404,7 @@ def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tu
     rate, pitch = int(round(rate)), int(round(pitch))
     clean = text.replace("\0", " ")
     boundaries = pause_boundaries(spans, pause_list)
+    spoken, origin, joined = _clause_breaks(clean, spans, boundaries)
 
     key = cache.content_hash({
         "kind": "espeak-ng", "algorithm": cache.ALGORITHM_VERSION, "engine": _espeak.engine_fingerprint(),
@@ -364,7 +424,9 @@ def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tu
             resolved = _resolve_voice(eng, voice)
             sr = eng.sample_rate
         if spans:
-            sr, raw, events = _espeak.run_synth(clean, resolved, rate, pitch)
+            sr, raw, events = _espeak.run_synth(spoken, resolved, rate, pitch)
+            events = [_espeak.WordEvent(origin[min(e.char_index, len(origin) - 1)], e.length, e.sample)
+                      for e in events]
         else:
             raw, events = b"", []
     except _espeak.EngineError as e:
@@ -372,7 +434,8 @@ def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tu
     samples = np.frombuffer(raw, dtype="<i2").astype(np.int16)
     mask, hop = audio.voiced_mask(samples, sr)
     starts = _event_starts(spans, events, len(samples), mask, hop) if spans else []
-    out, starts, ends = _timeline(samples, sr, spans, starts, pause_sample_counts(boundaries, sr), LEAD_IN, TAIL)
+    out, starts, ends = _timeline(samples, sr, spans, starts, pause_sample_counts(boundaries, sr), joined,
+                                  LEAD_IN, TAIL)
     words = _build_words(clean, spans, starts, ends, sr, len(out))
     cdir.mkdir(parents=True, exist_ok=True)
     atomic_write(wav_path, audio.wav_bytes(out, sr))

@@ -63,7 +63,9 @@ def _example(r, run_check: bool) -> None:
     for line in shown.rstrip("\n").split("\n"):
         print("    " + "".join(_printable(c) for c in line))
     for rel, text in r.files:
-        what = f"a silent recording of {text.split(':', 1)[1]} s" if text.startswith("@silence:") else repr(text)
+        what = (f"a silent recording of {text.split(':', 1)[1]} s" if text.startswith("@silence:")
+                else f"a recording of espeak-ng saying {text.split(':', 1)[1]!r}" if text.startswith("@speech:")
+                else repr(text))
         print(f"  with {rel}: {what}")
     for key, value in r.env:
         print(f"  with {key}={value}")
