@@ -35,7 +35,8 @@ class ArrayRequests:
         for a, b, values in self.styles:
             arrays.set_style(a, b, values)
         for start, gesture, mark, length in self.poses:  # length < the clip's: its retraction was cut
-            arrays.set_pose(start, gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).poses[:length])
+            clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
+            arrays.set_pose(start, clip.poses[:length], clip.bones)
         return arrays
 
 
@@ -103,7 +104,7 @@ class Plan:
         atomic_write(path, self.to_json().encode("utf-8"))
 
     def save_npz(self, path) -> None:
-        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I`` per utterance I, plus ``plan`` (JSON);
+        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I``, ``bone_mask_I`` per utterance I, plus ``plan`` (JSON);
         to ``path`` (or a binary stream) by :mod:`core.fileio`'s rules."""
         arrays: dict[str, np.ndarray] = {"plan": np.array(self.to_json())}
         for i, u in enumerate(self.utterances):

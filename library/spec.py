@@ -57,16 +57,26 @@ from pathlib import Path
 
 import numpy as np
 
-from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE
+from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE, mirror_name
 
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
-TOP_LEVEL_KEYS = ("name", "description", "tags", "duration", "keyframes")
+TOP_LEVEL_KEYS = ("name", "description", "tags", "duration", "variant_of", "keyframes")
 KEYFRAME_KEYS = ("time", "label", "stroke")
 #: Consecutive keyframe directions of one bone closer to opposite than this (degrees)
 #: would make the interpolation ambiguous.
 MAX_STEP_DEGREES = 170.0
 
 REST_DIRS = np.asarray(REST_POSE, dtype=np.float64).reshape(N_BONES, 3)
+
+#: The limbs a gesture drives, by the bones they hold. A gesture drives every limb one of
+#: whose bones a keyframe names (even as "rest"), and leaves the others to the generator.
+LIMBS: dict[str, tuple[str, ...]] = {
+    "torso": ("neck",),
+    "head": ("nose", "head_top"),
+    "left_arm": ("left_shoulder", "left_elbow", "left_wrist"),
+    "right_arm": ("right_shoulder", "right_elbow", "right_wrist"),
+}
+LIMB_OF = {bone: limb for limb, bones in LIMBS.items() for bone in bones}
 
 
 @dataclass(frozen=True)
@@ -110,6 +120,11 @@ class Keyframe:
     #: Only the bones the file names: bone name -> unit direction, or None for "rest".
     bones: dict[str, tuple[float, float, float] | None]
 
+    def mirrored(self) -> "Keyframe":
+        """The keyframe of the gesture played with ``flip``: left and right bones swapped, x negated."""
+        bones = {mirror_name(b): (None if v is None else (-v[0], v[1], v[2])) for b, v in self.bones.items()}
+        return Keyframe(self.time, self.label, self.stroke, bones)
+
 
 @dataclass(frozen=True)
 class GestureSpec:
@@ -121,6 +136,20 @@ class GestureSpec:
     path: Path
     #: Full directions per keyframe, shape (K, 9, 3), after applying the defaults.
     key_dirs: np.ndarray = field(repr=False, compare=False)
+    #: The gesture this one is a deliberate variant of (its stroke may look alike), or None.
+    variant_of: str | None = None
+
+    @property
+    def limbs(self) -> tuple[str, ...]:
+        """The limbs (:data:`LIMBS`) the gesture drives: those with a bone some keyframe names."""
+        named = {b for k in self.keyframes for b in k.bones}
+        return tuple(limb for limb, bones in LIMBS.items() if named.intersection(bones))
+
+    @property
+    def bone_mask(self) -> np.ndarray:
+        """(9,) bool in :data:`core.skeleton.BONE_NAMES` order: the bones the gesture drives."""
+        limbs = set(self.limbs)
+        return np.array([LIMB_OF[b] in limbs for b in BONE_NAMES])
 
     @property
     def stroke_time(self) -> float | None:
@@ -229,6 +258,9 @@ def _validate(data: dict, path: Path) -> GestureSpec:
     description, tags = _description_and_tags(data)
     duration = _duration(data)
     keyframes, key_dirs = _keyframes(data, duration)
+    variant_of = data.get("variant_of")
+    if variant_of is not None and (not isinstance(variant_of, str) or not NAME_RE.match(variant_of)):
+        raise SpecError("variant_of", f"variant_of must name a gesture (lower-case letters, digits and '_'), got {variant_of!r}")
     return GestureSpec(
         name=name,
         description=description,
@@ -237,6 +269,7 @@ def _validate(data: dict, path: Path) -> GestureSpec:
         keyframes=tuple(keyframes),
         path=path,
         key_dirs=np.stack(key_dirs),
+        variant_of=variant_of,
     )
 
 

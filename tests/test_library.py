@@ -91,15 +91,70 @@ def test_starts_and_ends_near_rest(lib):
             assert _angles(np.stack([end, rest])).max() < 1.0, g.name
 
 
+def _nearest_frame_angle(poses, pose):
+    """The largest bone angle (degrees) between ``pose`` and the frame of ``poses`` nearest to it."""
+    p = poses.reshape(len(poses), N_BONES, 3).astype(np.float64)
+    q = np.asarray(pose, np.float64).reshape(N_BONES, 3)
+    cos = np.clip(np.sum(p * q, axis=-1), -1, 1)
+    return float(np.degrees(np.arccos(cos)).max(axis=1).min())
+
+
 @pytest.mark.parametrize("speed", [2, 3])
-def test_speed_divides_length(lib, speed):
+def test_speed_keeps_every_keyframe_and_lands_the_stroke(lib, speed):
     for g in lib:
         n1 = len(g.clip().poses)
-        ns = len(g.clip(speed=speed).poses)
-        assert abs(ns - n1 / speed) <= 1, (g.name, n1, ns)
-        assert ns == frame_count(g.duration / speed)
-        s1, ss = g.clip().stroke_frame, g.clip(speed=speed).stroke_frame
-        assert abs(ss - s1 / speed) <= 1, g.name
+        clip = g.clip(speed=speed)
+        ns = len(clip.poses)
+        # as short as duration / speed allows, never slower than speed 1
+        assert frame_count(g.duration / speed) <= ns <= n1, (g.name, n1, ns)
+        # every keyframe (every repetition's extreme) is shown on a frame
+        for k, pose in enumerate(g.spec.key_dirs):
+            assert _nearest_frame_angle(clip.poses, pose) < 0.1, (g.name, speed, k)
+        # and the stroke frame shows the stroke keyframe
+        (s,) = [k for k, key in enumerate(g.keyframes) if key.stroke]
+        assert _angles(np.stack([clip.poses[clip.stroke_frame], g.spec.key_dirs[s].reshape(-1)])).max() < 0.1
+
+
+@pytest.mark.parametrize("speed", [1, 2, 3])
+def test_no_bone_turns_faster_than_a_person_can(lib, speed):
+    from library.retime import MAX_DEG_PER_S
+
+    for g in lib:
+        peak = _angles(g.clip(speed=speed).poses).max() * 15
+        assert peak <= MAX_DEG_PER_S, (g.name, speed, peak)
+
+
+def test_speed_compresses_preparation_and_retraction_more_than_the_stroke(lib):
+    core_x1 = edge_x1 = 0
+    for speed in (2, 3):
+        core_s = edge_s = core_1 = edge_1 = 0
+        for g in lib:
+            if len(g.keyframes) < 4 or g.keyframes[0].time > 0 or g.keyframes[-1].time < g.duration:
+                continue
+            f1, fs = g.key_frames(1), g.key_frames(speed)
+            edge_1 += f1[1] + f1[-1] - f1[-2]
+            edge_s += fs[1] + fs[-1] - fs[-2]
+            core_1 += f1[-2] - f1[1]
+            core_s += fs[-2] - fs[1]
+        assert edge_1 / edge_s > core_1 / core_s > 1.0, speed
+        core_x1, edge_x1 = core_1, edge_1
+    assert core_x1 and edge_x1
+    wave = lib.get("wave")
+    for speed in (2, 3):
+        f1, fs = wave.key_frames(1), wave.key_frames(speed)
+        assert (f1[1] + f1[-1] - f1[-2]) / (fs[1] + fs[-1] - fs[-2]) > (f1[-2] - f1[1]) / (fs[-2] - fs[1])
+
+
+def test_wave_keeps_its_swings_at_every_speed(lib):
+    wave = lib.get("wave")
+    rw = JOINT_INDEX["right_wrist"]
+    swing = {}
+    for speed in (1, 2, 3):
+        pos = positions_from_pose(wave.clip(speed=speed).poses)
+        f = wave.key_frames(speed)
+        swing[speed] = np.ptp(pos[f[2] : f[-2] + 1, rw, 0])
+    assert swing[1] > 0.15
+    assert swing[2] == pytest.approx(swing[1], abs=0.005) and swing[3] == pytest.approx(swing[1], abs=0.005)
 
 
 def test_flip_and_mirror(lib):
