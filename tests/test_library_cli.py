@@ -77,6 +77,26 @@ def test_show(capsys):
     assert len(doc["keyframes"]) == len(g.keyframes)
 
 
+def test_show_flip_lists_the_mirrored_keyframes(capsys):
+    g = load_library(use_config=False).get("point_right")
+    code, out, _ = _run(capsys, "library", "show", "point_right", "--flip", "--json")
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["flip"] and doc["drives"] == ["left_arm"]
+    flipped = g.clip(flip=True)
+    for k, shown in zip(g.keyframes, doc["keyframes"]):
+        assert not any(b.startswith("right_") for b in shown["bones"])
+        for bone, v in k.bones.items():
+            mirrored = shown["bones"]["left_" + bone[len("right_"):]]
+            assert mirrored == ("rest" if v is None else [-v[0], v[1], v[2]])
+            if v is not None:  # what is listed is what the flipped clip plays on that frame
+                i = ["neck", "nose", "head_top", "left_shoulder", "left_elbow", "left_wrist"].index(
+                    "left_" + bone[len("right_"):])
+                assert np.allclose(flipped.poses[shown["frame"]].reshape(N_BONES, 3)[i], mirrored, atol=1e-4)
+    code, text, _ = _run(capsys, "library", "show", "point_right", "--flip")
+    assert "mirrored" in text and "left_elbow [0.951, -0.211, 0.224]" in text and "right_elbow" not in text
+
+
 def test_show_unknown_is_a_usage_error(capsys):
     """A name that matches nothing is a usage error (2), like `--utterance 50`."""
     code, out, err = _run(capsys, "library", "show", "point_rigth")

@@ -101,6 +101,7 @@ def _show(args) -> int:
     import json
     from pathlib import Path
 
+    from core.skeleton import mirror_name
     from library import load_library
     from sgt_tui.errors import UsageError
 
@@ -110,17 +111,21 @@ def _show(args) -> int:
         hint = lib.suggest(args.name)
         raise UsageError(f"no gesture named '{args.name}'" + (f"; did you mean '{hint}'?" if hint else ""))
     clip = g.clip(speed=args.speed, flip=args.flip)
+    keyframes = [k.mirrored() for k in g.keyframes] if args.flip else list(g.keyframes)
+    frames = g.key_frames(args.speed)
+    limbs = [mirror_name(limb) for limb in g.spec.limbs] if args.flip else list(g.spec.limbs)
     if args.json:
         print(json.dumps({
             "name": g.name, "description": g.description, "tags": g.tags,
             "duration": g.duration, "origin": g.origin, "path": str(g.path),
             "overrides": str(g.overrides) if g.overrides else None,
             "speed": args.speed, "flip": args.flip,
-            "frames": clip.n_frames, "stroke_frame": clip.stroke_frame,
+            "frames": clip.n_frames, "stroke_frame": clip.stroke_frame, "drives": limbs,
+            "variant_of": g.spec.variant_of,
             "keyframes": [{
-                "time": k.time, "label": k.label, "stroke": k.stroke,
+                "time": k.time, "frame": int(f), "label": k.label, "stroke": k.stroke,
                 "bones": {b: (list(v) if v is not None else "rest") for b, v in k.bones.items()},
-            } for k in g.keyframes],
+            } for k, f in zip(keyframes, frames)],
         }, indent=2))
         return 0
     import textwrap
@@ -136,14 +141,21 @@ def _show(args) -> int:
     print(f"  duration: {g.duration:g} s at x1; {clip.n_frames} frames at{extra}")
     print(f"  stroke:   frame {clip.stroke_frame}" if clip.stroke_frame is not None
           else "  stroke:   none")
-    print("  keyframes:")
-    for k in g.keyframes:
+    print(f"  drives:   {', '.join(limbs)} (the generator moves the rest)")
+    if g.spec.variant_of:
+        print(f"  variant of: {g.spec.variant_of}")
+    print("  keyframes" + (" (mirrored):" if args.flip else ":"))
+    for k, f in zip(keyframes, frames):
         mark = " *stroke*" if k.stroke else ""
-        bones = ", ".join(k.bones) or "-"
-        head = f"    {k.time:5.2f}s {k.label or '':<9}{mark}"
-        for i, line in enumerate(textwrap.wrap(bones, 80 - 30) or ["-"]):
-            print(f"{head if i == 0 else '':<30}{line}")
+        head = f"    {k.time:5.2f}s f{int(f):<3} {k.label or '':<9}{mark}"
+        bones = [f"{b} {_direction(v)}" for b, v in k.bones.items()] or ["-"]
+        for i, line in enumerate(bones):
+            print(f"{head if i == 0 else '':<36}{line}")
     return 0
+
+
+def _direction(v) -> str:
+    return "rest" if v is None else "[" + ", ".join(f"{x:.3f}" for x in v) + "]"
 
 
 def _parse_span(text: str, n: int) -> tuple[int, int]:
