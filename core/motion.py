@@ -2,16 +2,21 @@
 
 JSON (``*.json``)::
 
-    {"format": "sgt-motion", "version": 1, "fps": 15,
+    {"format": "sgt-motion", "version": 2, "fps": 15,
      "joints": [...joint names], "bones": [[parent, child], ...],
      "coordinates": "y-up, right-handed, metres; character faces +z",
+     "hands": {"sides": ["left", "right"], "digits": ["thumb", ...]},
      "utterances": [{"speaker": ..., "text": ..., "words": [{"word", "start", "end"}],
                      "controls": [{...}], "poses": [[27 floats], ...],
-                     "positions": [[[x, y, z] x 10], ...]}]}
+                     "positions": [[[x, y, z] x 10], ...],
+                     "hands": {"palm": [T x 2 x 3], "fingers": [T x 2 x 5 x 4]}}]}
 
-Floats are rounded to 5 decimals. NPZ (``*.npz``) holds ``poses_0``, ``positions_0``, ...
-as float32 arrays plus ``meta``: the same JSON header without the pose/position arrays.
-Any other format name or version is refused with :class:`MotionFileError`. Files are
+Floats are rounded to 5 decimals (hands: palms 4, finger angles 2). NPZ (``*.npz``) holds
+``poses_0``, ``positions_0``, ``hand_palm_0``, ``hand_fingers_0``, ... as float32 arrays plus
+``meta``: the same JSON header without the arrays. Hands (:mod:`core.hands`: palm targets and
+finger angles in degrees per side and frame) came with version 2; a version 1 file (no hands)
+still loads, with relaxed hands. Any other format name or version is refused with
+:class:`MotionFileError`. Files are
 written by :mod:`core.fileio`'s rules (atomically for a regular file: a temporary file in
 the same folder, then ``os.replace``; a device or a link is never replaced).
 """
@@ -28,11 +33,14 @@ import numpy as np
 
 from core.controls import Control
 from core.fileio import atomic_write
+from core.hands import DIGITS, SIDES, HandTrack
 from core.skeleton import BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
 
 FORMAT = "sgt-motion"
-VERSION = 1
+VERSION = 2
+#: Versions this sgt reads: 1 (no hands) and 2.
+READABLE_VERSIONS = (1, 2)
 COORDINATES = "y-up, right-handed, metres; character faces +z"
 
 
@@ -49,6 +57,8 @@ class MotionClip:
     words: list[TimedWord] = field(default_factory=list)  # seconds from the clip's frame 0
     controls: list[Control] = field(default_factory=list)
     positions: np.ndarray | None = None
+    #: The hands on the same frames (relaxed when not given).
+    hands: HandTrack | None = None
 
     def __post_init__(self):
         p = np.asarray(self.poses, dtype=np.float32)
@@ -63,6 +73,12 @@ class MotionClip:
             self.positions = positions_from_pose(p).astype(np.float32)
         else:
             self.positions = np.asarray(self.positions, dtype=np.float32)
+        if self.hands is None:
+            self.hands = HandTrack.rest(p.shape[0])
+        elif not isinstance(self.hands, HandTrack):
+            raise TypeError("MotionClip.hands must be core.hands.HandTrack")
+        elif self.hands.n_frames != p.shape[0]:
+            raise MotionFileError(f"hands have {self.hands.n_frames} frames, poses {p.shape[0]}")
 
     @property
     def n_frames(self) -> int:
@@ -77,6 +93,7 @@ def _header() -> dict:
         "joints": list(JOINTS),
         "bones": [list(b) for b in BONES],
         "coordinates": COORDINATES,
+        "hands": {"sides": list(SIDES), "digits": list(DIGITS)},
     }
 
 
@@ -120,7 +137,8 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None) ->
     doc = _header()
     if kind == "json":
         doc["utterances"] = [
-            {**_utterance_meta(c), "poses": _round(c.poses), "positions": _round(c.positions)}
+            {**_utterance_meta(c), "poses": _round(c.poses), "positions": _round(c.positions),
+             "hands": c.hands.to_dict()}
             for c in clips
         ]
         data = (json.dumps(doc, indent=1) + "\n").encode("utf-8")
@@ -130,6 +148,8 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None) ->
         for i, c in enumerate(clips):
             arrays[f"poses_{i}"] = np.asarray(c.poses, dtype=np.float32)
             arrays[f"positions_{i}"] = np.asarray(c.positions, dtype=np.float32)
+            arrays[f"hand_palm_{i}"] = c.hands.palm
+            arrays[f"hand_fingers_{i}"] = c.hands.fingers
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         data = buf.getvalue()
@@ -141,10 +161,10 @@ def _check_header(doc, path: Path) -> None:
         raise MotionFileError(f"{path}: not an sgt motion file")
     if doc.get("format") != FORMAT:
         raise MotionFileError(f"{path}: format is {doc.get('format')!r}, expected '{FORMAT}'")
-    if doc.get("version") != VERSION:
+    if doc.get("version") not in READABLE_VERSIONS:
         raise MotionFileError(
             f"{path}: motion file version {doc.get('version')!r} is not supported "
-            f"(this sgt reads version {VERSION})"
+            f"(this sgt reads versions {', '.join(map(str, READABLE_VERSIONS))})"
         )
     if doc.get("fps") != FPS:
         raise MotionFileError(f"{path}: fps {doc.get('fps')!r}, expected {FPS}")
@@ -154,7 +174,7 @@ def _check_header(doc, path: Path) -> None:
         raise MotionFileError(f"{path}: 'utterances' missing or not a list")
 
 
-def _clip(meta: dict, poses, positions, path: Path, i: int) -> MotionClip:
+def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None) -> MotionClip:
     if not isinstance(meta, dict):
         raise MotionFileError(f"{path}: utterance {i} is not an object")
     try:
@@ -165,7 +185,12 @@ def _clip(meta: dict, poses, positions, path: Path, i: int) -> MotionClip:
             positions = np.asarray(positions, dtype=np.float32)
             if positions.shape != (poses.shape[0], N_JOINTS, 3):
                 raise ValueError(f"positions have shape {positions.shape}")
+        if isinstance(hands, dict):
+            hands = HandTrack.from_dict(hands)
+        elif hands is not None:
+            raise ValueError("hands must be an object with 'palm' and 'fingers'")
         return MotionClip(
+            hands=hands,
             poses=poses,
             positions=positions,
             speaker=meta.get("speaker"),
@@ -190,7 +215,8 @@ def load_motion(path) -> list[MotionClip]:
             _check_header(doc, path)
             return [
                 _clip(u, u.get("poses") if isinstance(u, dict) else None,
-                      u.get("positions") if isinstance(u, dict) else None, path, i)
+                      u.get("positions") if isinstance(u, dict) else None, path, i,
+                      u.get("hands") if isinstance(u, dict) else None)
                 for i, u in enumerate(doc["utterances"])
             ]
         try:
@@ -204,7 +230,10 @@ def load_motion(path) -> list[MotionClip]:
                     if f"poses_{i}" not in z.files:
                         raise MotionFileError(f"{path}: missing poses_{i}")
                     pos = z[f"positions_{i}"] if f"positions_{i}" in z.files else None
-                    clips.append(_clip(u, z[f"poses_{i}"], pos, path, i))
+                    hands = None
+                    if f"hand_palm_{i}" in z.files and f"hand_fingers_{i}" in z.files:
+                        hands = {"palm": z[f"hand_palm_{i}"], "fingers": z[f"hand_fingers_{i}"]}
+                    clips.append(_clip(u, z[f"poses_{i}"], pos, path, i, hands))
                 return clips
         except (ValueError, OSError, json.JSONDecodeError) as exc:
             if isinstance(exc, FileNotFoundError):

@@ -16,6 +16,7 @@ import numpy as np
 
 from core.controls import STYLE_NAMES, Control, ControlArrays
 from core.fileio import atomic_write
+from core.hands import HandTrack
 from core.words import TimedWord
 
 PLAN_FORMAT = "sgt-plan"
@@ -39,6 +40,20 @@ class ArrayRequests:
             arrays.set_pose(start, clip.poses[:length], clip.bones)
         return arrays
 
+    def build_hands(self) -> tuple[HandTrack, np.ndarray]:
+        """The pose controls' hands (their gestures' hand keys; relaxed elsewhere) and a mask
+        (T,), 1 on the frames a pose control sets them."""
+        track = HandTrack.rest(self.n_frames)
+        mask = np.zeros(self.n_frames, np.float32)
+        for start, gesture, mark, length in self.poses:
+            hands = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).hands
+            lo, hi = max(0, start), min(self.n_frames, start + length)
+            if hi > lo:
+                track.palm[lo:hi] = hands.palm[lo - start : hi - start]
+                track.fingers[lo:hi] = hands.fingers[lo - start : hi - start]
+                mask[lo:hi] = 1.0
+        return track, mask
+
 
 @dataclass
 class UtterancePlan:
@@ -56,6 +71,7 @@ class UtterancePlan:
     lead_in: float = 0.0  # seconds of silence before the audio starts (words are already shifted)
 
     _arrays: ControlArrays | None = field(default=None, repr=False)
+    _hands: tuple[HandTrack, np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def arrays(self) -> ControlArrays:
@@ -63,6 +79,13 @@ class UtterancePlan:
         if self._arrays is None:
             self._arrays = self.requests.build()
         return self._arrays
+
+    @property
+    def hands(self) -> tuple[HandTrack, np.ndarray]:
+        """The pose controls' hands and where they apply (see :meth:`ArrayRequests.build_hands`)."""
+        if self._hands is None:
+            self._hands = self.requests.build_hands()
+        return self._hands
 
     def to_dict(self) -> dict:
         return {

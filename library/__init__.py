@@ -7,6 +7,7 @@
     clip = lib.get("point_right").clip(speed=2, flip=True, hold=0.5)
     clip.poses        # (T, 27) float32 unit bone directions at core.skeleton.FPS
     clip.stroke_frame # index into clip.poses, or None
+    clip.hands        # core.hands.HandTrack: the hand shapes and palms, frame by frame
 
 Built-in gestures live in ``library/gestures/``; user folders (see :mod:`library.config`
 and ``extra_dirs``) come after it, and a later gesture with the same name overrides the
@@ -23,6 +24,7 @@ from typing import Sequence
 
 import numpy as np
 
+from core.hands import HandTrack, interpolate_hands
 from core.skeleton import FPS, MIRROR_BONE_PERMUTATION, frame_count, mirror_pose
 from library import retime
 from library.config import configured_sources
@@ -37,10 +39,12 @@ BUILTIN = "built-in"
 @dataclass(frozen=True)
 class Clip:
     """A rendered gesture: poses (T, 27) float32 at FPS, the stroke frame (or None), and the
-    bones it drives (9,) bool (:attr:`library.spec.GestureSpec.bone_mask`, mirrored with flip)."""
+    bones it drives (9,) bool (:attr:`library.spec.GestureSpec.bone_mask`, mirrored with flip),
+    and the hands (T frames)."""
 
     poses: np.ndarray
     stroke_frame: int | None
+    hands: HandTrack
     bones: np.ndarray | None = None
 
     @property
@@ -59,7 +63,7 @@ class Gesture:
         self.spec = spec
         self.origin = origin
         self.overrides = overrides
-        self._base: dict[float, np.ndarray] = {}
+        self._base: dict[float, tuple[np.ndarray, HandTrack]] = {}
         self._keys: dict[float, np.ndarray] = {}
 
     name = property(lambda self: self.spec.name)
@@ -133,24 +137,26 @@ class Gesture:
         base = self._base.get(key)
         if base is None:
             times, dirs = self._timeline()
-            if len(times) == 1:
-                base = interpolate(times, dirs, np.zeros(self.n_frames(speed)))
-            else:
-                base = interpolate(times, dirs, retime.frame_times(times, self._frames(speed)))
+            ts = np.zeros(self.n_frames(speed)) if len(times) == 1 else retime.frame_times(times, self._frames(speed))
+            key_times = np.array([k.time for k in self.spec.keyframes])
+            base = (interpolate(times, dirs, ts), interpolate_hands(key_times, self.spec.key_palms, self.spec.key_fingers, ts))
             self._base[key] = base
-        poses = base
+        poses, hands = base
         bones = self.spec.bone_mask
         if flip:
-            poses = mirror_pose(poses)
+            poses, hands = mirror_pose(poses), hands.mirrored()
             bones = bones[MIRROR_BONE_PERMUTATION]
         stroke = self.stroke_frame(speed)
         if hold > 0:
             at = len(poses) - 1 if stroke is None else stroke
             extra = np.repeat(poses[at : at + 1], frame_count(hold), axis=0)
             poses = np.concatenate([poses[: at + 1], extra, poses[at + 1 :]], axis=0)
+            frames = np.concatenate([np.arange(at + 1), np.full(frame_count(hold), at), np.arange(at + 1, hands.n_frames)])
+            hands = hands.take(frames)
         else:
-            poses = poses.copy()
-        return Clip(poses=np.ascontiguousarray(poses, dtype=np.float32), stroke_frame=stroke, bones=bones.copy())
+            poses, hands = poses.copy(), hands.take(slice(None))
+        return Clip(poses=np.ascontiguousarray(poses, dtype=np.float32), stroke_frame=stroke, hands=hands,
+                    bones=bones.copy())
 
 
 @dataclass

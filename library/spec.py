@@ -25,6 +25,8 @@ Spec file format (``library/gestures/NAME.toml``, one gesture per file)
     time = 1.2
     right_elbow = "rest"                 # back to the rest direction
     right_wrist = "rest"
+    right_hand = "relaxed"               # optional: a hand shape (core.hands.SHAPES)
+    right_palm = "in"                    # optional: where the palm faces (core.hands.PALMS)
 
 Bones are named after their child joint (see :data:`core.skeleton.BONE_NAMES`):
 ``neck`` (spine -> neck, the torso), ``nose`` and ``head_top`` (the head),
@@ -36,6 +38,15 @@ left is +x; normalised on load, must not be zero) or the string ``"rest"``.
 **Bones not given in a keyframe keep their value from the previous keyframe**; in the
 first keyframe they take the rest pose. So a keyframe only lists what changes, and a
 gesture that returns to rest says so with ``"rest"``.
+
+Hands (optional, per keyframe): ``right_hand`` / ``left_hand`` name a shape of
+:data:`core.hands.SHAPES` ("relaxed", "open", "fist", "point", "thumb_up", "thumb_down",
+"ok", "pinch", "count1" .. "count5") and ``right_palm`` / ``left_palm`` a palm direction of
+:data:`core.hands.PALMS` ("down", "up", "in" towards the body's midline, "out" away from it,
+"forward" towards the listener, "back" towards the speaker). Like bones, a keyframe that
+does not name them keeps the previous keyframe's; the first takes the rest hand (relaxed,
+palm in). Between keyframes hands ease from one keyframe to the next
+(:func:`core.hands.interpolate_hands`); ``flip`` mirrors them with the body.
 
 Between keyframes each bone direction moves along the sphere on a spherical cubic
 Bezier (slerp-based de Casteljau) with Catmull-Rom-like tangents: zero angular velocity at
@@ -57,11 +68,14 @@ from pathlib import Path
 
 import numpy as np
 
+from core.hands import PALMS, REST_PALM, REST_SHAPE, SHAPE_ANGLES, SHAPES, SIDES, HandTrack, closest, interpolate_hands, palm_direction
 from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE, mirror_name
 
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
 TOP_LEVEL_KEYS = ("name", "description", "tags", "duration", "variant_of", "keyframes")
 KEYFRAME_KEYS = ("time", "label", "stroke")
+#: Optional hand keys of a keyframe: a shape name (``*_hand``) or a palm direction (``*_palm``).
+HAND_KEYS = ("left_hand", "right_hand", "left_palm", "right_palm")
 #: Consecutive keyframe directions of one bone closer to opposite than this (degrees)
 #: would make the interpolation ambiguous.
 MAX_STEP_DEGREES = 170.0
@@ -119,11 +133,14 @@ class Keyframe:
     stroke: bool
     #: Only the bones the file names: bone name -> unit direction, or None for "rest".
     bones: dict[str, tuple[float, float, float] | None]
+    #: Only the hand keys the file names (:data:`HAND_KEYS`): key -> shape or palm name.
+    hands: dict[str, str] = field(default_factory=dict)
 
     def mirrored(self) -> "Keyframe":
         """The keyframe of the gesture played with ``flip``: left and right bones swapped, x negated."""
         bones = {mirror_name(b): (None if v is None else (-v[0], v[1], v[2])) for b, v in self.bones.items()}
-        return Keyframe(self.time, self.label, self.stroke, bones)
+        hands = {mirror_name(k): v for k, v in self.hands.items()}  # palm names are relative to each hand
+        return Keyframe(self.time, self.label, self.stroke, bones, hands)
 
 
 @dataclass(frozen=True)
@@ -136,6 +153,10 @@ class GestureSpec:
     path: Path
     #: Full directions per keyframe, shape (K, 9, 3), after applying the defaults.
     key_dirs: np.ndarray = field(repr=False, compare=False)
+    #: Hands per keyframe after the defaults: palm targets (K, 2, 3) and finger angles
+    #: (K, 2, 5, 4), side order :data:`core.hands.SIDES`.
+    key_palms: np.ndarray = field(default=None, repr=False, compare=False)
+    key_fingers: np.ndarray = field(default=None, repr=False, compare=False)
     #: The gesture this one is a deliberate variant of (its stroke may look alike), or None.
     variant_of: str | None = None
 
@@ -261,6 +282,7 @@ def _validate(data: dict, path: Path) -> GestureSpec:
     variant_of = data.get("variant_of")
     if variant_of is not None and (not isinstance(variant_of, str) or not NAME_RE.match(variant_of)):
         raise SpecError("variant_of", f"variant_of must name a gesture (lower-case letters, digits and '_'), got {variant_of!r}")
+    key_palms, key_fingers = _key_hands(keyframes)
     return GestureSpec(
         name=name,
         description=description,
@@ -270,6 +292,8 @@ def _validate(data: dict, path: Path) -> GestureSpec:
         path=path,
         key_dirs=np.stack(key_dirs),
         variant_of=variant_of,
+        key_palms=key_palms,
+        key_fingers=key_fingers,
     )
 
 
@@ -331,7 +355,7 @@ def _keyframes(data: dict, duration: float) -> tuple[list[Keyframe], list[np.nda
             _check_turn(where, dirs, new_dirs)
         dirs = new_dirs
         key_dirs.append(dirs)
-        keyframes.append(Keyframe(t, label, stroke, bones))
+        keyframes.append(Keyframe(t, label, stroke, bones, _hand_names(where, raw)))
     return keyframes, key_dirs
 
 
@@ -369,12 +393,12 @@ def _key_bones(where: str, raw: dict, dirs: np.ndarray) -> tuple[dict, np.ndarra
     bones: dict[str, tuple[float, float, float] | None] = {}
     new_dirs = dirs.copy()
     for key, value in raw.items():
-        if key in KEYFRAME_KEYS:
+        if key in KEYFRAME_KEYS or key in HAND_KEYS:
             continue
         if key not in BONE_INDEX:
             if key == "spine":
                 raise SpecError(f"{where}.{key}", "'spine' is the root joint and has no bone; use 'neck' to lean the torso")
-            raise SpecError(f"{where}.{key}", f"unknown bone '{key}'", _close(key, BONE_NAMES + KEYFRAME_KEYS))
+            raise SpecError(f"{where}.{key}", f"unknown bone '{key}'", _close(key, BONE_NAMES + KEYFRAME_KEYS + HAND_KEYS))
         if value == "rest":
             bones[key] = None
             new_dirs[BONE_INDEX[key]] = REST_DIRS[BONE_INDEX[key]]
@@ -383,6 +407,47 @@ def _key_bones(where: str, raw: dict, dirs: np.ndarray) -> tuple[dict, np.ndarra
         bones[key] = (float(v[0]), float(v[1]), float(v[2]))
         new_dirs[BONE_INDEX[key]] = v
     return bones, new_dirs
+
+
+def _hand_names(where: str, raw: dict) -> dict[str, str]:
+    """The hand keys a keyframe names, checked against the shape and palm vocabularies."""
+    out = {}
+    for key in HAND_KEYS:
+        if key not in raw:
+            continue
+        value = raw[key]
+        names, what = (SHAPES, "hand shape") if key.endswith("_hand") else (PALMS, "palm direction")
+        if not isinstance(value, str):
+            raise SpecError(f"{where}.{key}", f"{key} must be a {what} name in quotes, one of {', '.join(names)}; got {value!r}")
+        if value not in names:
+            raise SpecError(f"{where}.{key}", f"unknown {what} '{value}' (one of {', '.join(names)})", closest(value, names))
+        out[key] = value
+    return out
+
+
+def _key_hands(keyframes: list[Keyframe]) -> tuple[np.ndarray, np.ndarray]:
+    """Palm targets (K, 2, 3) and finger angles (K, 2, 5, 4) at every keyframe: what it names,
+    else the previous keyframe's, else the rest hand."""
+    palms = np.stack([palm_direction(REST_PALM, side) for side in SIDES])
+    fingers = np.stack([SHAPE_ANGLES[REST_SHAPE]] * 2).astype(np.float64)
+    key_palms, key_fingers = [], []
+    for k in keyframes:
+        palms, fingers = palms.copy(), fingers.copy()
+        for s, side in enumerate(SIDES):
+            if f"{side}_palm" in k.hands:
+                palms[s] = palm_direction(k.hands[f"{side}_palm"], side)
+            if f"{side}_hand" in k.hands:
+                fingers[s] = SHAPE_ANGLES[k.hands[f"{side}_hand"]]
+        key_palms.append(palms)
+        key_fingers.append(fingers)
+    return np.stack(key_palms), np.stack(key_fingers)
+
+
+def sample_hands(spec: GestureSpec, n_frames: int) -> HandTrack:
+    """The gesture's hands at ``n_frames`` frames spread evenly over [0, duration], as :func:`sample`."""
+    times = np.array([k.time for k in spec.keyframes])
+    ts = np.array([0.0]) if n_frames == 1 else np.linspace(0.0, spec.duration, n_frames)
+    return interpolate_hands(times, spec.key_palms, spec.key_fingers, ts)
 
 
 def _direction(field: str, value) -> np.ndarray:

@@ -6,6 +6,7 @@
     clips = generate_clips("examples/mall_guide.sgt", engine="keyframe")
     clips[0].poses      # (T, 27) unit bone directions at 15 fps
     clips[0].positions  # (T, 10, 3) metres
+    clips[0].hands      # core.hands.HandTrack: hand shapes and palms (model/hands.py's rules)
     clips = generate_clips(source="guide: Hello [pose:wave] there.")   # from text, no file
     take = generate(compile_text(text).plan)                           # from a compiled plan
 
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import inspect
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -33,6 +35,7 @@ from core.seeds import SEED_MAX
 from core.words import TimedWord
 from dsl.compiler import compile_file
 from dsl.plan import Plan
+from model.hands import motion_hands
 from model.neural import _model
 from model.weights import WeightsError
 
@@ -122,9 +125,12 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
     for n, u in enumerate(plan.utterances):
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
-        poses = fn(EngineInputs.from_plan(u), seed=base_seed + u.index)
+        layers: list = []  # an engine's own gesture hands (the rules engine's), then the pose controls'
+        extra = {"hands_out": layers} if "hands_out" in inspect.signature(fn).parameters else {}
+        poses = fn(EngineInputs.from_plan(u), seed=base_seed + u.index, **extra)
+        hands = motion_hands(poses, [*layers, u.hands])
         clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=list(u.words),
-                                controls=list(u.controls)))
+                                controls=list(u.controls), hands=hands))
     if progress:
         progress(len(plan.utterances), len(plan.utterances), "")
     return clips

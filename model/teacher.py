@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.controls import STYLE_LIMIT, STYLE_NAMES
+from core.hands import HandTrack
 from core.skeleton import (
     BONE_INDEX,
     FPS,
@@ -412,9 +413,11 @@ def _arms(c: _Clip, talk: np.ndarray, var: dict, rest_other: np.ndarray, beats: 
     return dirs
 
 
-def _add_library_gestures(dirs: np.ndarray, tw, c: _Clip, trigger_prob: float | None, rng) -> None:
+def _add_library_gestures(dirs: np.ndarray, tw, c: _Clip, trigger_prob: float | None, rng,
+                          hands: tuple[HandTrack, np.ndarray] | None = None) -> None:
     """Blend library gestures triggered by words into ``dirs`` (in place): the stroke on the
-    word's onset, one gesture at a time, one-handed ones mostly on the dominant side."""
+    word's onset, one gesture at a time, one-handed ones mostly on the dominant side. With
+    ``hands`` (a track and its weights, (n,)), the gestures' hands and blend weights go there."""
     n, pers = c.n, c.pers
     lib = _lib()
     busy_until = -1
@@ -464,6 +467,11 @@ def _add_library_gestures(dirs: np.ndarray, tw, c: _Clip, trigger_prob: float | 
         for bi in np.flatnonzero(used):
             # head bones from the library: add the gesture's rotation on top of the base
             dirs[lo:hi, bi] = _slerp_dirs(dirs[lo:hi, bi], gp[sl, bi], wgt[sl, None])
+        if hands is not None:
+            track, weight = hands
+            track.palm[lo:hi] = clip.hands.palm[sl]
+            track.fingers[lo:hi] = clip.hands.fingers[sl]
+            weight[lo:hi] = wgt[sl]
 
 
 def _idle(dirs: np.ndarray, c: _Clip, talk: np.ndarray, beats: _Beats, rng) -> np.ndarray:
@@ -514,7 +522,8 @@ def _finish(dirs: np.ndarray, c: _Clip, talk: np.ndarray, torso: np.ndarray) -> 
 
 
 def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
-          rng: np.random.Generator | None = None, trigger_prob: float | None = None) -> np.ndarray:
+          rng: np.random.Generator | None = None, trigger_prob: float | None = None,
+          hands_out: list | None = None) -> np.ndarray:
     """Poses (n_frames, 27) float32 of unit bone directions for timed ``words``.
 
     ``words``: timed words (seconds on the motion timeline; :class:`~core.words.TimedWord`).
@@ -522,7 +531,9 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
     seconds into the motion, or None. ``style``: dict of speed/space/handedness in [-3, 3],
     scalars (per clip) or arrays (per frame). ``trigger_prob`` overrides the chance that a
     trigger word gets its library gesture. Deterministic given ``rng``'s state (the steps
-    draw from it in this order, which fixes the corpus).
+    draw from it in this order, which fixes the corpus). With ``hands_out`` (a list), the
+    triggered gestures' hands and their blend weights are appended to it as one
+    ``(HandTrack, weights)`` layer for :func:`model.hands.motion_hands`.
     """
     rng = np.random.default_rng(0) if rng is None else rng
     n = int(n_frames)
@@ -537,7 +548,10 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
     var, rest_other = _hold_variants(len(c.keys_t), rng)
     beats = _beats(_accents(tw, n, audio, lead_in, rng), c, rng)
     dirs = _arms(c, talk, var, rest_other, beats)
-    _add_library_gestures(dirs, tw, c, trigger_prob, rng)
+    hands = None if hands_out is None else (HandTrack.rest(n), np.zeros(n))
+    _add_library_gestures(dirs, tw, c, trigger_prob, rng, hands)
+    if hands is not None:
+        hands_out.append(hands)
     torso = _idle(dirs, c, talk, beats, rng)
     return _finish(dirs, c, talk, torso)
 
@@ -551,8 +565,9 @@ CONTROL_RAMP = 5
 CONTROL_RAMP_STEP_DEG = 12.0
 
 
-def generate(inputs, *, seed: int = 0) -> np.ndarray:
-    """The ``rules`` engine: teacher motion with the style controls, pose controls exact."""
+def generate(inputs, *, seed: int = 0, hands_out: list | None = None) -> np.ndarray:
+    """The ``rules`` engine: teacher motion with the style controls, pose controls exact.
+    ``hands_out``: see :func:`teach`."""
     arrays = inputs.arrays
     n = arrays.n_frames
     style = {}
@@ -563,7 +578,7 @@ def generate(inputs, *, seed: int = 0) -> np.ndarray:
     if inputs.audio_path is not None:
         audio = load_audio(inputs.audio_path)
     base = teach(inputs.words, n, audio=audio, lead_in=inputs.lead_in,
-                 style=style, rng=np.random.default_rng(seed))
+                 style=style, rng=np.random.default_rng(seed), hands_out=hands_out)
     out = blend_pose_controls(base, arrays.pose, arrays.pose_mask, CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG,
                               bones=arrays.bone_mask)
     return normalize_pose(out).astype(np.float32)

@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from core.fileio import atomic_write
+from core.hands import hand_positions
 from core.motion import MotionClip
 from core.skeleton import FPS
 from renders import overlay
@@ -36,12 +37,13 @@ class _Panel:
         self.m = mannequin
         self.clip = clip
         self.label = label
+        self.hands = hand_positions(clip.positions, clip.hands)
 
     def image(self, frame: int, **kw):
         from PIL import Image
 
         f = min(frame, self.clip.n_frames - 1)
-        img = Image.fromarray(self.m.render(self.clip.positions[f]))
+        img = Image.fromarray(self.m.render(self.clip.positions[f], self.hands[f]))
         return overlay.decorate(img, f, self.clip, label=self.label, **kw)
 
 

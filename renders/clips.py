@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.hands import concat
 from core.motion import MotionClip
 from core.skeleton import FPS
 from core.words import shift_words
@@ -28,6 +29,7 @@ def concat_clips(clips: list[MotionClip]) -> MotionClip:
     return MotionClip(
         poses=np.concatenate([c.poses for c in clips]),
         positions=np.concatenate([c.positions for c in clips]),
+        hands=concat([c.hands for c in clips]),
         speaker=speakers.pop() if len(speakers) == 1 else None,
         text=" / ".join(texts) or None,
         words=words,

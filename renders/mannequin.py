@@ -1,7 +1,9 @@
 """An offscreen shaded mannequin: one pyrender scene, node poses updated per frame.
 
 The meshes (trimesh primitives) are built once; :meth:`Mannequin.render` only moves the
-nodes. The camera is fixed at a three-quarter view from the front-right of the character
+nodes. Hands are a palm (a flattened box) and the thumb and four fingers, three capsules each,
+placed on the hand joints of :mod:`core.hands` (drawn a little thicker than life so that a
+pointing index or a thumbs up reads at 240x240). The camera is fixed at a three-quarter view from the front-right of the character
 (who faces +z), so its right hand is on the left of the picture.
 """
 
@@ -9,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.hands import DIGITS, HAND_JOINTS, SIDES, HandTrack, hand_positions, local_hand_joints
 from core.skeleton import BONE_LENGTHS
 from core.skeleton import JOINT_INDEX as J
 from renders import gl
@@ -38,6 +41,13 @@ _LIMBS = (
 )
 _BALLS = (("left_shoulder", 0.058), ("right_shoulder", 0.058), ("left_elbow", 0.047),
           ("right_elbow", 0.047))
+#: Finger capsule radius (metres) per digit; the palm's half thickness.
+_FINGER_RADIUS = {"thumb": 0.0125, "index": 0.0115, "middle": 0.0115, "ring": 0.011, "little": 0.010}
+_PALM_HALF_THICKNESS = 0.015
+
+
+#: The hand joints of a relaxed hand at the origin (segment lengths of the finger capsules).
+_REST_HAND = local_hand_joints(HandTrack.rest(1).fingers[0, 0])
 
 
 def camera_pose() -> np.ndarray:
@@ -100,10 +110,20 @@ class Mannequin:
             add(name, cap, mat(BODY))
         for j, r in _BALLS:
             add("ball_" + j, trimesh.creation.icosphere(subdivisions=2, radius=r), mat(JOINT_COLOR))
-        for side in ("left", "right"):
-            hand = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
-            hand.apply_scale([0.042, 0.026, 0.065])  # flat along +z (the forearm direction)
-            add(side + "_hand", hand, mat(SKIN, 0.6))
+        self._segments = []  # (node name, parent hand joint index or -1 for the wrist, child index)
+        for side in SIDES:
+            palm = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+            add(side + "_palm", palm, mat(SKIN, 0.6))
+            wrist = trimesh.creation.icosphere(subdivisions=2, radius=0.026)
+            add(side + "_wristball", wrist, mat(SKIN, 0.6))
+            for d, digit in enumerate(DIGITS):
+                for k in range(3):
+                    a, b = 4 * d + k, 4 * d + k + 1
+                    length = float(np.linalg.norm(_REST_HAND[b] - _REST_HAND[a]))
+                    cap = trimesh.creation.capsule(height=length, radius=_FINGER_RADIUS[digit], count=[8, 8])
+                    name = f"{side}_{HAND_JOINTS[b]}"
+                    add(name, cap, mat(SKIN, 0.6))
+                    self._segments.append((name, SIDES.index(side), a, b))
 
         cam = pr.PerspectiveCamera(yfov=np.radians(YFOV), aspectRatio=self.width / self.height, znear=0.5, zfar=10.0)
         self.scene.add(cam, pose=camera_pose())
@@ -119,9 +139,12 @@ class Mannequin:
     def _set(self, name: str, matrix: np.ndarray) -> None:
         self.scene.set_pose(self._nodes[name], matrix)
 
-    def pose(self, positions: np.ndarray) -> None:
-        """Move the nodes to joint ``positions`` (10, 3) in metres."""
+    def pose(self, positions: np.ndarray, hands: np.ndarray | None = None) -> None:
+        """Move the nodes to joint ``positions`` (10, 3) in metres and the hands to hand
+        joints ``hands`` (2, 20, 3) (:func:`core.hands.hand_positions`; relaxed when None)."""
         p = np.asarray(positions, dtype=np.float64)
+        if hands is None:
+            hands = hand_positions(p[None], HandTrack.rest(1))[0]
         spine, neck, nose, top = p[J["spine"]], p[J["neck"]], p[J["nose"]], p[J["head_top"]]
         ls, rs = p[J["left_shoulder"]], p[J["right_shoulder"]]
         # Torso frame: y along the spine, x across the shoulders (to the character's left).
@@ -149,14 +172,30 @@ class Mannequin:
             self._set(name, transform(align_z(pb - pa), 0.5 * (pa + pb)))
         for j, _ in _BALLS:
             self._set("ball_" + j, transform(np.eye(3), p[J[j]]))
-        for side in ("left", "right"):
-            elbow, wrist = p[J[side + "_elbow"]], p[J[side + "_wrist"]]
-            d = wrist - elbow
-            d = d / max(np.linalg.norm(d), 1e-9)
-            self._set(side + "_hand", transform(align_z(d), wrist + 0.05 * d))
+        self._pose_hands(p, np.asarray(hands, dtype=np.float64))
 
-    def render(self, positions: np.ndarray) -> np.ndarray:
-        self.pose(positions)
+    def _pose_hands(self, p: np.ndarray, hands: np.ndarray) -> None:
+        index, little = HAND_JOINTS.index("index_mcp"), HAND_JOINTS.index("little_mcp")
+        for s, side in enumerate(SIDES):
+            wrist = p[J[side + "_wrist"]]
+            h = hands[s]
+            knuckles = 0.5 * (h[index] + h[little])
+            along = knuckles - wrist
+            across = h[index] - h[little]
+            frame = frame_from(along, np.cross(across, along))  # y to the knuckles, z out of one face
+            width = float(np.linalg.norm(across)) + 0.022
+            length = float(np.linalg.norm(along))
+            m = transform(frame @ np.diag([width, length, 2 * _PALM_HALF_THICKNESS]), wrist + 0.5 * along)
+            self._set(side + "_palm", m)
+            self._set(side + "_wristball", transform(np.eye(3), wrist))
+        for name, s, a, b in self._segments:
+            pa = hands[s, a]
+            pb = hands[s, b]
+            self._set(name, transform(align_z(pb - pa), 0.5 * (pa + pb)))
+
+    def render(self, positions: np.ndarray, hands: np.ndarray | None = None) -> np.ndarray:
+        """An image of joint ``positions`` (10, 3) and hand joints ``hands`` (2, 20, 3)."""
+        self.pose(positions, hands)
         color, _ = self.renderer.render(self.scene)
         return np.ascontiguousarray(color[:, :, :3])
 

@@ -54,7 +54,7 @@ def test_json_layout(tmp_path):
     path = tmp_path / "m.json"
     save_motion(path, _clips())
     doc = json.loads(path.read_text())
-    assert doc["format"] == "sgt-motion" and doc["version"] == 1 and doc["fps"] == FPS
+    assert doc["format"] == "sgt-motion" and doc["version"] == 2 and doc["fps"] == FPS
     assert doc["joints"] == list(JOINTS)
     assert len(doc["bones"]) == 9 and "faces +z" in doc["coordinates"]
     u = doc["utterances"][0]
@@ -71,7 +71,7 @@ def test_npz_layout(tmp_path):
     assert meta["format"] == "sgt-motion" and meta["utterances"][0]["speaker"] == "ann"
 
 
-@pytest.mark.parametrize("change,message", [({"version": 2}, "motion file version 2 is not supported"),
+@pytest.mark.parametrize("change,message", [({"version": 3}, "motion file version 3 is not supported"),
                                             ({"format": "bvh"}, "format is 'bvh', expected 'sgt-motion'"),
                                             ({"fps": 30}, "fps 30, expected 15")])
 def test_refuses_other_formats(tmp_path, change, message):
@@ -137,3 +137,54 @@ def test_atomic_write_keeps_usual_permissions(tmp_path):
         assert stat.S_IMODE(kept.stat().st_mode) == 0o640 and kept.read_bytes() == b"b"
     finally:
         os.umask(old)
+
+
+def _with_hands():
+    from core.hands import HandTrack
+
+    clip = _clips()[0]
+    n = clip.n_frames
+    hands = HandTrack.constant(n, ("relaxed", "point"), ("in", "down")).blend(
+        HandTrack.constant(n, ("fist", "ok"), ("up", "forward")), np.linspace(0, 1, n))
+    return MotionClip(poses=clip.poses, hands=hands, text="hands")
+
+
+@pytest.mark.parametrize("suffix", [".json", ".npz"])
+def test_hands_round_trip(tmp_path, suffix):
+    path = tmp_path / f"m{suffix}"
+    clip = _with_hands()
+    save_motion(path, [clip])
+    back = load_motion(path)[0]
+    np.testing.assert_allclose(back.hands.palm, clip.hands.palm, atol=1e-4)
+    np.testing.assert_allclose(back.hands.fingers, clip.hands.fingers, atol=1e-2)
+
+
+def test_version_1_files_load_with_relaxed_hands(tmp_path):
+    from core.hands import HandTrack
+
+    path = tmp_path / "old.json"
+    save_motion(path, [_with_hands()])
+    doc = json.loads(path.read_text())
+    doc["version"] = 1
+    del doc["hands"]
+    for u in doc["utterances"]:
+        del u["hands"]
+    path.write_text(json.dumps(doc))
+    back = load_motion(path)[0]
+    rest = HandTrack.rest(back.n_frames)
+    np.testing.assert_allclose(back.hands.fingers, rest.fingers)
+    np.testing.assert_allclose(back.hands.palm, rest.palm)
+
+
+@pytest.mark.parametrize("hands, message", [({"palm": [[[1, 0, 0]]], "fingers": []}, "palm must be"),
+                                            ([1, 2], "hands must be an object"),
+                                            ({"palm": [[[0, 0, 0], [0, 0, 0]]] * 12,
+                                              "fingers": np.zeros((12, 2, 5, 4)).tolist()}, "zero length")])
+def test_bad_hands_are_file_errors(tmp_path, hands, message):
+    path = tmp_path / "m.json"
+    save_motion(path, [_with_hands()])
+    doc = json.loads(path.read_text())
+    doc["utterances"][0]["hands"] = hands
+    path.write_text(json.dumps(doc))
+    with pytest.raises(MotionFileError, match=message):
+        load_motion(path)

@@ -29,7 +29,6 @@ import threading
 from dataclasses import dataclass
 
 
-
 class EngineError(Exception):
     """Engine failure; ``kind`` is "missing-lib", "init", "voice" or "synth"."""
 

@@ -139,8 +139,9 @@ class _Aligner:
 
     def align(self, samples: np.ndarray, sample_rate: int, words: list[str]) -> list[tuple[float, float]]:
         """(start, end) seconds for each word; raises SpeechError when alignment fails."""
-        from scipy.signal import resample_poly
         from math import gcd
+
+        from scipy.signal import resample_poly
 
         x = np.asarray(samples, dtype=np.float64)
         if sample_rate != ALIGN_SR:
