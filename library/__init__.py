@@ -46,6 +46,8 @@ class Clip:
     stroke_frame: int | None
     hands: HandTrack
     bones: np.ndarray | None = None
+    #: (2,) bool, :data:`core.hands.SIDES` order: the hands the gesture sets (mirrored with flip).
+    hand_sides: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
@@ -142,10 +144,10 @@ class Gesture:
             base = (interpolate(times, dirs, ts), interpolate_hands(key_times, self.spec.key_palms, self.spec.key_fingers, ts))
             self._base[key] = base
         poses, hands = base
-        bones = self.spec.bone_mask
+        bones, sides = self.spec.bone_mask, self.spec.hand_sides
         if flip:
             poses, hands = mirror_pose(poses), hands.mirrored()
-            bones = bones[MIRROR_BONE_PERMUTATION]
+            bones, sides = bones[MIRROR_BONE_PERMUTATION], sides[::-1]
         stroke = self.stroke_frame(speed)
         if hold > 0:
             at = len(poses) - 1 if stroke is None else stroke
@@ -156,7 +158,7 @@ class Gesture:
         else:
             poses, hands = poses.copy(), hands.take(slice(None))
         return Clip(poses=np.ascontiguousarray(poses, dtype=np.float32), stroke_frame=stroke, hands=hands,
-                    bones=bones.copy())
+                    bones=bones.copy(), hand_sides=sides.copy())
 
 
 @dataclass

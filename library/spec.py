@@ -167,6 +167,14 @@ class GestureSpec:
         return tuple(limb for limb, bones in LIMBS.items() if named.intersection(bones))
 
     @property
+    def hand_sides(self) -> np.ndarray:
+        """(2,) bool in :data:`core.hands.SIDES` order: the hands the gesture sets, those of the
+        arms it drives and those its keyframes name a shape or palm for."""
+        limbs = set(self.limbs)
+        named = {key.split("_")[0] for k in self.keyframes for key in k.hands}
+        return np.array([f"{side}_arm" in limbs or side in named for side in SIDES])
+
+    @property
     def bone_mask(self) -> np.ndarray:
         """(9,) bool in :data:`core.skeleton.BONE_NAMES` order: the bones the gesture drives."""
         limbs = set(self.limbs)

@@ -186,6 +186,10 @@ def test_gestures_on_different_limbs_layer_instead_of_colliding(tmp_path, lib):
     pose = u.arrays.pose.reshape(u.n_frames, -1, 3)
     assert np.allclose(pose[right_start : right.end_frame, arm], right_clip.poses.reshape(-1, 9, 3)[:, arm])
     assert np.allclose(pose[nod_start : nod.end_frame, head], nod_clip.poses.reshape(-1, 9, 3)[:, head])
+    # the hands are layered too: the point sets the right hand only, the nod neither
+    _, hand_mask = u.hands
+    assert (hand_mask[right_start : right.end_frame, 1] == 1).all() and not hand_mask[:, 0].any()
+    assert not hand_mask[right.end_frame : nod.end_frame].any()
 
 
 def test_a_flipped_gesture_collides_on_the_mirrored_limb(tmp_path, lib):

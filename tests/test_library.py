@@ -222,6 +222,64 @@ def test_pointing_sides(lib):
     assert front[rw, 2] > 0.4
 
 
+#: Two strokes closer than this (degrees) read as the same gesture: above the 9-14 degrees
+#: between the near-twins found in the library's review (frame/reject, offer/point_down, ...).
+DISTINCT_DEGREES = 15.0
+
+
+def _stroke(g, flip=False):
+    """The stroke frame as (bone directions (9, 3), palm targets (2, 3), finger angles (2, 5, 4))."""
+    clip = g.clip(flip=flip)
+    f = clip.stroke_frame
+    return (clip.poses[f].reshape(N_BONES, 3).astype(np.float64), clip.hands.palm[f].astype(np.float64),
+            clip.hands.fingers[f].astype(np.float64))
+
+
+def _stroke_distance(a, b) -> float:
+    """The largest difference between two strokes: any bone's angle, any palm's angle, any
+    finger joint's angle (degrees). Thumbs up and down differ by the hand alone, as they should."""
+    bones = np.degrees(np.arccos(np.clip(np.sum(a[0] * b[0], axis=-1), -1, 1))).max()
+    palms = np.degrees(np.arccos(np.clip(np.sum(a[1] * b[1], axis=-1), -1, 1))).max()
+    return float(max(bones, palms, np.abs(a[2] - b[2]).max()))
+
+
+def test_every_stroke_is_distinct_unless_a_variant(lib):
+    strokes = {g.name: (_stroke(g), _stroke(g, flip=True)) for g in lib}
+    variants = {(g.name, g.spec.variant_of) for g in lib if g.spec.variant_of}
+    for g in lib:  # a variant names a gesture of the library
+        assert g.spec.variant_of is None or g.spec.variant_of in lib, g.name
+    twins = []
+    names = sorted(strokes)
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            if (a, b) in variants or (b, a) in variants:
+                continue
+            # also against the other one played flipped: a mirror image is a twin too
+            d = min(_stroke_distance(strokes[a][0], strokes[b][0]), _stroke_distance(strokes[a][0], strokes[b][1]))
+            if d < DISTINCT_DEGREES:
+                twins.append((a, b, round(d, 1)))
+    assert twins == []
+
+
+def test_variants_are_declared_in_the_spec(tmp_path):
+    user = tmp_path / "u"
+    _write(user, "beat_twin", SPEC.format(name="beat_twin").replace("duration = 1.0", 'duration = 1.0\nvariant_of = "beat_right"'))
+    _write(user, "bad", SPEC.format(name="bad").replace("duration = 1.0", "duration = 1.0\nvariant_of = 3"))
+    lib = load_library([user], use_config=False)
+    assert lib.get("beat_twin").spec.variant_of == "beat_right"
+    (prob,) = lib.problems
+    assert prob.field == "variant_of" and "must name a gesture" in prob.message
+
+
+def test_no_hand_inside_the_head(lib):
+    nose, top = JOINT_INDEX["nose"], JOINT_INDEX["head_top"]
+    for g in lib:
+        pos = positions_from_pose(g.clip().poses)
+        centre = (pos[:, nose] + pos[:, top]) / 2 - np.array([0, 0, 0.03])  # the skull behind the face
+        for j in ("right_wrist", "left_wrist"):
+            assert np.linalg.norm(pos[:, JOINT_INDEX[j]] - centre, axis=-1).min() > 0.12, (g.name, j)
+
+
 def test_hands_never_behind_or_through_the_body(lib):
     for g in lib:
         pos = positions_from_pose(g.clip().poses)
