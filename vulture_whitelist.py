@@ -57,3 +57,6 @@ _.lark_parser
 # The Python API's one-call form (README "Python API", model/generate.py's docstring; the README
 # block is run by tests/test_readme_api.py).
 _.generate_clips
+# Hand keys sampled at even times, without the speed retiming of Gesture.clip: what
+# tests/test_hands.py checks the interpolation of hand keys with.
+_.sample_hands

@@ -109,12 +109,3 @@ def key_frames(times: np.ndarray, duration: float, key_dirs: np.ndarray, curve, 
 def frame_times(times: np.ndarray, frames: np.ndarray) -> np.ndarray:
     """The spec time shown on every frame: linear between consecutive keyframes' frames."""
     return np.interp(np.arange(int(frames[-1]) + 1), frames, times)
-
-
-def peak_deg_per_s(poses: np.ndarray) -> float:
-    """The fastest turn of any bone between consecutive frames of ``poses`` (T, 27), in degrees per second."""
-    p = np.asarray(poses, np.float64).reshape(len(poses), N_BONES, 3)
-    if len(p) < 2:
-        return 0.0
-    cos = np.clip(np.sum(p[1:] * p[:-1], axis=-1), -1.0, 1.0)
-    return float(math.degrees(np.arccos(cos).max())) * FPS

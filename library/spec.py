@@ -180,13 +180,6 @@ class GestureSpec:
         limbs = set(self.limbs)
         return np.array([LIMB_OF[b] in limbs for b in BONE_NAMES])
 
-    @property
-    def stroke_time(self) -> float | None:
-        for k in self.keyframes:
-            if k.stroke:
-                return k.time
-        return None
-
 
 class SpecError(Exception):
     """Raised internally while validating; carries the field it is about, close names for a

@@ -228,3 +228,41 @@ def test_add_refuses_text_that_is_not_utf8(tmp_path, capsys):
                         "--to", str(tmp_path / "lib"), "--tags", "caf\udce9")
     assert code == 2 and "--tags must be UTF-8" in err
     assert not (tmp_path / "lib" / "odd.toml").exists()
+
+
+def test_sheet_views_face_the_camera_and_show_the_side():
+    from core.skeleton import ROOT_POSITION
+    from renders.library_sheet import FRONT, SIDE, _turned
+    from renders.mannequin import TARGET, camera_pose
+
+    cam = camera_pose()
+    to_camera = (cam[:3, 3] - TARGET) * [1, 0, 1]
+    to_camera /= np.linalg.norm(to_camera)
+    front = _turned(ROOT_POSITION + [0, 0, 1], FRONT) - ROOT_POSITION
+    side = _turned(ROOT_POSITION + [0, 0, 1], SIDE) - ROOT_POSITION
+    assert np.allclose(front, to_camera, atol=1e-9)  # the character faces the camera
+    assert abs(side @ to_camera) < 1e-9 and side @ cam[:3, 0] > 0.99  # in profile, facing screen right
+
+
+def test_sheet_draws_each_gesture_front_and_side(tmp_path, capsys):
+    from PIL import Image
+
+    out = tmp_path / "sheet.png"
+    code, _, err = _run(capsys, "library", "sheet", "point_right", "nod", "-o", str(out), "--columns", "2")
+    assert code == 0, err
+    assert "2 gestures" in err
+    img = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    assert img.shape[1] == 2 * 2 * 150 and img.shape[0] > 150
+    # the four views of the two strokes all differ: front and side of each, and the two gestures
+    views = [img[:150, i * 150 : (i + 1) * 150] for i in range(4)]
+    for i in range(4):
+        for j in range(i + 1, 4):
+            assert np.abs(views[i] - views[j]).mean() > 1.0, (i, j)
+
+
+@pytest.mark.parametrize("argv", [["sheet", "no_such", "-o", "x.png"], ["sheet", "-o", "x.gif"],
+                                  ["sheet", "--tag", "no_such_tag", "-o", "x.png"], ["sheet", "--columns", "0", "-o", "x.png"]])
+def test_sheet_usage_errors(tmp_path, capsys, argv):
+    code, _, err = _run(capsys, "library", *argv)
+    assert code == 2 and "Traceback" not in err
+    assert not (tmp_path / "x.png").exists()

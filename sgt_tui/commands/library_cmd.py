@@ -21,6 +21,14 @@ def register(subparsers) -> None:
     sh.add_argument("--json", action="store_true")
     sh.add_argument("--dir", action="append", default=[], metavar="D", help="extra gesture folder")
 
+    sheet = sub.add_parser("sheet", help="draw the gestures' strokes, front and side, into a PNG contact sheet")
+    sheet.add_argument("names", nargs="*", metavar="NAME", help="gestures to draw (default: all)")
+    sheet.add_argument("-o", "--output", required=True, metavar="OUT.png",
+                       help="write the PNG here ('-': standard output, not a terminal)")
+    sheet.add_argument("--tag", action="append", default=[], help="only gestures with this tag")
+    sheet.add_argument("--columns", type=_columns, default=5, metavar="N", help="gestures per row (default 5)")
+    sheet.add_argument("--dir", action="append", default=[], metavar="D", help="extra gesture folder")
+
     ad = sub.add_parser("add", help="save a span of a motion file as a new gesture")
     ad.add_argument("name")
     ad.add_argument("--from", dest="source", required=True, metavar="MOTION_FILE")
@@ -44,9 +52,11 @@ def run(args) -> int:
         return _list(args)
     if cmd == "show":
         return _show(args)
+    if cmd == "sheet":
+        return _sheet(args)
     if cmd == "add":
         return _add(args)
-    raise UsageError("choose a subcommand: list, show or add")
+    raise UsageError("choose a subcommand: list, show, sheet or add")
 
 
 def _origin(g) -> str:
@@ -151,6 +161,55 @@ def _show(args) -> int:
         bones = [f"{b} {_direction(v)}" for b, v in k.bones.items()] or ["-"]
         for i, line in enumerate(bones):
             print(f"{head if i == 0 else '':<36}{line}")
+    return 0
+
+
+def _columns(text: str) -> int:
+    from sgt_tui.commands.common import positive_int
+
+    n = positive_int(text)
+    if n > 20:
+        import argparse
+
+        raise argparse.ArgumentTypeError(f"at most 20 columns, got {n}")
+    return n
+
+
+def _sheet(args) -> int:
+    import sys
+    from pathlib import Path
+
+    from library import load_library
+    from sgt_tui.commands.common import STDOUT, output_file, shown
+    from sgt_tui.errors import InputError, UsageError
+
+    if args.output != STDOUT and Path(args.output).suffix.lower() != ".png":
+        raise UsageError(f"-o {args.output}: expected a .png file")
+    lib = load_library([Path(d) for d in args.dir])
+    for name in args.names:
+        if name not in lib:
+            hint = lib.suggest(name)
+            raise UsageError(f"no gesture named '{name}'" + (f"; did you mean '{hint}'?" if hint else ""))
+    gestures = [lib.get(n) for n in args.names] if args.names else list(lib)
+    gestures = [g for g in gestures if all(t in g.tags for t in args.tag)]
+    if not gestures:
+        raise UsageError("no gestures to draw" + (f" tagged {', '.join(args.tag)}" if args.tag else ""))
+    out = output_file(args.output, binary=True)
+
+    from renders.gl import RenderSetupError
+    from renders.library_sheet import render_library_sheet
+    from renders.mannequin import Mannequin
+    from sgt_tui.progress import ProgressBar
+
+    try:
+        m = Mannequin(150, 150)
+    except RenderSetupError as exc:
+        raise InputError(str(exc)) from None
+    try:
+        info = render_library_sheet(gestures, out, columns=args.columns, mannequin=m, progress=ProgressBar("sheet"))
+    finally:
+        m.close()
+    print(f"wrote {shown(out)}: {len(info['names'])} gestures, {info['width']}x{info['height']}", file=sys.stderr)
     return 0
 
 
