@@ -13,7 +13,11 @@ Inverse kinematics is analytic per chain (no iteration):
 - Head: the head's turn relative to the torso (sgt's neck->head_top and neck->nose frame) moves
   the face's forward axis; its yaw and pitch are HeadYaw and HeadPitch (head roll is lost: the
   robots have no roll joint).
-- WristYaw and Hand are constants until sgt has hands (WristYaw 0, Hand 0.5 = half open).
+- Hand (0 closed .. 1 open, Pepper 0.02 .. 0.98) is how open sgt's hand is
+  (:func:`core.hands.openness`: the four fingers' mean flexion against a fist's) scaled to the
+  robot's range, so a fist, a point or a thumbs up close the robot's hand and an open palm
+  opens it. WristYaw stays 0: the palm's turn about the forearm is not
+  solved yet (the robots' wrist zero is not checked against sgt's palm directions).
 
 Then every angle is clamped to the joint's range, and frame-to-frame changes to the joint's
 maximum speed (a forward pass: each frame moves at most ``velocity / 15`` radians from the
@@ -45,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.fileio import atomic_write
+from core.hands import SIDES, openness
 from core.motion import MotionClip
 from core.skeleton import FPS
 from renders.rigs.retarget import source_positions, source_rest
@@ -52,7 +57,7 @@ from renders.rotations import triads
 
 ARM = ("ShoulderPitch", "ShoulderRoll", "ElbowYaw", "ElbowRoll", "WristYaw", "Hand")
 NAMES = ("HeadYaw", "HeadPitch") + tuple("L" + j for j in ARM) + tuple("R" + j for j in ARM)
-WRIST_YAW, HAND = 0.0, 0.5
+WRIST_YAW = 0.0
 _RPM = 11900 * 2 * math.pi / 60
 
 
@@ -186,7 +191,8 @@ def solve_raw(clip: MotionClip, robot: Robot) -> dict[str, np.ndarray]:
         out[p + "ShoulderPitch"], out[p + "ShoulderRoll"] = pitch, roll
         out[p + "ElbowYaw"], out[p + "ElbowRoll"] = yaw, elbow_roll
         out[p + "WristYaw"] = np.full_like(pitch, WRIST_YAW)
-        out[p + "Hand"] = np.full_like(pitch, HAND)
+        lo, hi = robot.limits[p + "Hand"]  # Pepper's hands open 0.02 .. 0.98: fist and flat hand map to its ends
+        out[p + "Hand"] = lo + (hi - lo) * openness(clip.hands.fingers[:, SIDES.index(side)])
     return {n: out[n] for n in NAMES}
 
 

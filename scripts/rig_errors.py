@@ -20,6 +20,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
 from rig_readers import BLENDER, check, read_bvh_bvhio, read_glb_pygltflib, read_with_blender, robot_figures, sgt_position_error_mm
 
+from core.hands import concat
 from core.motion import MotionClip
 from library import load_library
 from renders.export import write_bvh
@@ -29,10 +30,11 @@ from renders.rigs import SKELETAL_RIGS
 
 def main() -> None:
     lib = load_library(use_config=False)
-    clip = MotionClip(poses=np.concatenate([lib.get(n).clip().poses for n in lib.names()]))
+    clips = [lib.get(n).clip() for n in lib.names()]
+    clip = MotionClip(poses=np.concatenate([c.poses for c in clips]), hands=concat([c.hands for c in clips]))
     print(f"take: the {len(lib.names())} library gestures, {clip.n_frames} frames\n")
     print(f"{'reader':<10} {'rig':<7} {'file':<5} {'aim deg':>9} {'chain mm':>9} {'orient deg':>10} "
-          f"{'follow deg':>10} {'root mm':>8} {'sgt mm':>8}")
+          f"{'follow deg':>10} {'roll deg':>9} {'root mm':>8} {'sgt mm':>8}")
     with tempfile.TemporaryDirectory() as tmp:
         paths = []
         for name, rig in SKELETAL_RIGS.items():
@@ -62,7 +64,7 @@ def _row(reader, name, suffix, rig, clip, r) -> None:
     f = check(rig, clip, r)
     sgt = f"{sgt_position_error_mm(clip, r):8.4f}" if name == "sgt" else f"{'':>8}"
     print(f"{reader:<10} {name:<7} {suffix:<5} {f['aim_deg']:9.5f} {f['chain_mm']:9.5f} {f['orient_deg']:10.5f} "
-          f"{f['follow_deg']:10.5f} {f['root_mm']:8.5f} {sgt}")
+          f"{f['follow_deg']:10.5f} {f['roll_deg']:9.5f} {f['root_mm']:8.5f} {sgt}")
 
 
 if __name__ == "__main__":

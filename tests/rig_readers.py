@@ -143,9 +143,22 @@ def _frame(primary, secondary):
 
 
 def sgt_joints(clip) -> dict:
+    """sgt's joints by name, the hands' too (``left_index_mcp``: core.hands, the data, not the
+    retargeting)."""
+    from core.hands import HAND_JOINTS, SIDES, hand_positions
     from core.skeleton import JOINTS
 
-    return {n: np.asarray(clip.positions, dtype=np.float64)[:, i] for i, n in enumerate(JOINTS)}
+    pos = np.asarray(clip.positions, dtype=np.float64)
+    out = {n: pos[:, i] for i, n in enumerate(JOINTS)}
+    hands = hand_positions(pos, clip.hands)
+    for s, side in enumerate(SIDES):
+        out.update({f"{side}_{n}": hands[:, s, k] for k, n in enumerate(HAND_JOINTS)})
+    return out
+
+
+def _roll(points: dict, names) -> np.ndarray:
+    first = points[names[1]] - points[names[0]]
+    return first if len(names) == 2 else np.cross(first, points[names[3]] - points[names[2]])
 
 
 def sgt_rest_joints() -> dict:
@@ -166,18 +179,28 @@ def check(rig, clip, reader: dict) -> dict:
     - ``orient_deg``: the turn of each oriented bone from its rest against the turn of sgt's frame
       (from rotations when the reader has them, else from the child head's direction);
     - ``root_mm``: root head against rest + scale * (sgt root movement);
-    - ``follow_deg``: bones without a drive keep their rest rotation relative to their parent.
+    - ``follow_deg``: bones without a drive keep their rest rotation relative to their parent;
+    - ``roll_deg`` (hands, fingers: AimRoll): the bone's turn from its rest against the turn
+      that carries the rig's rest frame (aim, rest roll direction) onto sgt's (aim, roll).
     """
     from renders.rigs import Aim, Orient  # the mapping table is the spec; the math is redone here
+    from renders.rigs.rig import AimRoll
 
     j, rest = sgt_joints(clip), sgt_rest_joints()
     heads = reader["heads"]
     rots = reader.get("rotations")
     rest_heads = {b.name: np.asarray(b.head) for b in rig.bones}
-    out = {"aim_deg": 0.0, "chain_mm": 0.0, "orient_deg": 0.0, "root_mm": 0.0, "follow_deg": 0.0}
+    out = {"aim_deg": 0.0, "chain_mm": 0.0, "orient_deg": 0.0, "root_mm": 0.0, "follow_deg": 0.0, "roll_deg": 0.0}
     for b in rig.bones:
         d = b.drive
-        if isinstance(d, Aim) and d.to is not None:
+        if isinstance(d, AimRoll) and rots is not None:
+            end = rest_heads[d.to] if d.to is not None else np.asarray(b.tail)
+            want = _frame(j[d.source[1]] - j[d.source[0]], _roll(j, d.roll)) @ \
+                _frame(end - rest_heads[b.name], _roll(rest_heads, d.rig_roll)).T
+            r = np.swapaxes(want, -1, -2) @ rots[b.name]
+            err = np.degrees(np.arccos(np.clip((np.trace(r, axis1=-2, axis2=-1) - 1) / 2, -1, 1)))
+            out["roll_deg"] = max(out["roll_deg"], float(err.max()))
+        if isinstance(d, (Aim, AimRoll)) and d.to is not None:
             want = _unit(j[d.source[1]] - j[d.source[0]])
             got = heads[d.to] - heads[b.name]
             err = np.degrees(np.arccos(np.clip(np.sum(_unit(got) * want, -1), -1, 1)))
@@ -200,7 +223,7 @@ def check(rig, clip, reader: dict) -> dict:
                 got = heads[kid] - heads[b.name]
                 err = np.degrees(np.arccos(np.clip(np.sum(_unit(got) * _unit(v), -1), -1, 1)))
             out["orient_deg"] = max(out["orient_deg"], float(err.max()))
-        elif b.parent is not None and rots is not None:
+        elif d is None and b.parent is not None and rots is not None:
             r = np.swapaxes(rots[b.parent], -1, -2) @ rots[b.name]
             err = np.degrees(np.arccos(np.clip((np.trace(r, axis1=-2, axis2=-1) - 1) / 2, -1, 1)))
             out["follow_deg"] = max(out["follow_deg"], float(err.max()))
@@ -211,11 +234,10 @@ def check(rig, clip, reader: dict) -> dict:
 
 
 def sgt_position_error_mm(clip, reader: dict) -> float:
-    """sgt's own rig: every joint's head against sgt's joint position."""
-    from core.skeleton import JOINTS
-
-    pos = np.asarray(clip.positions, dtype=np.float64)
-    return float(max(np.linalg.norm(reader["heads"][n] - pos[:, i], axis=-1).max() for i, n in enumerate(JOINTS)) * 1000)
+    """sgt's own rig: every joint's head (the hands' joints too, but the fingertips, which end
+    bones) against sgt's joint position."""
+    j = sgt_joints(clip)
+    return float(max(np.linalg.norm(reader["heads"][n] - j[n], axis=-1).max() for n in j if n in reader["heads"]) * 1000)
 
 
 # -- robots -----------------------------------------------------------------------------------

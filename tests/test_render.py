@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from core.controls import Control
 from core.motion import MotionClip, save_motion
 from core.skeleton import FPS
-from core.controls import Control
 from core.words import TimedWord
 
 SIZE = (96, 96)

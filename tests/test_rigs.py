@@ -19,16 +19,18 @@ from core.skeleton import FPS, REST_POSE
 pytest.importorskip("pygltflib")
 
 GESTURES = ("wave", "point_right", "open_arms", "shrug", "nod", "clap", "point_up")
+#: Gestures whose hands take every kind of shape: fist, thumb, counting, pinch, palms up/down/forward.
+HAND_GESTURES = ("thumbs_up", "count_three", "celebrate", "small", "calm_down", "stop")
 # Tolerances: float32 keys in both files; arccos near 1 turns float32 noise into ~1e-3 degrees.
 AIM_DEG, CHAIN_MM, ORIENT_DEG, ROOT_MM = 0.01, 0.01, 0.01, 0.01
 
 
 @pytest.fixture(scope="module")
 def clip() -> MotionClip:
-    c = _library_clip(GESTURES)
+    c = _library_clip(GESTURES + HAND_GESTURES)
     pos = c.positions.copy()
     pos += np.linspace(0, 1, len(pos))[:, None, None] * np.array([0.1, -0.05, 0.2])  # the root moves too
-    return MotionClip(poses=c.poses, positions=pos)
+    return MotionClip(poses=c.poses, positions=pos, hands=c.hands)
 
 
 def _assert_close(fig: dict, what: str) -> None:
@@ -37,6 +39,7 @@ def _assert_close(fig: dict, what: str) -> None:
     assert fig["orient_deg"] < ORIENT_DEG, f"{what}: oriented bones off by {fig['orient_deg']:.4f} deg"
     assert fig["root_mm"] < ROOT_MM, f"{what}: root off by {fig['root_mm']:.4f} mm"
     assert fig["follow_deg"] < ORIENT_DEG, f"{what}: undriven bones turned by {fig['follow_deg']:.4f} deg"
+    assert fig["roll_deg"] < ORIENT_DEG, f"{what}: hand and finger bones rolled off by {fig['roll_deg']:.4f} deg"
 
 
 @pytest.mark.parametrize("name", ["sgt", "vrm", "mixamo", "smplx"])
@@ -109,7 +112,7 @@ def test_rest_rotations_and_a_pose_are_data(tmp_path, clip):
     down = Rotation.from_euler("z", -45, degrees=True)
     bones = []
     for b in VRM.bones:
-        if "Arm" in b.name or "Hand" in b.name:
+        if any(part in b.name for part in ("Arm", "Hand", "Thumb", "Index", "Middle", "Ring", "Little")):
             side = 1 if b.name.startswith("left") else -1
             pivot = np.array([0.18 * side, 1.44, 0.0])
             rot = down if side > 0 else down.inv()
@@ -135,7 +138,7 @@ def test_rest_rotations_and_a_pose_are_data(tmp_path, clip):
 
 
 def test_new_source_joints_are_a_table_change():
-    """Finger bones later: a new row driven by a new source joint, no new code."""
+    """A new bone (a held pen, say) is a new row driven by a new source joint, no new code."""
     from renders.rigs import VRM, Aim, Bone
     from renders.rigs.retarget import retarget, source_positions, source_rest
 
@@ -144,18 +147,18 @@ def test_new_source_joints_are_a_table_change():
     rest = source_rest()
     rng = np.random.default_rng(2)
     tip = rng.normal(size=(c.n_frames, 3))
-    joints["left_index_tip"] = joints["left_wrist"] + 0.09 * tip / np.linalg.norm(tip, axis=-1, keepdims=True)
-    rest["left_index_tip"] = rest["left_wrist"] + np.array([0.0, -0.09, 0.0])
-    finger = Bone("leftIndexProximal", "leftHand", (0.80, 1.44, 0.0), Aim(("left_wrist", "left_index_tip")),
+    joints["left_pen_tip"] = joints["left_wrist"] + 0.09 * tip / np.linalg.norm(tip, axis=-1, keepdims=True)
+    rest["left_pen_tip"] = rest["left_wrist"] + np.array([0.0, -0.09, 0.0])
+    finger = Bone("leftPen", "leftHand", (0.80, 1.44, 0.0), Aim(("left_wrist", "left_pen_tip")),
                   tail=(0.89, 1.44, 0.0))
     rig = _variant(VRM, bones=VRM.bones + (finger,))
     m = retarget(rig, joints, rest)
-    world = m.world[:, rig.index["leftIndexProximal"]]
+    world = m.world[:, rig.index["leftPen"]]
     got = world @ np.array([1.0, 0.0, 0.0])  # the finger's rest aim is +x
-    want = joints["left_index_tip"] - joints["left_wrist"]
+    want = joints["left_pen_tip"] - joints["left_wrist"]
     cos = np.sum(got * want, -1) / np.linalg.norm(want, axis=-1)
     assert np.degrees(np.arccos(np.clip(cos, -1, 1))).max() < 1e-4
-    with pytest.raises(ValueError, match="left_index_tip"):
+    with pytest.raises(ValueError, match="left_pen_tip"):
         retarget(rig, source_positions(c))
 
 
@@ -191,7 +194,9 @@ def test_smplx_npz_layout_and_forward_kinematics(tmp_path, clip):
     assert d["global_orient"].shape == (T, 3) and d["body_pose"].shape == (T, 63) and d["transl"].shape == (T, 3)
     assert d["poses"].shape == (T, 165) and d["betas"].shape == (10,) and not d["betas"].any()
     assert np.array_equal(d["poses"][:, :3], d["global_orient"]) and np.array_equal(d["poses"][:, 3:66], d["body_pose"])
-    assert not d["poses"][:, 66:].any() and not d["left_hand_pose"].any()
+    assert not d["poses"][:, 66:75].any()  # jaw and eyes
+    assert np.array_equal(d["poses"][:, 75:120], d["left_hand_pose"]) and np.array_equal(d["poses"][:, 120:], d["right_hand_pose"])
+    assert d["left_hand_pose"].shape == (T, 45) and d["left_hand_pose"].any() and bool(d["flat_hand_mean"])
     assert float(d["mocap_frame_rate"]) == 15.0 and str(d["gender"]) == "neutral"
     assert str(d["surface_model_type"]) == "smplx" and list(d["joint_names"]) == list(JOINT_NAMES)
     # forward kinematics of the axis-angle rotations (scipy's rotvec) over SMPL-X's tree
@@ -220,18 +225,50 @@ def test_smplx_npz_layout_and_forward_kinematics(tmp_path, clip):
     from renders.rigs import SMPLX
 
     assert np.abs(d["transl"] - SMPLX.translation_scale * (j["spine"] - rest["spine"])).max() < 1e-5
+    # the hands: forward kinematics of the 15 finger joints a hand (SMPL-X order, rest heads from
+    # the rig table), their segments and the knuckles' line against sgt's hand joints
+    from renders.rigs.smplx import HAND_JOINT_NAMES
+
+    names = list(JOINT_NAMES)
+    parents = list(PARENTS)
+    rest_pos = {n: np.asarray(SMPLX.bones[SMPLX.index[n]].head) for n in JOINT_NAMES}
+    for side in ("left", "right"):
+        aa_h = d[f"{side}_hand_pose"].reshape(T, 15, 3).astype(np.float64)
+        for k, h in enumerate(HAND_JOINT_NAMES):
+            n = f"{side}_{h}"
+            parent = f"{side}_wrist" if h.endswith("1") else f"{side}_{h[:-1]}{int(h[-1]) - 1}"
+            names.append(n)
+            parents.append(names.index(parent))
+            rest_pos[n] = np.asarray(SMPLX.bones[SMPLX.index[n]].head)
+            rot = Rotation.from_rotvec(aa_h[:, k]).as_matrix()
+            i, p = len(names) - 1, names.index(parent)
+            world = np.concatenate([world, (world[:, p] @ rot)[:, None]], axis=1)
+            pos = np.concatenate([pos, (pos[:, p] + world[:, p] @ (rest_pos[n] - rest_pos[parent]))[:, None]], axis=1)
+        at = {n: pos[:, names.index(n)] for n in names}
+        sgt_name = {"index": "index", "middle": "middle", "ring": "ring", "pinky": "little"}
+        pairs = [((f"{side}_thumb2", f"{side}_thumb3"), (f"{side}_thumb_mcp", f"{side}_thumb_ip")),
+                 ((f"{side}_pinky1", f"{side}_index1"), (f"{side}_little_mcp", f"{side}_index_mcp"))]
+        for dgt, sg in sgt_name.items():
+            pairs += [((f"{side}_{dgt}1", f"{side}_{dgt}2"), (f"{side}_{sg}_mcp", f"{side}_{sg}_pip")),
+                      ((f"{side}_{dgt}2", f"{side}_{dgt}3"), (f"{side}_{sg}_pip", f"{side}_{sg}_dip"))]
+        for (a, b), (sa, sb) in pairs:
+            got, want = at[b] - at[a], j[sb] - j[sa]
+            cos = np.sum(got * want, -1) / np.linalg.norm(got, axis=-1) / np.linalg.norm(want, axis=-1)
+            err = np.degrees(np.arccos(np.clip(cos, -1, 1))).max()
+            assert err < 0.01, f"{a}->{b}: {err:.4f} deg"
 
 
 def test_smplx_rest_pose_turns_only_the_arms():
     """sgt's rest pose on SMPL-X's T-pose rest: the arms come down (collars, shoulders, elbows
-    turn); pelvis, spine, head (turned relative to its rest) and legs stay at zero."""
+    turn) and the hands turn palm in (wrists); pelvis, spine, head (turned relative to its rest)
+    and legs stay at zero."""
     from renders.rigs.smplx import JOINT_NAMES
     from renders.smplx_npz import smplx_arrays
 
     a = smplx_arrays(MotionClip(poses=np.repeat(REST_POSE[None], 2, axis=0)))
     angle = np.degrees(np.linalg.norm(a["body_pose"].reshape(2, 21, 3)[0], axis=-1))
     turned = {JOINT_NAMES[i + 1] for i in np.nonzero(angle > 1.0)[0]}
-    assert turned == {f"{s}_{j}" for s in ("left", "right") for j in ("collar", "shoulder", "elbow")}
+    assert turned == {f"{s}_{j}" for s in ("left", "right") for j in ("collar", "shoulder", "elbow", "wrist")}
     assert np.abs(a["global_orient"]).max() < 1e-6 and np.abs(a["transl"]).max() < 1e-6
 
 

@@ -20,8 +20,8 @@ def test_blender_imports_gltf_and_bvh_of_every_rig(tmp_path):
     from renders.gltf import write_glb
     from renders.rigs import SKELETAL_RIGS
 
-    c = _library_clip(("wave", "point_right", "shrug", "nod"))
-    clip = MotionClip(poses=c.poses, positions=c.positions + [0.05, 0.0, 0.1])  # the root moves too
+    c = _library_clip(("wave", "point_right", "shrug", "nod", "thumbs_up", "count_three", "small"))
+    clip = MotionClip(poses=c.poses, positions=c.positions + [0.05, 0.0, 0.1], hands=c.hands)  # the root moves too
     paths = []
     for name, rig in SKELETAL_RIGS.items():
         for suffix, write in ((".glb", write_glb), (".bvh", write_bvh)):
@@ -40,5 +40,6 @@ def test_blender_imports_gltf_and_bvh_of_every_rig(tmp_path):
         assert fig["orient_deg"] < ORIENT_DEG, f"{what}: {fig}"
         assert fig["follow_deg"] < ORIENT_DEG, f"{what}: {fig}"
         assert fig["root_mm"] < ROOT_MM, f"{what}: {fig}"
+        assert fig["roll_deg"] < ORIENT_DEG, f"{what}: {fig}"
         if name == "sgt":
             assert sgt_position_error_mm(clip, r) < SGT_MM, what

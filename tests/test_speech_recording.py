@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from dsl.speech import SpeechError, load_recording, synthesize
-from dsl.speech import _espeak
+from dsl.speech import SpeechError, _espeak, load_recording, synthesize
 
 needs_espeak = pytest.mark.skipif(_espeak.find_library() is None, reason="libespeak-ng not installed")
 

@@ -6,8 +6,8 @@ import re
 import subprocess
 import sys
 import time
-from pathlib import Path
 import wave
+from pathlib import Path
 
 import pytest
 

@@ -10,9 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.hands import HAND_JOINTS, SIDES, hand_positions
 from core.motion import MotionClip
 from core.skeleton import BONE_NAMES, JOINTS, REST_DIRECTIONS, positions_from_pose
-from renders.rigs.rig import Aim, Orient, Rig
+from renders.rigs.rig import Aim, AimRoll, Orient, Rig, roll_direction
 from renders.rotations import shortest_arcs, triads
 
 
@@ -48,9 +49,15 @@ class RigMotion:
 
 
 def source_positions(clip: MotionClip) -> dict[str, np.ndarray]:
-    """The source joints of a clip by name: (T, 3) arrays, metres."""
+    """The source joints of a clip by name: (T, 3) arrays, metres: the skeleton's joints and
+    the hands' (``left_index_mcp``, ..., :data:`core.hands.HAND_JOINTS` per side)."""
     pos = np.asarray(clip.positions, dtype=np.float64)
-    return {name: pos[:, i] for i, name in enumerate(JOINTS)}
+    out = {name: pos[:, i] for i, name in enumerate(JOINTS)}
+    hands = hand_positions(pos, clip.hands)
+    for s, side in enumerate(SIDES):
+        for k, name in enumerate(HAND_JOINTS):
+            out[f"{side}_{name}"] = hands[:, s, k]
+    return out
 
 
 def source_rest() -> dict[str, np.ndarray]:
@@ -99,6 +106,10 @@ def retarget(rig: Rig, joints: dict[str, np.ndarray], rest: dict[str, np.ndarray
             src_rest = _seg(rest, d.source)
             align = rest_alignment(rig.aim_end(bone) - heads[i], src_rest)  # rig rest -> source rest
             world[:, i] = shortest_arcs(src_rest, _seg(joints, d.source)) @ align @ r0[i]
+        elif isinstance(d, AimRoll):
+            f_rig = triads(rig.aim_end(bone) - heads[i], rig.rest_roll(bone))
+            f_now = triads(_seg(joints, d.source), roll_direction(joints, d.roll))
+            world[:, i] = f_now @ f_rig.T @ r0[i]
         elif isinstance(d, Orient):
             f_rest = triads(_seg(rest, d.primary), _seg(rest, d.secondary))
             f_now = triads(_seg(joints, d.primary), _seg(joints, d.secondary))

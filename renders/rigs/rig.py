@@ -13,6 +13,10 @@ side is a table change.
   ``tail``) points exactly where the source segment ``source[0] -> source[1]`` points.
 - :class:`Orient` (torso, head): the bone turns, relative to its rest, the way the source frame
   (``primary`` segment, ``secondary`` segment for the roll) turns relative to the source's rest.
+- :class:`AimRoll` (hands, fingers): aimed like :class:`Aim`, and rolled about its aim so that
+  a direction across it (``roll``) lies where the source's does: the rig's frame (aim, its rest
+  ``rig_roll``) is carried onto the source's (aim, ``roll``) in every frame. It does not depend
+  on the source's rest pose, so a hanging relaxed hand and a T-pose flat hand agree.
 
 Twist convention (documented in docs/formats.md): an aimed bone is first carried from its rest
 aim to the source's rest direction keeping its front in front
@@ -45,11 +49,23 @@ class Orient:
 
 
 @dataclass(frozen=True)
+class AimRoll:
+    """Aim along ``source`` (to the head of ``to``, or the bone's tail) with the roll of ``roll``:
+    two source joints (a segment) or four (the normal ``a->b x c->d`` of two segments);
+    ``rig_roll`` names the rig's bones whose rest heads give the same direction in the rig."""
+
+    source: tuple[str, str]
+    roll: tuple[str, ...]
+    rig_roll: tuple[str, ...]
+    to: str | None = None
+
+
+@dataclass(frozen=True)
 class Bone:
     name: str
     parent: str | None
     head: Vec
-    drive: Aim | Orient | None = None
+    drive: Aim | AimRoll | Orient | None = None
     tail: Vec | None = None  # where a leaf ends (BVH End Site, the mesh, aims without ``to``)
     rest_rotation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)  # world, (x, y, z, w)
     humanoid: str | None = None  # the VRM humanoid bone it is, when the rig declares one
@@ -75,12 +91,17 @@ class Rig:
                 raise ValueError(f"rig {self.name}: only the first bone is the root ({b.name})")
             if b.parent is not None and b.parent not in seen:
                 raise ValueError(f"rig {self.name}: {b.name}'s parent {b.parent} must come before it")
-            if isinstance(b.drive, Aim) and b.drive.to is None and b.tail is None:
+            if isinstance(b.drive, (Aim, AimRoll)) and b.drive.to is None and b.tail is None:
                 raise ValueError(f"rig {self.name}: {b.name} aims at its tail but has none")
             seen.add(b.name)
         for b in self.bones:
-            if isinstance(b.drive, Aim) and b.drive.to is not None and b.drive.to not in seen:
+            if isinstance(b.drive, (Aim, AimRoll)) and b.drive.to is not None and b.drive.to not in seen:
                 raise ValueError(f"rig {self.name}: {b.name} aims at unknown bone {b.drive.to}")
+            if isinstance(b.drive, AimRoll):
+                unknown = [n for n in b.drive.rig_roll if n not in seen]
+                if unknown or len(b.drive.roll) not in (2, 4) or len(b.drive.rig_roll) != len(b.drive.roll):
+                    raise ValueError(f"rig {self.name}: {b.name}'s roll must name 2 or 4 source joints and as many "
+                                     f"rig bones{' (unknown: ' + ', '.join(unknown) + ')' if unknown else ''}")
             if not self.children(b.name) and b.tail is None:
                 raise ValueError(f"rig {self.name}: leaf {b.name} needs a tail")
 
@@ -113,15 +134,31 @@ class Rig:
 
     def aim_end(self, bone: Bone) -> np.ndarray:
         """Rest position where ``bone``'s aim segment ends."""
-        if isinstance(bone.drive, Aim) and bone.drive.to is not None:
+        if isinstance(bone.drive, (Aim, AimRoll)) and bone.drive.to is not None:
             return np.asarray(self.bones[self.index[bone.drive.to]].head, dtype=np.float64)
         return np.asarray(bone.tail, dtype=np.float64)
+
+    def rest_roll(self, bone: Bone) -> np.ndarray:
+        """The rest direction of an :class:`AimRoll` bone's ``rig_roll`` (from the rig's heads)."""
+        heads = {n: np.asarray(self.bones[self.index[n]].head, dtype=np.float64) for n in bone.drive.rig_roll}
+        return roll_direction(heads, bone.drive.rig_roll)
 
     def source_joints(self) -> set[str]:
         out = {self.root_source}
         for b in self.bones:
             if isinstance(b.drive, Aim):
                 out.update(b.drive.source)
+            elif isinstance(b.drive, AimRoll):
+                out.update(b.drive.source + b.drive.roll)
             elif isinstance(b.drive, Orient):
                 out.update(b.drive.primary + b.drive.secondary)
         return out
+
+
+def roll_direction(points: dict[str, np.ndarray], names: tuple[str, ...]) -> np.ndarray:
+    """A roll reference from named points (arrays (..., 3)): the segment ``a -> b``, or for four
+    names the normal ``(a -> b) x (c -> d)``."""
+    first = points[names[1]] - points[names[0]]
+    if len(names) == 2:
+        return first
+    return np.cross(first, points[names[3]] - points[names[2]])

@@ -1,4 +1,7 @@
-"""The SMPL-X body: its 22 body joints (pelvis + the 21 of ``body_pose``) in SMPL-X order.
+"""The SMPL-X body: its 22 body joints (pelvis + the 21 of ``body_pose``) in SMPL-X order, then
+the 15 joints of each hand (``left_index1`` .. ``right_thumb3``; see :data:`HAND_JOINT_NAMES`).
+Hands rest flat (palm down, fingers along the arm), the pose SMPL-X's zero hand pose gives with
+``flat_hand_mean=True``; the finger joints' rest positions are sgt's hand proportions.
 
 Rest pose: SMPL-X's rest pose is its template with zero rotations (a T-pose, y up, facing +z,
 left on +x). The joint positions below are the SMPL *neutral* template's joints (rounded to
@@ -15,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.skeleton import BONE_LENGTHS
+from renders.rigs.hands import hand_bones, t_pose_hand, wrist_drive
 from renders.rigs.humanoid import HEAD, SPINE
 from renders.rigs.rig import Aim, Bone, Rig
 
@@ -35,10 +39,16 @@ REST_JOINTS = np.array([
     [0.4541, 0.2244, -0.0409], [-0.4540, 0.2217, -0.0443], [0.7196, 0.2350, -0.0470],
     [-0.7174, 0.2355, -0.0471],
 ])
-TAILS = {  # leaves: top of the head, toes, hands (approximate)
+TAILS = {  # leaves: top of the head, toes (approximate)
     "head": (0.0012, 0.5200, 0.0300), "left_foot": (0.1195, -1.1439, 0.1600), "right_foot": (-0.1194, -1.1440, 0.1600),
-    "left_wrist": (0.8045, 0.2300, -0.0470), "right_wrist": (-0.8045, 0.2300, -0.0470),
 }
+#: SMPL-X hand joints, in SMPL-X order per hand (joints 25..39 left, 40..54 right, after the jaw
+#: and the eyes): ``left_hand_pose`` / ``right_hand_pose`` hold their rotations in this order.
+HAND_JOINT_NAMES = tuple(f"{d}{k}" for d in ("index", "middle", "pinky", "ring", "thumb") for k in (1, 2, 3))
+#: sgt's hand joint (the head of a finger bone) -> SMPL-X's hand joint name (after the side).
+SGT_HAND = {f"{d}_{j}": f"{s}{k}" for d, s in (("index", "index"), ("middle", "middle"), ("ring", "ring"),
+                                              ("little", "pinky")) for k, j in ((1, "mcp"), (2, "pip"), (3, "dip"))}
+SGT_HAND.update({"thumb_cmc": "thumb1", "thumb_mcp": "thumb2", "thumb_ip": "thumb3"})
 DRIVES = {
     "spine1": SPINE,
     "head": HEAD,
@@ -48,6 +58,8 @@ DRIVES = {
     "right_shoulder": Aim(("right_shoulder", "right_elbow"), "right_elbow"),
     "left_elbow": Aim(("left_elbow", "left_wrist"), "left_wrist"),
     "right_elbow": Aim(("right_elbow", "right_wrist"), "right_wrist"),
+    "left_wrist": wrist_drive("left", lambda j: "left_" + SGT_HAND[j]),
+    "right_wrist": wrist_drive("right", lambda j: "right_" + SGT_HAND[j]),
 }
 
 
@@ -57,8 +69,11 @@ def _build() -> Rig:
     for i, name in enumerate(JOINT_NAMES):
         parent = None if PARENTS[i] < 0 else JOINT_NAMES[PARENTS[i]]
         bones.append(Bone(name, parent, tuple(REST_JOINTS[i]), DRIVES.get(name), TAILS.get(name)))
+    for side in ("left", "right"):  # a flat T-pose hand at the wrist (SMPL-X with flat_hand_mean=True)
+        wrist = REST_JOINTS[JOINT_NAMES.index(f"{side}_wrist")]
+        bones += hand_bones(side, f"{side}_wrist", t_pose_hand(side, wrist), lambda j, side=side: f"{side}_{SGT_HAND[j]}")
     torso = np.linalg.norm(REST_JOINTS[12] - REST_JOINTS[0]) / BONE_LENGTHS["neck"]
-    return Rig(name="smplx", title="SMPL-X body joints (SMPL-X order and names)", bones=tuple(bones),
+    return Rig(name="smplx", title="SMPL-X body and hand joints (SMPL-X names)", bones=tuple(bones),
                translation_scale=float(torso))
 
 

@@ -25,6 +25,7 @@ from core.controls import STYLE_LIMIT, STYLE_NAMES
 from core.diagnostics import Diagnostic, Fix
 from core.skeleton import positions_from_pose
 from dsl.presets import BUILTIN_PRESETS
+from renders.terminal import figure_points
 from sgt_tui.app.panels import PreviewPanel
 from sgt_tui.editor.edits import pose_tag
 from sgt_tui.editor.player import Player
@@ -229,7 +230,7 @@ class LibraryScreen(ModalScreen):
             preview.refresh()
             return
         clip = g.clip(speed=self.speed, flip=self.flip)
-        self.player.load(positions_from_pose(clip.poses), f"{g.name} x{self.speed}" + (" flip" if self.flip else ""),
+        self.player.load(figure_points(positions_from_pose(clip.poses), clip.hands), f"{g.name} x{self.speed}" + (" flip" if self.flip else ""),
                          keep_frame=False)
         preview.sync_timer()
         preview.refresh()

@@ -63,9 +63,6 @@ def register(sub) -> None:
 def run(args) -> int:
     from sgt_tui.commands.clips import load_clips
     from sgt_tui.commands.common import output_file, output_format, shown
-
-    from sgt_tui.commands.clips import load_clips
-    from sgt_tui.commands.common import output_file, output_format, shown
     from sgt_tui.errors import UsageError
 
     fmt = output_format(args.output, args.format, FORMATS, what="export")

@@ -15,7 +15,7 @@ from core.skeleton import FPS
 
 @dataclass
 class Player:
-    positions: np.ndarray | None = None  # (T, 10, 3)
+    positions: np.ndarray | None = None  # (T, 10, 3), or (T, 50, 3) with the hands (renders.terminal.figure_points)
     frame: int = 0
     playing: bool = False
     label: str = ""  # what is shown: "generated · rules", "draft", a gesture ...

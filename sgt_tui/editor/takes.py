@@ -17,6 +17,8 @@ from core.motion import MotionClip
 from core.skeleton import positions_from_pose
 from model import keyframe
 from model.generate import EngineInputs
+from model.hands import motion_hands
+from renders.terminal import figure_points
 from sgt_tui.editor.timeline import TimelineData, from_clip, from_plan
 
 KEEP = 256  # generated takes and drafts kept
@@ -24,7 +26,7 @@ KEEP = 256  # generated takes and drafts kept
 
 @dataclass(frozen=True)
 class View:
-    positions: np.ndarray | None  # (T, 10, 3) for the preview, None: nothing to play
+    positions: np.ndarray | None  # (T, 10 or 50, 3) for the preview (renders.terminal.figure_points), None: nothing to play
     label: str  # under the preview: "generated · rules", "draft · ^g generates"
     timeline: TimelineData | None
     title: str  # the timeline's title
@@ -57,7 +59,7 @@ class Takes:
         if found is not None:
             engine, clip = found
             data = from_clip(clip, timing="speech")
-            return View(clip.positions, f"generated · {engine}", data,
+            return View(figure_points(clip.positions, clip.hands), f"generated · {engine}", data,
                         f"{title} · {data.duration:.1f} s · speech timing", generated=True)
         if info.plan is not None:
             data = from_plan(info.plan)
@@ -69,7 +71,8 @@ class Takes:
     def _draft(self, info) -> np.ndarray:
         hit = self._drafts.get(info.key)
         if hit is None:
-            hit = positions_from_pose(keyframe.generate(EngineInputs.from_plan(info.plan)))
+            poses = keyframe.generate(EngineInputs.from_plan(info.plan))
+            hit = figure_points(positions_from_pose(poses), motion_hands(poses, [info.plan.hands]))
             if len(self._drafts) >= KEEP:
                 self._drafts.clear()
             self._drafts[info.key] = hit
