@@ -115,13 +115,18 @@ def test_speed_keeps_every_keyframe_and_lands_the_stroke(lib, speed):
         assert _angles(np.stack([clip.poses[clip.stroke_frame], g.spec.key_dirs[s].reshape(-1)])).max() < 0.1
 
 
+#: The human-range bound documented in docs/library.md (Speed): degrees per second, any bone.
+HUMAN_DEG_PER_S = 900.0
+
+
 @pytest.mark.parametrize("speed", [1, 2, 3])
 def test_no_bone_turns_faster_than_a_person_can(lib, speed):
     from library.retime import MAX_DEG_PER_S
 
+    assert MAX_DEG_PER_S <= HUMAN_DEG_PER_S
     for g in lib:
         peak = _angles(g.clip(speed=speed).poses).max() * 15
-        assert peak <= MAX_DEG_PER_S, (g.name, speed, peak)
+        assert peak <= HUMAN_DEG_PER_S, (g.name, speed, peak)
 
 
 def test_speed_compresses_preparation_and_retraction_more_than_the_stroke(lib):
@@ -136,7 +141,8 @@ def test_speed_compresses_preparation_and_retraction_more_than_the_stroke(lib):
             edge_s += fs[1] + fs[-1] - fs[-2]
             core_1 += f1[-2] - f1[1]
             core_s += fs[-2] - fs[1]
-        assert edge_1 / edge_s > core_1 / core_s > 1.0, speed
+        # measured: x2 2.17 vs 1.60, x3 2.33 vs 1.90; compressing both alike gives 1.10 and 1.16
+        assert edge_1 / edge_s > 1.2 * (core_1 / core_s) and core_1 / core_s > 1.0, speed
         core_x1, edge_x1 = core_1, edge_1
     assert core_x1 and edge_x1
     wave = lib.get("wave")
