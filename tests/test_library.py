@@ -465,3 +465,43 @@ def test_unchanged_files_are_not_read_again(tmp_path, monkeypatch):
     os.utime(path, ns=(time.time_ns(), time.time_ns() + 10**9))
     assert load_library([user], use_config=False).get("edit_me").duration == 1.5
     assert reads == [path, path]
+
+
+def test_keyframes_inside_the_duration_land_on_frames_at_every_speed(tmp_path):
+    user = tmp_path / "u"
+    _write(user, "late", """name = "late"
+duration = 1.2
+[[keyframes]]
+time = 0.2
+[[keyframes]]
+time = 0.5
+stroke = true
+right_elbow = [-1, 0, 0]
+[[keyframes]]
+time = 0.9
+right_elbow = "rest"
+""")
+    g = load_library([user], use_config=False).get("late")
+    for speed in (1, 2, 3):
+        clip = g.clip(speed=speed)
+        assert len(clip.poses) == g.n_frames(speed) >= frame_count(1.2 / speed)
+        f = g.key_frames(speed)
+        assert 0 < f[0] < f[1] < f[2] < len(clip.poses) - 1  # held before the first and after the last
+        assert clip.stroke_frame == f[1]
+        assert np.allclose(clip.poses[f[1]].reshape(N_BONES, 3)[7], [-1, 0, 0], atol=1e-5)
+        assert np.allclose(clip.poses[: f[0] + 1], clip.poses[0]) and np.allclose(clip.poses[f[2]:], clip.poses[-1])
+        assert clip.hands.n_frames == len(clip.poses)
+
+
+def test_a_clip_says_which_limbs_it_drives_and_flip_mirrors_it(lib):
+    from core.skeleton import BONE_NAMES
+
+    point = lib.get("point_right")
+    assert point.spec.limbs == ("right_arm",)
+    driven = [b for b, d in zip(BONE_NAMES, point.clip().bones) if d]
+    assert driven == ["right_shoulder", "right_elbow", "right_wrist"]
+    assert [b for b, d in zip(BONE_NAMES, point.clip(flip=True).bones) if d] == ["left_shoulder", "left_elbow", "left_wrist"]
+    assert list(point.clip().hand_sides) == [False, True] and list(point.clip(flip=True).hand_sides) == [True, False]
+    nod = lib.get("nod")
+    assert nod.spec.limbs == ("head",) and not nod.clip().hand_sides.any()
+    assert lib.get("lean_forward").spec.limbs == ("torso",)
