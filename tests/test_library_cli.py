@@ -93,8 +93,11 @@ def test_show_flip_lists_the_mirrored_keyframes(capsys):
                 i = ["neck", "nose", "head_top", "left_shoulder", "left_elbow", "left_wrist"].index(
                     "left_" + bone[len("right_"):])
                 assert np.allclose(flipped.poses[shown["frame"]].reshape(N_BONES, 3)[i], mirrored, atol=1e-4)
+        assert all(h.startswith("left_") for h in shown["hands"])
+        assert shown["hands"] == {"left_" + h[len("right_"):]: v for h, v in k.hands.items()}
     code, text, _ = _run(capsys, "library", "show", "point_right", "--flip")
     assert "mirrored" in text and "left_elbow [0.951, -0.211, 0.224]" in text and "right_elbow" not in text
+    assert "left_hand point" in text and "right_hand" not in text
 
 
 def test_show_unknown_is_a_usage_error(capsys):

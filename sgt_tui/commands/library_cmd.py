@@ -135,6 +135,7 @@ def _show(args) -> int:
             "keyframes": [{
                 "time": k.time, "frame": int(f), "label": k.label, "stroke": k.stroke,
                 "bones": {b: (list(v) if v is not None else "rest") for b, v in k.bones.items()},
+                "hands": dict(k.hands),
             } for k, f in zip(keyframes, frames)],
         }, indent=2))
         return 0
@@ -158,7 +159,7 @@ def _show(args) -> int:
     for k, f in zip(keyframes, frames):
         mark = " *stroke*" if k.stroke else ""
         head = f"    {k.time:5.2f}s f{int(f):<3} {k.label or '':<9}{mark}"
-        bones = [f"{b} {_direction(v)}" for b, v in k.bones.items()] or ["-"]
+        bones = [f"{b} {_direction(v)}" for b, v in k.bones.items()] + [f"{h} {v}" for h, v in k.hands.items()] or ["-"]
         for i, line in enumerate(bones):
             print(f"{head if i == 0 else '':<36}{line}")
     return 0
