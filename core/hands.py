@@ -25,7 +25,6 @@ body's positions, its forearm directions and the track.
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass
 
@@ -94,11 +93,6 @@ def palm_direction(name: str, side: str) -> np.ndarray:
     return np.array(table[name], dtype=np.float64)
 
 
-def closest(word: str, choices) -> tuple[str, ...]:
-    """The closest name of ``choices`` to a misspelt ``word`` (for did-you-mean), if any."""
-    return tuple(difflib.get_close_matches(word, list(choices), n=1, cutoff=0.5))
-
-
 def openness(fingers: np.ndarray) -> np.ndarray:
     """How open a hand is, 0 (fist) .. 1 (flat), from finger angles (..., 5, 4): the mean
     flexion of the four fingers' joints against the fist's."""
@@ -108,10 +102,14 @@ def openness(fingers: np.ndarray) -> np.ndarray:
 
 
 def nearest_shape(fingers: np.ndarray) -> str:
-    """The shape name whose finger angles (5, 4) are closest to ``fingers``."""
+    """The shape name whose finger angles (5, 4) are closest to ``fingers`` (sum of |degrees|)."""
     f = np.asarray(fingers, dtype=np.float64)
-    best = min(SHAPES, key=lambda s: float(np.abs(SHAPE_ANGLES[s] - f).sum()))
-    return best
+    return min(SHAPES, key=lambda s: float(np.abs(SHAPE_ANGLES[s] - f).sum()))
+
+
+def nearest_palm(palm: np.ndarray, side: str) -> str:
+    """The palm name of ``side`` whose direction is closest to ``palm`` (3,)."""
+    return max(PALMS, key=lambda n: float(palm_direction(n, side) @ np.asarray(palm, dtype=np.float64)))
 
 
 # -- tracks -------------------------------------------------------------------------------------
@@ -144,28 +142,28 @@ class HandTrack:
         return int(self.palm.shape[0])
 
     @classmethod
-    def rest(cls, n_frames: int) -> "HandTrack":
+    def rest(cls, n_frames: int) -> HandTrack:
         """Relaxed hands, palms in, for ``n_frames`` frames."""
         return cls.constant(n_frames, (REST_SHAPE, REST_SHAPE), (REST_PALM, REST_PALM))
 
     @classmethod
-    def constant(cls, n_frames: int, shapes: tuple[str, str], palms: tuple[str, str]) -> "HandTrack":
+    def constant(cls, n_frames: int, shapes: tuple[str, str], palms: tuple[str, str]) -> HandTrack:
         """One (left, right) shape and palm on every frame."""
         palm = np.stack([palm_direction(p, s) for p, s in zip(palms, SIDES)])
         fingers = np.stack([SHAPE_ANGLES[s] for s in shapes])
         return cls(np.repeat(palm[None], n_frames, axis=0), np.repeat(fingers[None], n_frames, axis=0))
 
-    def take(self, index) -> "HandTrack":
+    def take(self, index) -> HandTrack:
         """The frames ``index`` (a slice or an integer array)."""
         return HandTrack(self.palm[index], self.fingers[index])
 
-    def mirrored(self) -> "HandTrack":
+    def mirrored(self) -> HandTrack:
         """Left and right swapped and x negated (as :func:`core.skeleton.mirror_pose`)."""
         palm = self.palm[:, ::-1].copy()
         palm[..., 0] = -palm[..., 0]
         return HandTrack(palm, self.fingers[:, ::-1].copy())
 
-    def blend(self, other: "HandTrack", weight, sides=(0, 1)) -> "HandTrack":
+    def blend(self, other: HandTrack, weight, sides=(0, 1)) -> HandTrack:
         """This track moved towards ``other`` by ``weight`` (T,) in [0, 1] on ``sides``:
         palms along the great circle, finger angles linearly."""
         w = np.clip(np.asarray(weight, dtype=np.float64), 0.0, 1.0)
@@ -180,7 +178,7 @@ class HandTrack:
                 "fingers": np.round(self.fingers.astype(np.float64), 2).tolist()}
 
     @classmethod
-    def from_dict(cls, d) -> "HandTrack":
+    def from_dict(cls, d) -> HandTrack:
         if not isinstance(d, dict) or "palm" not in d or "fingers" not in d:
             raise ValueError("hands must be an object with 'palm' and 'fingers'")
         return cls(np.asarray(d["palm"], dtype=np.float32), np.asarray(d["fingers"], dtype=np.float32))
@@ -263,8 +261,6 @@ def interpolate_hands(times: np.ndarray, palms: np.ndarray, fingers: np.ndarray,
 HAND_JOINTS: tuple[str, ...] = tuple(
     f"{d}_{j}" for d in DIGITS for j in (("cmc", "mcp", "ip", "tip") if d == "thumb" else ("mcp", "pip", "dip", "tip"))
 )
-#: Each hand joint's parent: the previous joint of its digit, or None for the wrist.
-HAND_PARENTS: tuple[str | None, ...] = tuple(None if i % 4 == 0 else HAND_JOINTS[i - 1] for i in range(len(HAND_JOINTS)))
 
 # Hand geometry in the hand's frame (metres): x to the thumb side, y along the fingers, z out
 # of the palm. Roots of each digit (the thumb's CMC, the fingers' knuckles) and segment lengths.

@@ -4,7 +4,9 @@ Keyframes are chosen greedily: start with the first and last frames (and the str
 then keep adding the frame that the spec reproduces worst until every bone of every
 frame is within ``tolerance_deg`` of the recording (or ``max_keyframes`` is reached).
 The error is measured by actually re-parsing the written text and sampling it, so it is
-the round-trip error of the file.
+the round-trip error of the file. With the recording's hands, every keyframe also names each
+hand's nearest shape and palm (:func:`core.hands.nearest_shape`, :func:`core.hands.nearest_palm`)
+where they differ from the previous keyframe's.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from core.hands import REST_PALM, REST_SHAPE, SIDES, HandTrack, nearest_palm, nearest_shape
 from core.skeleton import (
     BONE_NAMES,
     FPS,
@@ -60,8 +63,8 @@ def _toml_str(s: str) -> str:
 
 
 def render_spec(name: str, dirs: np.ndarray, frames: list[int], n: int, *, description: str,
-                tags: list[str], stroke: int | None) -> str:
-    """Spec text for keyframes at ``frames`` of ``dirs`` (n, 9, 3)."""
+                tags: list[str], stroke: int | None, hands: HandTrack | None = None) -> str:
+    """Spec text for keyframes at ``frames`` of ``dirs`` (n, 9, 3) (and of ``hands``)."""
     # Truncated so that frame_count(duration) == n despite the decimal rounding.
     duration = _trunc(n / FPS)
     lines = [
@@ -71,6 +74,7 @@ def render_spec(name: str, dirs: np.ndarray, frames: list[int], n: int, *, descr
         f"duration = {_num(duration)}",
     ]
     prev = REST_DIRS
+    prev_hands = {f"{side}_{k}": v for side in SIDES for k, v in (("hand", REST_SHAPE), ("palm", REST_PALM))}
     for i, f in enumerate(frames):
         t = duration if f == n - 1 else _trunc(f * duration / (n - 1))
         lines += ["", "[[keyframes]]", f"time = {_num(t)}"]
@@ -89,6 +93,14 @@ def render_spec(name: str, dirs: np.ndarray, frames: list[int], n: int, *, descr
                 lines.append(f"{BONE_NAMES[b]} = {_fmt(cur[b])}")
         # What the loader will hold for the next keyframe.
         prev = np.where(moved[:, None], cur, prev)
+        if hands is not None:
+            for s, side in enumerate(SIDES):
+                named = {f"{side}_hand": nearest_shape(hands.fingers[f, s]),
+                         f"{side}_palm": nearest_palm(hands.palm[f, s], side)}
+                for key, value in named.items():
+                    if value != prev_hands[key]:
+                        lines.append(f'{key} = "{value}"')
+                        prev_hands[key] = value
     return "\n".join(lines) + "\n"
 
 
@@ -110,8 +122,10 @@ def default_stroke(dirs: np.ndarray) -> int:
 
 def spec_text_from_poses(name: str, poses: np.ndarray, *, description: str = "",
                          tags: list[str] = (), stroke: int | None = None,
-                         tolerance_deg: float = 2.0, max_keyframes: int = 40) -> tuple[str, float]:
-    """Spec text reproducing ``poses`` (n, 27); returns (text, max round-trip error in degrees)."""
+                         tolerance_deg: float = 2.0, max_keyframes: int = 40,
+                         hands: HandTrack | None = None) -> tuple[str, float]:
+    """Spec text reproducing ``poses`` (n, 27) and, by name, ``hands`` (the same n frames);
+    returns (text, max round-trip error of the bones in degrees)."""
     p = np.asarray(poses, dtype=np.float64)
     n = len(p)
     if n < 2:
@@ -123,7 +137,7 @@ def spec_text_from_poses(name: str, poses: np.ndarray, *, description: str = "",
     frames = sorted({0, n - 1, stroke})
     while True:
         text = render_spec(name, dirs, frames, n, description=description, tags=list(tags),
-                           stroke=stroke)
+                           stroke=stroke, hands=hands)
         err = _max_errors(text, name, dirs)
         worst = int(np.argmax(err))
         if err[worst] <= tolerance_deg or len(frames) >= max_keyframes or worst in frames:

@@ -68,7 +68,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.hands import PALMS, REST_PALM, REST_SHAPE, SHAPE_ANGLES, SHAPES, SIDES, HandTrack, closest, interpolate_hands, palm_direction
+from core.hands import PALMS, REST_PALM, REST_SHAPE, SHAPE_ANGLES, SHAPES, SIDES, HandTrack, interpolate_hands, palm_direction
 from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE, mirror_name
 
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
@@ -421,7 +421,7 @@ def _hand_names(where: str, raw: dict) -> dict[str, str]:
         if not isinstance(value, str):
             raise SpecError(f"{where}.{key}", f"{key} must be a {what} name in quotes, one of {', '.join(names)}; got {value!r}")
         if value not in names:
-            raise SpecError(f"{where}.{key}", f"unknown {what} '{value}' (one of {', '.join(names)})", closest(value, names))
+            raise SpecError(f"{where}.{key}", f"unknown {what} '{value}' (one of {', '.join(names)})", _close(value, names))
         out[key] = value
     return out
 

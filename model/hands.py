@@ -72,16 +72,19 @@ def _with_gestures(base: HandTrack, gestures: HandTrack, m: np.ndarray, ramp: in
     if not m.any():
         return base
     w = m.copy()
-    idx = np.flatnonzero(m > 0.5)
+    on = m > 0.5
     t = np.arange(len(m))
-    if ramp > 0 and len(idx):
-        # distance to the nearest masked frame, as an easing weight
-        dist = np.min(np.abs(t[:, None] - idx[None, :]), axis=1)
+    if ramp > 0 and on.any():
+        # the nearest masked frame before and after each frame (linear time and memory)
+        big = 10 * len(m) + 10
+        before = np.maximum.accumulate(np.where(on, t, -big))
+        after = np.minimum.accumulate(np.where(on, t, 2 * big)[::-1])[::-1]
+        near = np.where(t - before <= after - t, before, after)
+        dist = np.abs(t - near)
         u = np.clip(1.0 - dist / (ramp + 1), 0.0, 1.0)
         w = np.maximum(w, u * u * (3 - 2 * u))
         # the gestures' hands next to a span: its first or last frame, held
-        near = idx[np.argmin(np.abs(t[:, None] - idx[None, :]), axis=1)]
-        gestures = gestures.take(np.where(m > 0.5, t, near))
+        gestures = gestures.take(np.where(on, t, np.clip(near, 0, len(m) - 1)))
     return base.blend(gestures, w, sides=sides)
 
 

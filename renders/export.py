@@ -10,20 +10,22 @@ hierarchy (all names are skeleton joint names except the two zero-length collars
         left_collar       OFFSET 0 0 0
           left_shoulder
             left_elbow
-              left_wrist  End Site 0.08 m on along the forearm
+              left_wrist  the hand: left_thumb_cmc, left_index_mcp, ... (renders/rigs/sgt.py)
         right_collar      OFFSET 0 0 0
           right_shoulder ...
 
 A joint's rotation turns the bone from it to its child: spine -> neck, neck -> nose,
 nose -> head_top, left_collar -> left_shoulder, left_shoulder -> left_elbow,
-left_elbow -> left_wrist. The collars exist because one BVH rotation can orient only one
+left_elbow -> left_wrist; the wrist turns the hand and every finger joint the bone to the
+next joint of its digit (aimed and rolled: :class:`renders.rigs.rig.AimRoll`). The collars exist because one BVH rotation can orient only one
 bone, and the neck starts three. OFFSETs are the rig's rest-pose bone vectors (for sgt's rig
 :data:`core.skeleton.REST_DIRECTIONS` times the bone lengths) in metres, so all-zero
 rotations give the rig's rest pose (a T-pose for the VRM, Mixamo and SMPL-X rigs).
 
-Roll: the skeleton stores bone directions only, so twist about a bone is undefined. For sgt's
-rig the world rotation of every bone is the shortest-arc rotation from its rest direction to
-its direction in the frame (no twist relative to the rest pose); other rigs follow the
+Roll: the skeleton stores bone directions only, so twist about a body bone is undefined. For
+sgt's rig the world rotation of every body bone is the shortest-arc rotation from its rest
+direction to its direction in the frame (no twist relative to the rest pose); hands and finger
+bones take their roll from the hand (the knuckles' line); other rigs follow the
 convention of :mod:`renders.rigs.rig`. BVH has no rest orientations: a joint's channels hold
 its rotation relative to the rest pose, local rotations are parent^-1 * child of those. Euler
 angles are intrinsic Z, X, Y in degrees (R = Rz Rx Ry, the order of the channels), and

@@ -181,7 +181,8 @@ def check(rig, clip, reader: dict) -> dict:
     - ``root_mm``: root head against rest + scale * (sgt root movement);
     - ``follow_deg``: bones without a drive keep their rest rotation relative to their parent;
     - ``roll_deg`` (hands, fingers: AimRoll): the bone's turn from its rest against the turn
-      that carries the rig's rest frame (aim, rest roll direction) onto sgt's (aim, roll).
+      that carries the rig's rest frame (aim, rest roll direction) onto sgt's (aim, roll); the
+      same turn also places every child's head (the hand's knuckles), checked in ``chain_mm``.
     """
     from renders.rigs import Aim, Orient  # the mapping table is the spec; the math is redone here
     from renders.rigs.rig import AimRoll
@@ -193,13 +194,18 @@ def check(rig, clip, reader: dict) -> dict:
     out = {"aim_deg": 0.0, "chain_mm": 0.0, "orient_deg": 0.0, "root_mm": 0.0, "follow_deg": 0.0, "roll_deg": 0.0}
     for b in rig.bones:
         d = b.drive
-        if isinstance(d, AimRoll) and rots is not None:
+        if isinstance(d, AimRoll):
             end = rest_heads[d.to] if d.to is not None else np.asarray(b.tail)
             want = _frame(j[d.source[1]] - j[d.source[0]], _roll(j, d.roll)) @ \
                 _frame(end - rest_heads[b.name], _roll(rest_heads, d.rig_roll)).T
-            r = np.swapaxes(want, -1, -2) @ rots[b.name]
-            err = np.degrees(np.arccos(np.clip((np.trace(r, axis1=-2, axis2=-1) - 1) / 2, -1, 1)))
-            out["roll_deg"] = max(out["roll_deg"], float(err.max()))
+            if rots is not None:
+                r = np.swapaxes(want, -1, -2) @ rots[b.name]
+                err = np.degrees(np.arccos(np.clip((np.trace(r, axis1=-2, axis2=-1) - 1) / 2, -1, 1)))
+                out["roll_deg"] = max(out["roll_deg"], float(err.max()))
+            for kid in (k for k in rig.bones if k.parent == b.name):  # every child (the knuckles): the roll by positions
+                at = heads[b.name] + want @ (rest_heads[kid.name] - rest_heads[b.name])
+                mm = np.linalg.norm(heads[kid.name] - at, axis=-1) * 1000
+                out["chain_mm"] = max(out["chain_mm"], float(mm.max()))
         if isinstance(d, (Aim, AimRoll)) and d.to is not None:
             want = _unit(j[d.source[1]] - j[d.source[0]])
             got = heads[d.to] - heads[b.name]

@@ -235,3 +235,134 @@ def test_hand_positions_follow_the_wrist_and_mirror():
     mirrored = hp[:, ::-1].copy()
     mirrored[..., 0] *= -1
     np.testing.assert_allclose(hf, mirrored, atol=1e-4)
+
+
+# -- generated motion: model/hands.py ----------------------------------------------------------
+
+
+def _right(track):
+    return track.fingers[:, SIDES.index("right")]
+
+
+def test_beat_hands_relaxed_at_rest_and_open_when_gesturing():
+    from core.skeleton import REST_POSE
+    from model.hands import MAX_OPEN, beat_hands
+
+    rest = beat_hands(np.repeat(REST_POSE[None], 10, axis=0))
+    np.testing.assert_allclose(rest.fingers, HandTrack.rest(10).fingers, atol=1e-5)
+    np.testing.assert_allclose(rest.palm, HandTrack.rest(10).palm, atol=1e-5)
+    lib = load_library(use_config=False)
+    wave = lib.get("wave").clip().poses  # the right forearm raised
+    hands = beat_hands(wave)
+    r = SIDES.index("right")
+    from core.hands import openness
+
+    o = openness(hands.fingers[:, r])
+    assert o.max() > openness(SHAPE_ANGLES["relaxed"]) + 0.1  # opens towards a flat hand
+    # at most MAX_OPEN of the way from relaxed to open
+    limit = openness(SHAPE_ANGLES["relaxed"] + MAX_OPEN * (SHAPE_ANGLES["open"] - SHAPE_ANGLES["relaxed"]))
+    assert o.max() <= limit + 1e-6
+    assert openness(hands.fingers[:, 0]).max() < openness(SHAPE_ANGLES["relaxed"]) + 0.02  # the left hangs
+
+
+def test_gesture_hands_exact_where_masked_and_eased_around():
+    from model.hands import HAND_RAMP, with_gestures
+
+    n = 30
+    base = HandTrack.rest(n)
+    gest = HandTrack.constant(n, ("relaxed", "point"), ("in", "down"))
+    mask = np.zeros(n)
+    mask[10:20] = 1
+    out = with_gestures(base, gest, mask)
+    np.testing.assert_allclose(_right(out)[10:20], _right(gest)[10:20], atol=1e-4)
+    np.testing.assert_allclose(_right(out)[: 10 - HAND_RAMP - 1], _right(base)[: 10 - HAND_RAMP - 1], atol=1e-4)
+    np.testing.assert_allclose(_right(out)[20 + HAND_RAMP + 1 :], _right(base)[20 + HAND_RAMP + 1 :], atol=1e-4)
+    index_mcp = _right(out)[:, 1, 1]
+    ramp = index_mcp[10 - HAND_RAMP - 1 : 11]
+    assert np.all(np.diff(ramp) <= 1e-6) and ramp[0] > ramp[-1]  # eases from relaxed (20) to straight (0)
+    between = (ramp > ramp[-1] + 0.5) & (ramp < ramp[0] - 0.5)
+    assert between.sum() >= HAND_RAMP - 1  # through the ramp, not a jump
+
+
+def test_limit_speed_spreads_a_snap():
+    from model.hands import MAX_FINGER_STEP, MAX_PALM_STEP, limit_speed
+
+    snap = HandTrack.rest(12).take(np.arange(12))
+    fist = HandTrack.constant(12, ("fist", "fist"), ("up", "up"))
+    snap.fingers[6:] = fist.fingers[6:]
+    snap.palm[6:] = fist.palm[6:]
+    out = limit_speed(snap)
+    assert np.abs(np.diff(out.fingers, axis=0)).max() <= MAX_FINGER_STEP + 1e-4
+    turn = np.degrees(np.arccos(np.clip(np.sum(out.palm[1:] * out.palm[:-1], -1), -1, 1)))
+    assert turn.max() <= MAX_PALM_STEP + 1e-3
+    np.testing.assert_allclose(out.fingers[-1], fist.fingers[-1], atol=1e-4)  # it gets there
+    np.testing.assert_allclose(out.palm[-1], fist.palm[-1], atol=1e-4)
+
+
+@pytest.mark.parametrize("engine", ["keyframe", "rules"])
+def test_generated_motion_has_the_pose_controls_hands(engine):
+    from core.skeleton import FPS
+    from model.generate import generate_clips
+
+    clip = generate_clips(source="guide: Look [pose:point_right] there, and [pose:thumbs_up] great.",
+                          engine=engine, timing="estimate")[0]
+    assert clip.hands.n_frames == clip.n_frames
+    lib = load_library(use_config=False)
+    for control in clip.controls:
+        g = lib.get(control.name)
+        stroke = control.start_frame + g.stroke_frame()
+        want = {"point_right": "point", "thumbs_up": "thumb_up"}[control.name]
+        assert nearest_shape(clip.hands.fingers[stroke, SIDES.index("right")]) == want, (engine, control.name)
+        assert nearest_shape(clip.hands.fingers[stroke, SIDES.index("left")]) != want
+    # layered: these one-handed gestures set the right hand only; the left is the generator's
+    if engine == "keyframe":  # (the rules engine adds its own triggered gestures' hands)
+        from model.hands import motion_hands
+
+        left = SIDES.index("left")
+        np.testing.assert_allclose(clip.hands.fingers[:, left], motion_hands(clip.poses).fingers[:, left], atol=1e-3)
+    # every frame's hands move within the speed limits
+    from model.hands import MAX_FINGER_STEP
+
+    assert np.abs(np.diff(clip.hands.fingers, axis=0)).max() <= MAX_FINGER_STEP + 1e-3
+    assert clip.n_frames > 2 * FPS
+
+
+def test_rules_engine_gives_its_triggered_gestures_hands():
+    from core.words import TimedWord
+    from model.teacher import teach
+
+    words = [TimedWord("right", 0.6, 0.9), TimedWord("now", 0.9, 1.2)]
+    rng_a, rng_b = np.random.default_rng(4), np.random.default_rng(4)
+    layers: list = []
+    poses = teach(words, 45, rng=rng_a, trigger_prob=1.0, hands_out=layers)
+    # the hands change nothing else: same poses, same random stream (the corpus stays the same)
+    np.testing.assert_array_equal(poses, teach(words, 45, rng=rng_b, trigger_prob=1.0))
+    assert rng_a.random() == rng_b.random()
+    (track, weight), = layers
+    assert weight.max() == pytest.approx(1.0, abs=0.05)
+    at = int(np.argmax(weight))
+    shapes = {nearest_shape(track.fingers[at, s]) for s in range(2)}
+    assert shapes & {"point", "thumb_up"}  # "right" triggers point_right/left or thumbs_up
+
+
+def test_terminal_figure_marks_hand_shapes():
+    from core.skeleton import positions_from_pose
+    from renders.terminal import figure_points, stick_figure
+
+    clip = load_library(use_config=False).get("wave").clip()
+    pos = positions_from_pose(clip.poses[clip.stroke_frame : clip.stroke_frame + 1])
+
+    def dots(shape):
+        pts = figure_points(pos, HandTrack.constant(1, ("relaxed", shape), ("in", "forward")))
+        assert pts.shape == (1, 50, 3)
+        lines = stick_figure(pts[0], 40, 20)
+        return lines, sum((ord(c) - 0x2800).bit_count() for line in lines for c in line)
+
+    open_lines, open_dots = dots("open")
+    fist_lines, fist_dots = dots("fist")
+    _, point_dots = dots("point")
+    assert open_dots > point_dots > fist_dots  # five fingers, one, none
+    assert open_lines != fist_lines
+    # without hands: the old figure, a blob at each wrist
+    plain = stick_figure(pos[0], 40, 20)
+    assert plain != fist_lines and len(plain) == 20

@@ -269,3 +269,27 @@ def test_sheet_usage_errors(tmp_path, capsys, argv):
     code, _, err = _run(capsys, "library", *argv)
     assert code == 2 and "Traceback" not in err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_add_keeps_the_hands_by_name(tmp_path, capsys):
+    """A recorded span's hands come back as the nearest shape and palm at its keyframes."""
+    from core.hands import SIDES, concat, nearest_palm, nearest_shape
+
+    lib = load_library(use_config=False)
+    clips = [lib.get("thumbs_up").clip(), lib.get("wave").clip()]
+    path = tmp_path / "rec.json"
+    save_motion(path, [MotionClip(poses=np.concatenate([c.poses for c in clips]), hands=concat([c.hands for c in clips]))])
+    n0 = clips[0].n_frames
+    for name, a, b, shape, palm in (("my_thumb", 0, n0, "thumb_up", "in"), ("my_wave", n0, n0 + clips[1].n_frames, "open", "forward")):
+        code, _, err = _run(capsys, "library", "add", name, "--from", str(path), "--frames", f"{a}:{b}",
+                            "--to", str(tmp_path / "lib"))
+        assert code == 0, err
+        g = load_library([tmp_path / "lib"], use_config=False).get(name)
+        named = [k.hands for k in g.keyframes if k.hands]
+        assert any(h.get("right_hand") == shape for h in named)
+        r = SIDES.index("right")
+        clip = g.clip()
+        assert nearest_shape(clip.hands.fingers[clip.stroke_frame, r]) == shape
+        assert nearest_palm(clip.hands.palm[clip.stroke_frame, r], "right") == palm
+    code, out, _ = _run(capsys, "library", "show", "thumbs_up")
+    assert code == 0 and "right_hand thumb_up" in out

@@ -9,6 +9,7 @@ from core.controls import Control
 from core.motion import MotionClip, save_motion
 from core.skeleton import FPS
 from core.words import TimedWord
+from library import load_library
 
 SIZE = (96, 96)
 WORDS = [TimedWord("hello", 0.0, 0.6), TimedWord("world", 0.8, 1.6)]
@@ -287,3 +288,41 @@ def test_help_does_not_import_heavy_libraries():
     r = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).resolve().parent.parent,
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def _skin_pixels(image: np.ndarray) -> np.ndarray:
+    """Where the mannequin's skin (hands, head) shows: reddish, unlike the blue body and grey ground."""
+    img = image.astype(int)
+    return (img[..., 0] > img[..., 2] + 40) & (img[..., 0] > 120)
+
+
+@pytest.mark.parametrize("size", [240])
+def test_hands_show_their_shape_at_240(tmp_path, size):
+    """At 240x240 an open hand, a fist and a point at the same arm pose differ where the hand is
+    (the head's pixels are the same), and the open hand covers the most skin."""
+    from core.hands import HandTrack, hand_positions
+    from core.skeleton import positions_from_pose
+    from renders.gl import RenderSetupError
+    from renders.mannequin import Mannequin
+
+    try:
+        m = Mannequin(size, size)
+    except RenderSetupError as exc:  # pragma: no cover
+        pytest.skip(f"no offscreen GL: {exc}")
+    try:
+        clip = load_library(use_config=False).get("wave").clip()
+        pos = positions_from_pose(clip.poses[clip.stroke_frame])[None]
+        skin = {}
+        images = {}
+        for shape in ("open", "fist", "point"):
+            track = HandTrack.constant(1, ("relaxed", shape), ("in", "forward"))
+            images[shape] = m.render(pos[0], hand_positions(pos, track)[0])
+            skin[shape] = int(_skin_pixels(images[shape]).sum())
+        rest = m.render(pos[0], hand_positions(pos, HandTrack.rest(1))[0])
+    finally:
+        m.close()
+    assert skin["open"] > skin["point"] > skin["fist"], skin
+    assert skin["open"] - skin["fist"] > 40, skin  # a visible difference, not a few pixels
+    changed = np.any(images["open"] != images["fist"], axis=-1)
+    assert changed.sum() > 60
+    assert not np.array_equal(rest, images["open"])  # the default hand is not the open one

@@ -292,6 +292,35 @@ def test_robot_forward_kinematics_matches_the_skeleton(robot):
         assert np.abs(np.diff(a)).max() <= r.velocity[n] / FPS + 1e-9, n
 
 
+@pytest.mark.parametrize("robot", ["nao", "pepper"])
+def test_robot_hand_opens_and_closes_with_the_shape(robot):
+    """Hand: a thumbs up and a point close the robot's hand, a wave's open hand opens it, within
+    the robot's range and speed."""
+    from core.hands import SIDES
+    from renders.naoqi import ROBOTS, solve
+
+    rob = ROBOTS[robot]
+    c = _library_clip(("thumbs_up", "point_right", "wave"))
+    sol = solve(c, rob)
+    hand = sol.angles["RHand"]
+    lo, hi = rob.limits["RHand"]
+    assert hand.min() >= lo - 1e-9 and hand.max() <= hi + 1e-9
+    assert np.abs(np.diff(hand)).max() <= rob.velocity["RHand"] / FPS + 1e-9
+    from library import load_library
+
+    lib = load_library(use_config=False)
+    at = 0
+    for name, closed in (("thumbs_up", True), ("point_right", True), ("wave", False)):
+        g = lib.get(name)
+        s = at + g.stroke_frame()
+        frac = (hand[s] - lo) / (hi - lo)
+        assert (frac < 0.3) if closed else (frac > 0.9), (name, frac)
+        at += g.n_frames()
+    left = sol.angles["LHand"][:at]  # the left hand stays relaxed (until the flipped point at the end)
+    assert np.ptp(left) < 1e-6 and SIDES == ("left", "right")
+    assert sol.angles["LHand"][at:].min() < lo + 0.3 * (hi - lo)  # which closes it
+
+
 def test_robot_head_follows_the_skeleton():
     from renders.naoqi import NAO, solve
 

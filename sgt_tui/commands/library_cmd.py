@@ -258,7 +258,7 @@ def _add(args) -> int:
         raise InputError(str(exc)) from None
     if not 0 <= args.utterance < len(clips):
         raise UsageError(f"utterance {args.utterance} does not exist ({args.source} has {len(clips)}: 0..{len(clips) - 1})")
-    poses = clips[args.utterance].poses
+    poses, hands = clips[args.utterance].poses, clips[args.utterance].hands
     a, b = _parse_span(args.frames, len(poses))
     if args.stroke is not None and not a <= args.stroke < b:
         raise UsageError(f"--stroke {args.stroke} is outside the span {a}:{b}")
@@ -267,7 +267,7 @@ def _add(args) -> int:
     description = text(args.description, "--description") or f"Recorded from {shown}, frames {a}:{b}."
     stroke = None if args.stroke is None else args.stroke - a
     spec, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
-                                     stroke=stroke)
+                                     stroke=stroke, hands=hands.take(slice(a, b)))
     atomic_write_text(target, spec)
     print(f"wrote {target} ({b - a} frames; max error {err:.1f} degrees on re-load)")
     return 0
