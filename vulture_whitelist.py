@@ -64,3 +64,6 @@ _.log_severity_level
 # pydantic reads each model's model_config, and Style's fields through model_dump (sgt_tui/serve/requests.py).
 _.model_config
 _.handedness
+# Hand keys sampled at even times, without the speed retiming of Gesture.clip: what
+# tests/test_hands.py checks the interpolation of hand keys with.
+_.sample_hands

@@ -1,6 +1,11 @@
 """The control layout: the per-frame arrays the generator consumes (SGToolkit Eq. 1-3).
 
 - pose controls: ``pose`` (T, 27) requested poses, ``pose_mask`` (T,) 1 where a pose is requested;
+  ``bone_mask`` (T, 9) 1 on the bones a gesture drives (a one-handed point drives the right arm,
+  a nod the head); the other bones of a controlled frame are left to the generator. The
+  network's control vector has one pose mask bit per frame, so ``bone_mask`` is not part of
+  :data:`CONTROL_LAYOUT`: :func:`network_pose_controls` says what the network is fed, and the
+  pose-control blend (``model.postprocess``) applies the per-bone mask;
 - style controls: ``style`` (T, 3) values in [-3, 3] for (speed, space, handedness), and
   ``style_mask`` (T, 3) 1 where that style element is requested.
 
@@ -17,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from core.skeleton import POSE_DIM
+from core.skeleton import N_BONES, POSE_DIM
 
 #: Style elements, in array order.
 STYLE_NAMES: tuple[str, ...] = ("speed", "space", "handedness")
@@ -46,12 +51,38 @@ def control_vector_parts(pose, pose_mask, style, style_mask) -> list:
     return [parts[name] for name, _ in CONTROL_LAYOUT]
 
 
+def network_pose_controls(pose: np.ndarray, pose_mask: np.ndarray, bone_mask: np.ndarray | None):
+    """The (pose, pose_mask) the network is fed for per-bone controls.
+
+    A frame that controls every bone is fed as it is. A frame that controls only some bones is
+    fed as *uncontrolled* (mask 0): the network's single mask bit would otherwise make it
+    follow the whole requested pose, holding the bones the gesture leaves free where the
+    gesture's spec happens to put them; left free, it moves them with the speech, and the blend
+    afterwards puts the controlled bones exactly where they were asked for
+    (docs/library.md, *Layered gestures*, has the measurement behind this choice)."""
+    pose_mask = np.asarray(pose_mask, np.float32)
+    if bone_mask is None:
+        return pose, pose_mask
+    full = np.asarray(bone_mask).min(axis=-1) > 0.5
+    return pose, np.where(full, pose_mask, 0.0).astype(np.float32)
+
+
 @dataclass
 class ControlArrays:
     pose: np.ndarray  # (T, 27) float32
     pose_mask: np.ndarray  # (T,) float32
     style: np.ndarray  # (T, 3) float32
     style_mask: np.ndarray  # (T, 3) float32
+    #: (T, 9) float32: 1 on the controlled bones of each frame; None = every bone of every
+    #: frame whose ``pose_mask`` is set.
+    bone_mask: np.ndarray | None = None
+
+    def bones(self) -> np.ndarray:
+        """(T, 9) float32: 1 where a bone of a frame is controlled (and its frame's pose_mask is set)."""
+        m = np.asarray(self.pose_mask, np.float32)[:, None]
+        if self.bone_mask is None:
+            return np.repeat(m, N_BONES, axis=1)
+        return np.asarray(self.bone_mask, np.float32) * m
 
     @property
     def n_frames(self) -> int:
@@ -66,12 +97,27 @@ class ControlArrays:
             style_mask=np.zeros((n_frames, len(STYLE_NAMES)), np.float32),
         )
 
-    def set_pose(self, start: int, poses: np.ndarray) -> None:
-        """Request ``poses`` (L, 27) from frame ``start``; parts outside [0, T) are dropped."""
+    def set_pose(self, start: int, poses: np.ndarray, bones: np.ndarray | None = None) -> None:
+        """Request ``poses`` (L, 27) from frame ``start``; parts outside [0, T) are dropped.
+
+        With ``bones`` (9,) bool only those bones are requested: the others keep what an
+        earlier request put there (a nod under a point: both play) or stay free."""
         lo, hi = max(0, start), min(self.n_frames, start + len(poses))
-        if hi > lo:
-            self.pose[lo:hi] = poses[lo - start : hi - start]
+        if hi <= lo:
+            return
+        src = np.asarray(poses[lo - start : hi - start], np.float32)
+        if bones is None or np.all(bones):
+            self.pose[lo:hi] = src
+            if self.bone_mask is not None:
+                self.bone_mask[lo:hi] = 1.0
             self.pose_mask[lo:hi] = 1.0
+            return
+        if self.bone_mask is None:
+            self.bone_mask = np.repeat(self.pose_mask[:, None], N_BONES, axis=1).astype(np.float32)
+        cols = np.repeat(np.asarray(bones, bool), 3)
+        self.pose[lo:hi, cols] = src[:, cols]
+        self.bone_mask[lo:hi, np.asarray(bones, bool)] = 1.0
+        self.pose_mask[lo:hi] = 1.0
 
     def set_style(self, start: int, end: int, values: dict[str, float]) -> None:
         """Request style ``values`` (by name) on frames [start, end)."""
@@ -87,6 +133,7 @@ class ControlArrays:
             "pose_mask": self.pose_mask,
             "style": self.style,
             "style_mask": self.style_mask,
+            "bone_mask": self.bones(),
         }
 
 

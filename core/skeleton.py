@@ -75,7 +75,8 @@ _PARENT_INDEX = np.array([JOINT_INDEX[p] for p, _ in BONES])
 _CHILD_INDEX = np.array([JOINT_INDEX[c] for _, c in BONES])
 
 
-def _mirror_name(name: str) -> str:
+def mirror_name(name: str) -> str:
+    """The name of the joint or bone on the other side ("left_wrist" <-> "right_wrist"); others unchanged."""
     if name.startswith("left_"):
         return "right_" + name[5:]
     if name.startswith("right_"):
@@ -84,7 +85,7 @@ def _mirror_name(name: str) -> str:
 
 
 #: For bone i of a mirrored pose, the index of the bone it is copied from.
-MIRROR_BONE_PERMUTATION = np.array([BONE_INDEX[_mirror_name(b)] for b in BONE_NAMES])
+MIRROR_BONE_PERMUTATION = np.array([BONE_INDEX[mirror_name(b)] for b in BONE_NAMES])
 
 
 def _unit(v) -> list[float]:

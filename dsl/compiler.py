@@ -21,7 +21,7 @@ from typing import Callable
 
 from core import rules
 from core.diagnostics import Diagnostic, Related, sort_key
-from core.skeleton import FPS, frame_count, seconds_to_frame
+from core.skeleton import FPS, frame_count, mirror_name, seconds_to_frame
 from dsl.parser import analyse, read_source
 from dsl.plan import ArrayRequests, Control, Plan, UtterancePlan
 from dsl.resources import check_resources, speech_diagnostic
@@ -181,27 +181,38 @@ def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, i
     return out
 
 
+def _limbs(mark, gesture) -> frozenset[str]:
+    """The limbs a placed gesture drives (mirrored when it is flipped)."""
+    limbs = gesture.spec.limbs
+    return frozenset(mirror_name(limb) for limb in limbs) if mark.flip else frozenset(limbs)
+
+
 def resolve_overlaps(poses) -> list[tuple]:
     """Place pose controls that would overlap, the same way under any timing.
 
     ``poses`` are (mark, gesture, start frame, frames, key frames) in source order (see
     :func:`_place_poses`). Returns, in that order, (mark, gesture, start, frames, note): where
-    each plays and for how long, and for one that collided with the previous gesture, ``note``
-    = (previous mark, first and last overlapping frame, what was done). The rule (as behaviour
-    realisers resolve colliding gestures): the earlier gesture keeps its key frames (up to the
-    end of its stroke and hold) and its retraction is cut where the later one starts; a later
-    one that would start before the earlier one's key frames are over waits until then. After
-    this no two controls overlap, so the last one placed is the only one a new one can meet."""
+    each plays and for how long, and for one that collided with an earlier gesture, ``note``
+    = (previous mark, first and last overlapping frame, what was done). Gestures collide only
+    when they drive a common limb (:attr:`library.spec.GestureSpec.limbs`): a nod plays over a
+    one-handed point, both layered. The rule (as behaviour realisers resolve colliding
+    gestures): the earlier gesture keeps its key frames (up to the end of its stroke and hold)
+    and its retraction is cut where the later one starts; a later one that would start before
+    the earlier one's key frames are over waits until then. After this no two controls that
+    share a limb overlap."""
     out = [[mark, gesture, start, length, None] for mark, gesture, start, length, _ in poses]
     if len(poses) < 2:
         return [tuple(p) for p in out]
+    limbs = [_limbs(p[0], p[1]) for p in poses]
     order = sorted(range(len(poses)), key=lambda i: poses[i][2])  # stable: source order on ties
-    prev, prev_i = None, -1
+    last_on: dict[str, int] = {}  # limb -> the gesture placed last on it
     for i in order:
         p = out[i]
-        mark, start, length = p[0], p[2], p[3]
-        if prev is not None:
-            p_mark, p_start, p_len, p_keep = prev[0], prev[2], prev[3], poses[prev_i][4]
+        mark, length = p[0], p[3]
+        for j in sorted({last_on[limb] for limb in limbs[i] if limb in last_on}, key=lambda j: out[j][2]):
+            prev = out[j]
+            start = p[2]
+            p_mark, p_start, p_len, p_keep = prev[0], prev[2], prev[3], poses[j][4]
             if start < p_start + p_len:
                 first, last = max(start, p_start), min(start + length, p_start + p_len) - 1
                 if start >= p_start + p_keep:
@@ -210,9 +221,10 @@ def resolve_overlaps(poses) -> list[tuple]:
                     wait = p_start + p_keep - start
                     start = p[2] = start + wait
                     resolution = f"'{mark.name}' waits {wait} frame{'s' if wait != 1 else ''} ({wait / FPS:.2f} s) for the stroke of '{p_mark.name}'"
-                prev[3] = start - p_start  # the earlier one's retraction ends where this one starts
+                prev[3] = min(prev[3], start - p_start)  # the earlier one's retraction ends where this one starts
                 p[4] = (p_mark, first, last, resolution)
-        prev, prev_i = p, i
+        for limb in limbs[i]:
+            last_on[limb] = i
     return [tuple(p) for p in out]
 
 

@@ -36,21 +36,24 @@ class ArrayRequests:
         for a, b, values in self.styles:
             arrays.set_style(a, b, values)
         for start, gesture, mark, length in self.poses:  # length < the clip's: its retraction was cut
-            arrays.set_pose(start, gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).poses[:length])
+            clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
+            arrays.set_pose(start, clip.poses[:length], clip.bones)
         return arrays
 
     def build_hands(self) -> tuple[HandTrack, np.ndarray]:
         """The pose controls' hands (their gestures' hand keys; relaxed elsewhere) and a mask
-        (T,), 1 on the frames a pose control sets them."""
+        (T, 2) per side (:data:`core.hands.SIDES`), 1 on the frames a pose control sets that
+        hand: a layered gesture sets only the hands it drives (``Clip.hand_sides``)."""
         track = HandTrack.rest(self.n_frames)
-        mask = np.zeros(self.n_frames, np.float32)
+        mask = np.zeros((self.n_frames, 2), np.float32)
         for start, gesture, mark, length in self.poses:
-            hands = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).hands
+            clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
             lo, hi = max(0, start), min(self.n_frames, start + length)
             if hi > lo:
-                track.palm[lo:hi] = hands.palm[lo - start : hi - start]
-                track.fingers[lo:hi] = hands.fingers[lo - start : hi - start]
-                mask[lo:hi] = 1.0
+                for s in np.flatnonzero(clip.hand_sides):
+                    track.palm[lo:hi, s] = clip.hands.palm[lo - start : hi - start, s]
+                    track.fingers[lo:hi, s] = clip.hands.fingers[lo - start : hi - start, s]
+                    mask[lo:hi, s] = 1.0
         return track, mask
 
 
@@ -126,7 +129,7 @@ class Plan:
         atomic_write(path, self.to_json().encode("utf-8"))
 
     def save_npz(self, path) -> None:
-        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I`` per utterance I, plus ``plan`` (JSON);
+        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I``, ``bone_mask_I`` per utterance I, plus ``plan`` (JSON);
         to ``path`` (or a binary stream) by :mod:`core.fileio`'s rules."""
         arrays: dict[str, np.ndarray] = {"plan": np.array(self.to_json())}
         for i, u in enumerate(self.utterances):

@@ -24,10 +24,11 @@ from typing import Sequence
 
 import numpy as np
 
-from core.hands import HandTrack
-from core.skeleton import FPS, frame_count, mirror_pose
+from core.hands import HandTrack, interpolate_hands
+from core.skeleton import FPS, MIRROR_BONE_PERMUTATION, frame_count, mirror_pose
+from library import retime
 from library.config import configured_sources
-from library.spec import GestureSpec, LibraryProblem, SpecError, read_spec, sample, sample_hands
+from library.spec import GestureSpec, LibraryProblem, SpecError, interpolate, read_spec
 
 __all__ = ["load_library", "Library", "Gesture", "Clip", "LibraryProblem", "BUILTIN_DIR"]
 
@@ -38,11 +39,15 @@ BUILTIN = "built-in"
 @dataclass(frozen=True)
 class Clip:
     """A rendered gesture: poses (T, 27) float32 at FPS, the stroke frame (or None), and the
-    hands (T frames)."""
+    bones it drives (9,) bool (:attr:`library.spec.GestureSpec.bone_mask`, mirrored with flip),
+    and the hands (T frames)."""
 
     poses: np.ndarray
     stroke_frame: int | None
     hands: HandTrack
+    bones: np.ndarray | None = None
+    #: (2,) bool, :data:`core.hands.SIDES` order: the hands the gesture sets (mirrored with flip).
+    hand_sides: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
@@ -61,6 +66,7 @@ class Gesture:
         self.origin = origin
         self.overrides = overrides
         self._base: dict[float, tuple[np.ndarray, HandTrack]] = {}
+        self._keys: dict[float, np.ndarray] = {}
 
     name = property(lambda self: self.spec.name)
     description = property(lambda self: self.spec.description)
@@ -72,15 +78,48 @@ class Gesture:
     def __repr__(self) -> str:
         return f"Gesture({self.name!r}, {self.duration:g}s, from {self.origin})"
 
+    def _timeline(self) -> tuple[np.ndarray, np.ndarray]:
+        """Keyframe times and full directions, with the held poses at 0 and ``duration`` added
+        when the first keyframe is later or the last one earlier."""
+        times = np.array([k.time for k in self.spec.keyframes])
+        dirs = self.spec.key_dirs
+        if times[0] > 0:
+            times, dirs = np.concatenate([[0.0], times]), np.concatenate([dirs[:1], dirs])
+        if times[-1] < self.duration:
+            times, dirs = np.concatenate([times, [self.duration]]), np.concatenate([dirs, dirs[-1:]])
+        return times, dirs
+
+    def _frames(self, speed: float) -> np.ndarray:
+        """The frames of :meth:`_timeline`'s keys at ``speed`` (:mod:`library.retime`), cached."""
+        key = float(speed)
+        frames = self._keys.get(key)
+        if frames is None:
+            times, dirs = self._timeline()
+            if len(times) == 1:
+                frames = np.array([0])
+            else:
+                frames = retime.key_frames(times, self.duration, dirs, lambda ts: interpolate(times, dirs, ts), speed)
+            self._keys[key] = frames
+        return frames
+
+    def key_frames(self, speed: float = 1) -> np.ndarray:
+        """The frame each spec keyframe lands on at ``speed``."""
+        frames = self._frames(speed)
+        first = 1 if self.spec.keyframes[0].time > 0 else 0
+        return frames[first : first + len(self.spec.keyframes)]
+
     def n_frames(self, speed: float = 1) -> int:
-        return frame_count(self.duration / speed)
+        """Frames of the clip at ``speed``: ``frame_count(duration / speed)``, or more where the
+        gesture cannot be played that fast within :data:`library.retime.MAX_DEG_PER_S`."""
+        if len(self._timeline()[0]) == 1:
+            return frame_count(self.duration / speed)
+        return int(self._frames(speed)[-1]) + 1
 
     def stroke_frame(self, speed: float = 1) -> int | None:
-        t = self.spec.stroke_time
-        if t is None:
-            return None
-        n = self.n_frames(speed)
-        return int(round(t / self.duration * (n - 1))) if n > 1 else 0
+        for i, k in enumerate(self.spec.keyframes):
+            if k.stroke:
+                return int(self.key_frames(speed)[i])
+        return None
 
     def clip_length(self, speed: int = 1, hold: float = 0.0) -> int:
         """The number of frames of ``clip(speed, flip, hold)``, without building it."""
@@ -99,12 +138,16 @@ class Gesture:
         key = float(speed)
         base = self._base.get(key)
         if base is None:
-            n = self.n_frames(speed)
-            base = (sample(self.spec, n), sample_hands(self.spec, n))
+            times, dirs = self._timeline()
+            ts = np.zeros(self.n_frames(speed)) if len(times) == 1 else retime.frame_times(times, self._frames(speed))
+            key_times = np.array([k.time for k in self.spec.keyframes])
+            base = (interpolate(times, dirs, ts), interpolate_hands(key_times, self.spec.key_palms, self.spec.key_fingers, ts))
             self._base[key] = base
         poses, hands = base
+        bones, sides = self.spec.bone_mask, self.spec.hand_sides
         if flip:
             poses, hands = mirror_pose(poses), hands.mirrored()
+            bones, sides = bones[MIRROR_BONE_PERMUTATION], sides[::-1]
         stroke = self.stroke_frame(speed)
         if hold > 0:
             at = len(poses) - 1 if stroke is None else stroke
@@ -114,7 +157,8 @@ class Gesture:
             hands = hands.take(frames)
         else:
             poses, hands = poses.copy(), hands.take(slice(None))
-        return Clip(poses=np.ascontiguousarray(poses, dtype=np.float32), stroke_frame=stroke, hands=hands)
+        return Clip(poses=np.ascontiguousarray(poses, dtype=np.float32), stroke_frame=stroke, hands=hands,
+                    bones=bones.copy(), hand_sides=sides.copy())
 
 
 @dataclass

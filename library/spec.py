@@ -69,10 +69,10 @@ from pathlib import Path
 import numpy as np
 
 from core.hands import PALMS, REST_PALM, REST_SHAPE, SHAPE_ANGLES, SHAPES, SIDES, HandTrack, interpolate_hands, palm_direction
-from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE
+from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE, mirror_name
 
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
-TOP_LEVEL_KEYS = ("name", "description", "tags", "duration", "keyframes")
+TOP_LEVEL_KEYS = ("name", "description", "tags", "duration", "variant_of", "keyframes")
 KEYFRAME_KEYS = ("time", "label", "stroke")
 #: Optional hand keys of a keyframe: a shape name (``*_hand``) or a palm direction (``*_palm``).
 HAND_KEYS = ("left_hand", "right_hand", "left_palm", "right_palm")
@@ -81,6 +81,16 @@ HAND_KEYS = ("left_hand", "right_hand", "left_palm", "right_palm")
 MAX_STEP_DEGREES = 170.0
 
 REST_DIRS = np.asarray(REST_POSE, dtype=np.float64).reshape(N_BONES, 3)
+
+#: The limbs a gesture drives, by the bones they hold. A gesture drives every limb one of
+#: whose bones a keyframe names (even as "rest"), and leaves the others to the generator.
+LIMBS: dict[str, tuple[str, ...]] = {
+    "torso": ("neck",),
+    "head": ("nose", "head_top"),
+    "left_arm": ("left_shoulder", "left_elbow", "left_wrist"),
+    "right_arm": ("right_shoulder", "right_elbow", "right_wrist"),
+}
+LIMB_OF = {bone: limb for limb, bones in LIMBS.items() for bone in bones}
 
 
 @dataclass(frozen=True)
@@ -126,6 +136,12 @@ class Keyframe:
     #: Only the hand keys the file names (:data:`HAND_KEYS`): key -> shape or palm name.
     hands: dict[str, str] = field(default_factory=dict)
 
+    def mirrored(self) -> "Keyframe":
+        """The keyframe of the gesture played with ``flip``: left and right bones swapped, x negated."""
+        bones = {mirror_name(b): (None if v is None else (-v[0], v[1], v[2])) for b, v in self.bones.items()}
+        hands = {mirror_name(k): v for k, v in self.hands.items()}  # palm names are relative to each hand
+        return Keyframe(self.time, self.label, self.stroke, bones, hands)
+
 
 @dataclass(frozen=True)
 class GestureSpec:
@@ -141,13 +157,28 @@ class GestureSpec:
     #: (K, 2, 5, 4), side order :data:`core.hands.SIDES`.
     key_palms: np.ndarray = field(default=None, repr=False, compare=False)
     key_fingers: np.ndarray = field(default=None, repr=False, compare=False)
+    #: The gesture this one is a deliberate variant of (its stroke may look alike), or None.
+    variant_of: str | None = None
 
     @property
-    def stroke_time(self) -> float | None:
-        for k in self.keyframes:
-            if k.stroke:
-                return k.time
-        return None
+    def limbs(self) -> tuple[str, ...]:
+        """The limbs (:data:`LIMBS`) the gesture drives: those with a bone some keyframe names."""
+        named = {b for k in self.keyframes for b in k.bones}
+        return tuple(limb for limb, bones in LIMBS.items() if named.intersection(bones))
+
+    @property
+    def hand_sides(self) -> np.ndarray:
+        """(2,) bool in :data:`core.hands.SIDES` order: the hands the gesture sets, those of the
+        arms it drives and those its keyframes name a shape or palm for."""
+        limbs = set(self.limbs)
+        named = {key.split("_")[0] for k in self.keyframes for key in k.hands}
+        return np.array([f"{side}_arm" in limbs or side in named for side in SIDES])
+
+    @property
+    def bone_mask(self) -> np.ndarray:
+        """(9,) bool in :data:`core.skeleton.BONE_NAMES` order: the bones the gesture drives."""
+        limbs = set(self.limbs)
+        return np.array([LIMB_OF[b] in limbs for b in BONE_NAMES])
 
 
 class SpecError(Exception):
@@ -249,6 +280,9 @@ def _validate(data: dict, path: Path) -> GestureSpec:
     description, tags = _description_and_tags(data)
     duration = _duration(data)
     keyframes, key_dirs = _keyframes(data, duration)
+    variant_of = data.get("variant_of")
+    if variant_of is not None and (not isinstance(variant_of, str) or not NAME_RE.match(variant_of)):
+        raise SpecError("variant_of", f"variant_of must name a gesture (lower-case letters, digits and '_'), got {variant_of!r}")
     key_palms, key_fingers = _key_hands(keyframes)
     return GestureSpec(
         name=name,
@@ -258,6 +292,7 @@ def _validate(data: dict, path: Path) -> GestureSpec:
         keyframes=tuple(keyframes),
         path=path,
         key_dirs=np.stack(key_dirs),
+        variant_of=variant_of,
         key_palms=key_palms,
         key_fingers=key_fingers,
     )

@@ -58,8 +58,17 @@ def beat_hands(poses: np.ndarray) -> HandTrack:
 
 def with_gestures(base: HandTrack, gestures: HandTrack, mask: np.ndarray, ramp: int = HAND_RAMP) -> HandTrack:
     """``base`` with the gestures' hands where ``mask`` (T,) is set, eased in and out over
-    ``ramp`` frames around each masked span (smoothstep), exact on the masked frames."""
+    ``ramp`` frames around each masked span (smoothstep), exact on the masked frames. A mask
+    (T, 2) applies per side (:data:`core.hands.SIDES`): a layered gesture sets only its hands."""
     m = np.clip(np.asarray(mask, dtype=np.float64), 0.0, 1.0)
+    if m.ndim == 2:
+        for s in range(m.shape[1]):
+            base = _with_gestures(base, gestures, m[:, s], ramp, (s,))
+        return base
+    return _with_gestures(base, gestures, m, ramp, (0, 1))
+
+
+def _with_gestures(base: HandTrack, gestures: HandTrack, m: np.ndarray, ramp: int, sides) -> HandTrack:
     if not m.any():
         return base
     w = m.copy()
@@ -76,7 +85,7 @@ def with_gestures(base: HandTrack, gestures: HandTrack, mask: np.ndarray, ramp: 
         w = np.maximum(w, u * u * (3 - 2 * u))
         # the gestures' hands next to a span: its first or last frame, held
         gestures = gestures.take(np.where(on, t, np.clip(near, 0, len(m) - 1)))
-    return base.blend(gestures, w)
+    return base.blend(gestures, w, sides=sides)
 
 
 def limit_speed(track: HandTrack, max_finger: float = MAX_FINGER_STEP, max_palm: float = MAX_PALM_STEP) -> HandTrack:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.controls import ControlArrays
-from core.skeleton import REST_POSE, normalize_pose
+from core.skeleton import N_BONES, REST_POSE, normalize_pose
 
 
 def generate(inputs, *, mean_pose: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
@@ -20,13 +20,24 @@ def generate(inputs, *, mean_pose: np.ndarray | None = None, seed: int = 0) -> n
 
     ``inputs`` is an :class:`~model.generate.EngineInputs` or a bare :class:`ControlArrays`.
     """
-    from scipy.interpolate import PchipInterpolator
-
     arrays = inputs if isinstance(inputs, ControlArrays) else inputs.arrays
     mean = REST_POSE if mean_pose is None else np.asarray(mean_pose, np.float32)
     t_count = arrays.n_frames
-    keys = np.flatnonzero(arrays.pose_mask > 0.5)
-    values = arrays.pose[keys]
+    bones = arrays.bones() > 0.5
+    if (bones == bones[:, :1]).all():  # every controlled frame controls the whole pose
+        return _through(np.flatnonzero(bones[:, 0]), arrays.pose, mean, t_count)
+    out = np.empty((t_count, N_BONES * 3), np.float32)
+    for b in range(N_BONES):  # a layered gesture: each bone through its own keys
+        cols = slice(3 * b, 3 * b + 3)
+        out[:, cols] = _through(np.flatnonzero(bones[:, b]), arrays.pose[:, cols], mean[cols], t_count, unit=False)
+    return normalize_pose(out).astype(np.float32)
+
+
+def _through(keys: np.ndarray, pose: np.ndarray, mean: np.ndarray, t_count: int, unit: bool = True) -> np.ndarray:
+    """PCHIP through ``pose[keys]``, with ``mean`` added at the ends when they are not keys."""
+    from scipy.interpolate import PchipInterpolator
+
+    values = pose[keys]
     if len(keys) == 0 or keys[0] != 0:
         keys = np.concatenate([[0], keys])
         values = np.concatenate([mean[None], values])
@@ -36,6 +47,6 @@ def generate(inputs, *, mean_pose: np.ndarray | None = None, seed: int = 0) -> n
     if len(keys) == 1:
         return np.repeat(values, t_count, axis=0).astype(np.float32)
     spline = PchipInterpolator(keys, values, axis=0)
-    out = normalize_pose(spline(np.arange(t_count)))
-    out[keys] = normalize_pose(values)  # exact on the keys
-    return out.astype(np.float32)
+    out = spline(np.arange(t_count))
+    out[keys] = values  # exact on the keys
+    return (normalize_pose(out) if unit else out).astype(np.float32)

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from core.controls import network_pose_controls
 from core.skeleton import FPS, POSE_DIM
 from model import postprocess
 from model.features import AUDIO_DIM, audio_features, load_audio, word_features
@@ -67,7 +68,8 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
     while True:
         end = min(start + WINDOW, t_count)
         pose = arrays.pose[start:end].copy()
-        mask = arrays.pose_mask[start:end].copy()
+        mask = network_pose_controls(pose, arrays.pose_mask[start:end], None if arrays.bone_mask is None
+                                     else arrays.bone_mask[start:end])[1].copy()
         if start > 0:  # seed poses from the previous window where the user asked for nothing
             k = min(SEED, end - start)
             free = mask[:k] < 0.5
@@ -95,4 +97,4 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     audio, ids, onsets = speech_inputs(inputs, n)
     raw = run_windows(model, audio, ids, onsets, inputs.arrays, seed)
     return postprocess.finish(raw, inputs.arrays.pose, inputs.arrays.pose_mask, smoothing=opts.smoothing,
-                              blend=opts.blend, ramp=opts.ramp)
+                              blend=opts.blend, ramp=opts.ramp, bones=inputs.arrays.bone_mask)

@@ -134,7 +134,7 @@ def _nlerp(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def blend_pose_controls(generated: np.ndarray, pose: np.ndarray, mask: np.ndarray, ramp: int = 6, *,
-                        max_step_deg: float | None = None) -> np.ndarray:
+                        max_step_deg: float | None = None, bones: np.ndarray | None = None) -> np.ndarray:
     """Exact pose following: requested poses where masked, smooth easing around them.
 
     The output is the requested pose on every controlled frame; ``ramp`` frames before and
@@ -144,7 +144,11 @@ def blend_pose_controls(generated: np.ndarray, pose: np.ndarray, mask: np.ndarra
     the largest bone rotation between the generated pose next to the span and the requested
     one needs it (the ``rules`` engine's limit). A requested bone of zero length keeps the
     generated bone. The neural engine and ``sgt eval`` use it with ``ramp`` = 6, the ``rules``
-    engine with ``ramp`` = 5 and ``max_step_deg`` = 12."""
+    engine with ``ramp`` = 5 and ``max_step_deg`` = 12.
+
+    ``bones`` (T, 9), 1 on the controlled bones of each frame (a layered gesture), makes the
+    blend per bone: each bone follows its own controlled spans, with its own ramps in and out,
+    and a bone never controlled keeps the generated motion untouched."""
     g = np.asarray(generated, np.float32)
     m = np.asarray(mask) > 0.5
     if not m.any():
@@ -152,19 +156,36 @@ def blend_pose_controls(generated: np.ndarray, pose: np.ndarray, mask: np.ndarra
     req = np.asarray(pose, np.float32).reshape(len(g), N_BONES, 3)
     zero = np.linalg.norm(req, axis=-1, keepdims=True) < 1e-6
     req = np.where(zero, g.reshape(len(g), N_BONES, 3), req).reshape(g.shape)
-    weight, source = _ramps(g, req, m, ramp, max_step_deg)
-    out = _nlerp(g, req[source], weight.astype(np.float32)[:, None])
-    out[m] = normalize_pose(req[m])
-    return out
+    if bones is None or (np.asarray(bones)[m] > 0.5).all():
+        weight, source = _ramps(g, req, m, ramp, max_step_deg)
+        out = _nlerp(g, req[source], weight.astype(np.float32)[:, None])
+        out[m] = normalize_pose(req[m])
+        return out
+    per_bone = m[:, None] & (np.asarray(bones) > 0.5)
+    out = g.copy()
+    for b in range(N_BONES):
+        mb = per_bone[:, b]
+        if not mb.any():
+            continue
+        cols = slice(3 * b, 3 * b + 3)
+        weight, source = _ramps(g, req, mb, ramp, max_step_deg)
+        w = weight.astype(np.float32)[:, None]
+        mix = (1 - w) * g[:, cols] + w * req[source][:, cols]
+        n = np.linalg.norm(mix, axis=-1, keepdims=True)
+        near = np.where(w < 0.5, g[:, cols], req[source][:, cols])
+        mix = np.where(n < 1e-3, near, mix / np.maximum(n, 1e-12))
+        mix[mb] = req[mb][:, cols] / np.linalg.norm(req[mb][:, cols], axis=-1, keepdims=True)
+        out[:, cols] = mix
+    return normalize_pose(out)
 
 
 SMOOTHERS = ("one_euro", "moving_average", "none")
 
 
 def finish(raw: np.ndarray, pose: np.ndarray, mask: np.ndarray, *, smoothing: str = "one_euro",
-           blend: bool = True, ramp: int = 6) -> np.ndarray:
+           blend: bool = True, ramp: int = 6, bones: np.ndarray | None = None) -> np.ndarray:
     """The post-processing chain of the neural engine: ``smoothing`` (one of :data:`SMOOTHERS`),
-    then, if ``blend``, the exact pose-control blend of ``pose``/``mask``."""
+    then, if ``blend``, the exact pose-control blend of ``pose``/``mask`` (per bone with ``bones``)."""
     if smoothing == "one_euro":
         raw = one_euro(raw)
     elif smoothing == "moving_average":
@@ -172,6 +193,6 @@ def finish(raw: np.ndarray, pose: np.ndarray, mask: np.ndarray, *, smoothing: st
     elif smoothing != "none":
         raise ValueError(f"unknown smoothing '{smoothing}' (use one of {', '.join(SMOOTHERS)})")
     if blend:
-        raw = blend_pose_controls(raw, pose, mask, ramp)
+        raw = blend_pose_controls(raw, pose, mask, ramp, bones=bones)
     return np.asarray(raw, np.float32)
 

@@ -579,5 +579,6 @@ def generate(inputs, *, seed: int = 0, hands_out: list | None = None) -> np.ndar
         audio = load_audio(inputs.audio_path)
     base = teach(inputs.words, n, audio=audio, lead_in=inputs.lead_in,
                  style=style, rng=np.random.default_rng(seed), hands_out=hands_out)
-    out = blend_pose_controls(base, arrays.pose, arrays.pose_mask, CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG)
+    out = blend_pose_controls(base, arrays.pose, arrays.pose_mask, CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG,
+                              bones=arrays.bone_mask)
     return normalize_pose(out).astype(np.float32)

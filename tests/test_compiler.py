@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from core.controls import STYLE_INDEX
-from core.skeleton import FPS, seconds_to_frame
+from core.skeleton import BONE_NAMES, FPS, seconds_to_frame
 from dsl.compiler import compile_file
 from library import load_library
 from sgt_tui import cli
@@ -31,7 +31,12 @@ def test_pose_stroke_lands_on_the_next_word_onset(tmp_path, lib):
     clip = lib.get("point_right").clip()
     assert c.start_frame + clip.stroke_frame == seconds_to_frame(u.words[5].start)
     assert c.end_frame - c.start_frame == len(clip.poses)
-    assert np.allclose(u.arrays.pose[c.start_frame : c.end_frame], clip.poses)
+    # a one-handed point requests the right arm only; the rest of the body stays free
+    span = slice(c.start_frame, c.end_frame)
+    arm = np.repeat([b.startswith("right_") for b in BONE_NAMES], 3)
+    assert np.allclose(u.arrays.pose[span][:, arm], clip.poses[:, arm])
+    assert not u.arrays.pose[span][:, ~arm].any()
+    assert (u.arrays.bones()[span] == arm[::3]).all() and not u.arrays.bones()[: c.start_frame].any()
     assert u.arrays.pose_mask.sum() == len(clip.poses)
     assert (c.line, c.col) == (1, 25) and c.options == {"speed": 1, "flip": False}
 
@@ -49,7 +54,7 @@ def test_speed_flip_and_hold_reach_the_arrays(tmp_path, lib):
     u = r.plan.utterances[0]
     (c,) = u.controls
     clip = lib.get("point_right").clip(speed=2, flip=True, hold=0.6)
-    assert np.allclose(u.arrays.pose[c.start_frame : c.end_frame], clip.poses)
+    assert _requested(u.arrays, c.start_frame, c.end_frame, clip.poses)
     assert c.options == {"speed": 2, "flip": True, "hold": 0.6}
 
 
@@ -100,6 +105,14 @@ def test_overlapping_poses_warn_with_estimated_timing(tmp_path, lib):
     assert (other.line, other.col) == (1, 6) and "line 1" not in d.message
 
 
+def _requested(arrays, start, end, poses) -> bool:
+    """Frames [start, end) of ``arrays`` request exactly ``poses`` on the bones they control."""
+    got = arrays.pose[start:end].reshape(end - start, -1, 3)
+    bones = arrays.bones()[start:end] > 0.5
+    want = np.asarray(poses).reshape(end - start, -1, 3)
+    return bool(bones.any(axis=1).all()) and np.allclose(got[bones], want[bones])
+
+
 def _pose_frames(u, lib, index, name):
     """(natural start frame, stroke frame, clip) of the pose control anchored to word ``index``."""
     clip = lib.get(name).clip()
@@ -120,8 +133,8 @@ def test_overlap_the_later_gesture_waits_for_the_earlier_stroke(tmp_path, lib):
     assert (right.start_frame, right.end_frame) == (right_start, keep)
     assert (left.start_frame, left.end_frame) == (keep, keep + len(left_clip.poses))
     a = u.arrays
-    assert np.allclose(a.pose[right_start:keep], right_clip.poses[: keep - right_start])
-    assert np.allclose(a.pose[keep : keep + len(left_clip.poses)], left_clip.poses)
+    assert _requested(a, right_start, keep, right_clip.poses[: keep - right_start])
+    assert _requested(a, keep, keep + len(left_clip.poses), left_clip.poses)
     assert a.pose_mask.sum() == (keep - right_start) + len(left_clip.poses)
     assert u.n_frames >= left.end_frame
     (d,) = [d for d in r.diagnostics if d.name == "overlap"]
@@ -135,25 +148,55 @@ def test_a_gesture_that_waits_past_the_end_extends_the_utterance(tmp_path, lib):
     clip = lib.get("point_left").clip()
     assert left.start_frame == right.end_frame and left.end_frame - left.start_frame == len(clip.poses)
     assert u.n_frames == left.end_frame > seconds_to_frame(u.words[-1].end)  # nothing is cut
-    assert np.allclose(u.arrays.pose[left.start_frame : left.end_frame], clip.poses)
+    assert _requested(u.arrays, left.start_frame, left.end_frame, clip.poses)
     assert u.arrays.pose_mask.sum() == (right.end_frame - right.start_frame) + len(clip.poses)
     assert u.speech["tail"] > 0 and u.duration == u.n_frames / FPS  # the motion runs on after the speech
 
 
 def test_overlap_after_the_stroke_cuts_the_earlier_retraction(tmp_path, lib):
-    r = build(tmp_path, "look [pose:point_right] here and [pose:nod] there now more\n", lib)
+    r = build(tmp_path, "look [pose:point_right] here and [pose:beat_right] there now more\n", lib)
     assert r.ok
     u = r.plan.utterances[0]
     right_start, right_stroke, right_clip = _pose_frames(u, lib, 1, "point_right")
-    nod_start, _, nod_clip = _pose_frames(u, lib, 3, "nod")
+    nod_start, _, nod_clip = _pose_frames(u, lib, 3, "beat_right")
     assert right_start + right_stroke < nod_start < right_start + len(right_clip.poses)  # the case
     right, nod = [c for c in u.controls if c.kind == "pose"]
     assert (right.start_frame, right.end_frame) == (right_start, nod_start)  # cut where nod starts
     assert (nod.start_frame, nod.end_frame) == (nod_start, nod_start + len(nod_clip.poses))  # on its word
-    assert np.allclose(u.arrays.pose[right_start:nod_start], right_clip.poses[: nod_start - right_start])
-    assert np.allclose(u.arrays.pose[nod_start : nod.end_frame], nod_clip.poses)
+    assert _requested(u.arrays, right_start, nod_start, right_clip.poses[: nod_start - right_start])
+    assert _requested(u.arrays, nod_start, nod.end_frame, nod_clip.poses)
     (d,) = [d for d in r.diagnostics if d.name == "overlap"]
     assert "cut after its stroke" in d.message
+
+
+def test_gestures_on_different_limbs_layer_instead_of_colliding(tmp_path, lib):
+    # the same placement as above, but a nod: it drives the head, point_right the right arm
+    r = build(tmp_path, "look [pose:point_right] here and [pose:nod] there now more\n", lib)
+    u = r.plan.utterances[0]
+    right_start, _, right_clip = _pose_frames(u, lib, 1, "point_right")
+    nod_start, _, nod_clip = _pose_frames(u, lib, 3, "nod")
+    assert nod_start < right_start + len(right_clip.poses)  # they overlap in time
+    assert not [d for d in r.diagnostics if d.name == "overlap"]
+    right, nod = [c for c in u.controls if c.kind == "pose"]
+    assert (right.start_frame, right.end_frame) == (right_start, right_start + len(right_clip.poses))  # whole
+    assert (nod.start_frame, nod.end_frame) == (nod_start, nod_start + len(nod_clip.poses))
+    both = u.arrays.bones()[nod_start : right.end_frame] > 0.5
+    head, arm = [BONE_NAMES.index(b) for b in ("nose", "right_wrist")]
+    assert both[:, head].all() and both[:, arm].all() and not both[:, BONE_NAMES.index("left_wrist")].any()
+    pose = u.arrays.pose.reshape(u.n_frames, -1, 3)
+    assert np.allclose(pose[right_start : right.end_frame, arm], right_clip.poses.reshape(-1, 9, 3)[:, arm])
+    assert np.allclose(pose[nod_start : nod.end_frame, head], nod_clip.poses.reshape(-1, 9, 3)[:, head])
+    # the hands are layered too: the point sets the right hand only, the nod neither
+    _, hand_mask = u.hands
+    assert (hand_mask[right_start : right.end_frame, 1] == 1).all() and not hand_mask[:, 0].any()
+    assert not hand_mask[right.end_frame : nod.end_frame].any()
+
+
+def test_a_flipped_gesture_collides_on_the_mirrored_limb(tmp_path, lib):
+    # point_right flip drives the left arm: it collides with beat_left, not with beat_right
+    for other, collides in (("beat_left", True), ("beat_right", False)):
+        r = build(tmp_path, f"look [pose:point_right flip] here and [pose:{other}] there now more\n", lib)
+        assert bool([d for d in r.diagnostics if d.name == "overlap"]) == collides, other
 
 
 def test_plan_json_is_deterministic_and_complete(tmp_path, lib):

@@ -77,6 +77,29 @@ def test_show(capsys):
     assert len(doc["keyframes"]) == len(g.keyframes)
 
 
+def test_show_flip_lists_the_mirrored_keyframes(capsys):
+    g = load_library(use_config=False).get("point_right")
+    code, out, _ = _run(capsys, "library", "show", "point_right", "--flip", "--json")
+    assert code == 0
+    doc = json.loads(out)
+    assert doc["flip"] and doc["drives"] == ["left_arm"]
+    flipped = g.clip(flip=True)
+    for k, shown in zip(g.keyframes, doc["keyframes"]):
+        assert not any(b.startswith("right_") for b in shown["bones"])
+        for bone, v in k.bones.items():
+            mirrored = shown["bones"]["left_" + bone[len("right_"):]]
+            assert mirrored == ("rest" if v is None else [-v[0], v[1], v[2]])
+            if v is not None:  # what is listed is what the flipped clip plays on that frame
+                i = ["neck", "nose", "head_top", "left_shoulder", "left_elbow", "left_wrist"].index(
+                    "left_" + bone[len("right_"):])
+                assert np.allclose(flipped.poses[shown["frame"]].reshape(N_BONES, 3)[i], mirrored, atol=1e-4)
+        assert all(h.startswith("left_") for h in shown["hands"])
+        assert shown["hands"] == {"left_" + h[len("right_"):]: v for h, v in k.hands.items()}
+    code, text, _ = _run(capsys, "library", "show", "point_right", "--flip")
+    assert "mirrored" in text and "left_elbow [0.951, -0.211, 0.224]" in text and "right_elbow" not in text
+    assert "left_hand point" in text and "right_hand" not in text
+
+
 def test_show_unknown_is_a_usage_error(capsys):
     """A name that matches nothing is a usage error (2), like `--utterance 50`."""
     code, out, err = _run(capsys, "library", "show", "point_rigth")
@@ -208,6 +231,44 @@ def test_add_refuses_text_that_is_not_utf8(tmp_path, capsys):
                         "--to", str(tmp_path / "lib"), "--tags", "caf\udce9")
     assert code == 2 and "--tags must be UTF-8" in err
     assert not (tmp_path / "lib" / "odd.toml").exists()
+
+
+def test_sheet_views_face_the_camera_and_show_the_side():
+    from core.skeleton import ROOT_POSITION
+    from renders.library_sheet import FRONT, SIDE, _turned
+    from renders.mannequin import TARGET, camera_pose
+
+    cam = camera_pose()
+    to_camera = (cam[:3, 3] - TARGET) * [1, 0, 1]
+    to_camera /= np.linalg.norm(to_camera)
+    front = _turned(ROOT_POSITION + [0, 0, 1], FRONT) - ROOT_POSITION
+    side = _turned(ROOT_POSITION + [0, 0, 1], SIDE) - ROOT_POSITION
+    assert np.allclose(front, to_camera, atol=1e-9)  # the character faces the camera
+    assert abs(side @ to_camera) < 1e-9 and side @ cam[:3, 0] > 0.99  # in profile, facing screen right
+
+
+def test_sheet_draws_each_gesture_front_and_side(tmp_path, capsys):
+    from PIL import Image
+
+    out = tmp_path / "sheet.png"
+    code, _, err = _run(capsys, "library", "sheet", "point_right", "nod", "-o", str(out), "--columns", "2")
+    assert code == 0, err
+    assert "2 gestures" in err
+    img = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    assert img.shape[1] == 2 * 2 * 150 and img.shape[0] > 150
+    # the four views of the two strokes all differ: front and side of each, and the two gestures
+    views = [img[:150, i * 150 : (i + 1) * 150] for i in range(4)]
+    for i in range(4):
+        for j in range(i + 1, 4):
+            assert np.abs(views[i] - views[j]).mean() > 1.0, (i, j)
+
+
+@pytest.mark.parametrize("argv", [["sheet", "no_such", "-o", "x.png"], ["sheet", "-o", "x.gif"],
+                                  ["sheet", "--tag", "no_such_tag", "-o", "x.png"], ["sheet", "--columns", "0", "-o", "x.png"]])
+def test_sheet_usage_errors(tmp_path, capsys, argv):
+    code, _, err = _run(capsys, "library", *argv)
+    assert code == 2 and "Traceback" not in err
+    assert not (tmp_path / "x.png").exists()
 
 
 def test_add_keeps_the_hands_by_name(tmp_path, capsys):

@@ -111,3 +111,72 @@ def test_blend_without_ramp_or_with_a_short_one(ramp):
     out = postprocess.blend_pose_controls(gen, req, mask, ramp=ramp)
     changed = np.flatnonzero(np.abs(out - gen).max(axis=1) > 1e-6).tolist()
     assert changed == list(range(6 - ramp, 7 + ramp))
+
+
+def _random_motion(rng, t):
+    """A smooth random motion (T, 27) of unit bone directions."""
+    steps = rng.normal(0, 0.05, (t, N_BONES * 3)).cumsum(axis=0) + rng.normal(0, 1, N_BONES * 3)
+    return normalize_pose(steps)
+
+
+def test_per_bone_blend_drives_only_the_masked_bones_and_eases_each_one():
+    rng = np.random.default_rng(4)
+    t = 60
+    gen = _random_motion(rng, t)
+    req = _random_motion(rng, t)
+    mask = np.zeros(t)
+    mask[20:40] = 1
+    bones = np.zeros((t, N_BONES))
+    bones[20:40, 6:9] = 1  # the right arm
+    bones[30:40, 1:3] = 1  # the head, later
+    out = postprocess.blend_pose_controls(gen, req, mask, ramp=6, bones=bones)
+    g, r, o = (a.reshape(t, N_BONES, 3) for a in (gen, req, out))
+    assert np.allclose(o[:, [0, 3, 4, 5]], g[:, [0, 3, 4, 5]], atol=1e-6)  # never controlled: untouched
+    assert np.allclose(o[20:40, 6:9], r[20:40, 6:9], atol=1e-6)  # controlled: exact (PCS 0)
+    assert np.allclose(o[30:40, 1:3], r[30:40, 1:3], atol=1e-6)
+    assert np.allclose(o[:23, 1:3], g[:23, 1:3], atol=1e-6)  # the head's own ramp starts 6 frames before 30
+    assert not np.allclose(o[24:30, 1:3], g[24:30, 1:3], atol=1e-3)
+    # each ramp eases: the weight of the request grows as a smoothstep into the span
+    dist_gen = np.linalg.norm(o[14:20, 6] - g[14:20, 6], axis=-1)
+    dist_req = np.linalg.norm(o[14:20, 6] - r[20, 6], axis=-1)
+    assert (np.diff(dist_gen) > 0).all() and (np.diff(dist_req) < 0).all()
+    # a full-body mask gives the same result as the plain blend
+    full = np.repeat(mask[:, None], N_BONES, axis=1)
+    assert np.allclose(postprocess.blend_pose_controls(gen, req, mask, ramp=6, bones=full),
+                       postprocess.blend_pose_controls(gen, req, mask, ramp=6))
+
+
+def test_the_network_is_left_free_on_partly_controlled_frames():
+    """A layered gesture does not reach the network: the bones it leaves free are exactly what
+    the generator makes with no gesture at all, the bones it drives exactly the request."""
+    torch = pytest.importorskip("torch")
+    from core.controls import ControlArrays
+    from model import neural
+    from model.features import AUDIO_DIM
+    from model.net import GestureNet
+
+    torch.manual_seed(0)
+    net = GestureNet().eval()
+    rng = np.random.default_rng(1)
+    t = 100
+    audio = rng.normal(0, 1, (t, AUDIO_DIM)).astype(np.float32)
+    ids = rng.integers(0, 100, t)
+    onsets = (rng.random(t) < 0.1).astype(np.float32)
+    free = ControlArrays.empty(t)
+    layered = ControlArrays.empty(t)
+    request = _random_motion(rng, 30)
+    arm = np.zeros(N_BONES, bool)
+    arm[6:9] = True
+    layered.set_pose(40, request, arm)
+    raw_free = neural.run_windows(net, audio, ids, onsets, free, seed=3)
+    raw_layered = neural.run_windows(net, audio, ids, onsets, layered, seed=3)
+    assert np.array_equal(raw_free, raw_layered)
+    out = postprocess.finish(raw_layered, layered.pose, layered.pose_mask, bones=layered.bone_mask)
+    ref = postprocess.finish(raw_free, free.pose, free.pose_mask)
+    o, f = out.reshape(t, N_BONES, 3), ref.reshape(t, N_BONES, 3)
+    assert np.allclose(o[:, :6], f[:, :6], atol=1e-6)
+    assert np.allclose(o[40:70, 6:9], request.reshape(30, N_BONES, 3)[:, 6:9], atol=1e-6)
+    # a gesture that drives every bone still reaches the network as a pose control
+    whole = ControlArrays.empty(t)
+    whole.set_pose(40, request)
+    assert not np.array_equal(neural.run_windows(net, audio, ids, onsets, whole, seed=3), raw_free)

@@ -13,7 +13,7 @@ pose and style marks into per-frame controls at 15 fps.
 The plan (JSON) lists for each utterance its speaker, text, duration, words with
 start/end seconds, and controls (kind, name, start_frame, end_frame exclusive,
 source line/col, options). --npz writes the arrays the generator consumes:
-pose_I (T x 27), pose_mask_I (T), style_I (T x 3), style_mask_I (T x 3)."""
+pose_I (T x 27), pose_mask_I (T), style_I (T x 3), style_mask_I (T x 3), bone_mask_I (T x 9)."""
 
 
 def register(sub) -> None:

@@ -21,6 +21,14 @@ def register(subparsers) -> None:
     sh.add_argument("--json", action="store_true")
     sh.add_argument("--dir", action="append", default=[], metavar="D", help="extra gesture folder")
 
+    sheet = sub.add_parser("sheet", help="draw the gestures' strokes, front and side, into a PNG contact sheet")
+    sheet.add_argument("names", nargs="*", metavar="NAME", help="gestures to draw (default: all)")
+    sheet.add_argument("-o", "--output", required=True, metavar="OUT.png",
+                       help="write the PNG here ('-': standard output, not a terminal)")
+    sheet.add_argument("--tag", action="append", default=[], help="only gestures with this tag")
+    sheet.add_argument("--columns", type=_columns, default=5, metavar="N", help="gestures per row (default 5)")
+    sheet.add_argument("--dir", action="append", default=[], metavar="D", help="extra gesture folder")
+
     ad = sub.add_parser("add", help="save a span of a motion file as a new gesture")
     ad.add_argument("name")
     ad.add_argument("--from", dest="source", required=True, metavar="MOTION_FILE")
@@ -44,9 +52,11 @@ def run(args) -> int:
         return _list(args)
     if cmd == "show":
         return _show(args)
+    if cmd == "sheet":
+        return _sheet(args)
     if cmd == "add":
         return _add(args)
-    raise UsageError("choose a subcommand: list, show or add")
+    raise UsageError("choose a subcommand: list, show, sheet or add")
 
 
 def _origin(g) -> str:
@@ -101,6 +111,7 @@ def _show(args) -> int:
     import json
     from pathlib import Path
 
+    from core.skeleton import mirror_name
     from library import load_library
     from sgt_tui.errors import UsageError
 
@@ -110,18 +121,22 @@ def _show(args) -> int:
         hint = lib.suggest(args.name)
         raise UsageError(f"no gesture named '{args.name}'" + (f"; did you mean '{hint}'?" if hint else ""))
     clip = g.clip(speed=args.speed, flip=args.flip)
+    keyframes = [k.mirrored() for k in g.keyframes] if args.flip else list(g.keyframes)
+    frames = g.key_frames(args.speed)
+    limbs = [mirror_name(limb) for limb in g.spec.limbs] if args.flip else list(g.spec.limbs)
     if args.json:
         print(json.dumps({
             "name": g.name, "description": g.description, "tags": g.tags,
             "duration": g.duration, "origin": g.origin, "path": str(g.path),
             "overrides": str(g.overrides) if g.overrides else None,
             "speed": args.speed, "flip": args.flip,
-            "frames": clip.n_frames, "stroke_frame": clip.stroke_frame,
+            "frames": clip.n_frames, "stroke_frame": clip.stroke_frame, "drives": limbs,
+            "variant_of": g.spec.variant_of,
             "keyframes": [{
-                "time": k.time, "label": k.label, "stroke": k.stroke,
+                "time": k.time, "frame": int(f), "label": k.label, "stroke": k.stroke,
                 "bones": {b: (list(v) if v is not None else "rest") for b, v in k.bones.items()},
                 "hands": dict(k.hands),
-            } for k in g.keyframes],
+            } for k, f in zip(keyframes, frames)],
         }, indent=2))
         return 0
     import textwrap
@@ -137,14 +152,70 @@ def _show(args) -> int:
     print(f"  duration: {g.duration:g} s at x1; {clip.n_frames} frames at{extra}")
     print(f"  stroke:   frame {clip.stroke_frame}" if clip.stroke_frame is not None
           else "  stroke:   none")
-    print("  keyframes:")
-    for k in g.keyframes:
+    print(f"  drives:   {', '.join(limbs)} (the generator moves the rest)")
+    if g.spec.variant_of:
+        print(f"  variant of: {g.spec.variant_of}")
+    print("  keyframes" + (" (mirrored):" if args.flip else ":"))
+    for k, f in zip(keyframes, frames):
         mark = " *stroke*" if k.stroke else ""
-        bones = ", ".join([*k.bones, *(f"{h} {v}" for h, v in k.hands.items())]) or "-"
-        head = f"    {k.time:5.2f}s {k.label or '':<9}{mark}"
-        for i, line in enumerate(textwrap.wrap(bones, 80 - 30) or ["-"]):
-            print(f"{head if i == 0 else '':<30}{line}")
+        head = f"    {k.time:5.2f}s f{int(f):<3} {k.label or '':<9}{mark}"
+        bones = [f"{b} {_direction(v)}" for b, v in k.bones.items()] + [f"{h} {v}" for h, v in k.hands.items()] or ["-"]
+        for i, line in enumerate(bones):
+            print(f"{head if i == 0 else '':<36}{line}")
     return 0
+
+
+def _columns(text: str) -> int:
+    from sgt_tui.commands.common import positive_int
+
+    n = positive_int(text)
+    if n > 20:
+        import argparse
+
+        raise argparse.ArgumentTypeError(f"at most 20 columns, got {n}")
+    return n
+
+
+def _sheet(args) -> int:
+    import sys
+    from pathlib import Path
+
+    from library import load_library
+    from sgt_tui.commands.common import STDOUT, output_file, shown
+    from sgt_tui.errors import InputError, UsageError
+
+    if args.output != STDOUT and Path(args.output).suffix.lower() != ".png":
+        raise UsageError(f"-o {args.output}: expected a .png file")
+    lib = load_library([Path(d) for d in args.dir])
+    for name in args.names:
+        if name not in lib:
+            hint = lib.suggest(name)
+            raise UsageError(f"no gesture named '{name}'" + (f"; did you mean '{hint}'?" if hint else ""))
+    gestures = [lib.get(n) for n in args.names] if args.names else list(lib)
+    gestures = [g for g in gestures if all(t in g.tags for t in args.tag)]
+    if not gestures:
+        raise UsageError("no gestures to draw" + (f" tagged {', '.join(args.tag)}" if args.tag else ""))
+    out = output_file(args.output, binary=True)
+
+    from renders.gl import RenderSetupError
+    from renders.library_sheet import render_library_sheet
+    from renders.mannequin import Mannequin
+    from sgt_tui.progress import ProgressBar
+
+    try:
+        m = Mannequin(150, 150)
+    except RenderSetupError as exc:
+        raise InputError(str(exc)) from None
+    try:
+        info = render_library_sheet(gestures, out, columns=args.columns, mannequin=m, progress=ProgressBar("sheet"))
+    finally:
+        m.close()
+    print(f"wrote {shown(out)}: {len(info['names'])} gestures, {info['width']}x{info['height']}", file=sys.stderr)
+    return 0
+
+
+def _direction(v) -> str:
+    return "rest" if v is None else "[" + ", ".join(f"{x:.3f}" for x in v) + "]"
 
 
 def _parse_span(text: str, n: int) -> tuple[int, int]:
