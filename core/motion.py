@@ -1,25 +1,41 @@
-"""Motion files: utterances of poses with their text, words and controls (JSON or NPZ).
+"""Motion files: a performance's utterances (poses with their text, words, controls and place
+on the performance clock) and each speaker's continuous track (JSON or NPZ).
 
 JSON (``*.json``)::
 
-    {"format": "sgt-motion", "version": 1, "fps": 15,
+    {"format": "sgt-motion", "version": 2, "fps": 15,
      "joints": [...joint names], "bones": [[parent, child], ...],
      "coordinates": "y-up, right-handed, metres; character faces +z",
-     "utterances": [{"speaker": ..., "text": ..., "words": [{"word", "start", "end"}],
-                     "controls": [{...}], "poses": [[27 floats], ...],
-                     "positions": [[[x, y, z] x 10], ...]}]}
+     "frames": N, "source": "mall_guide.sgt",
+     "utterances": [{"index": 0, "speaker": ..., "text": ...,
+                     "start": 0.0, "audio_offset": 0.4,
+                     "words": [{"word", "start", "end"}], "controls": [{...}],
+                     "poses": [[27 floats], ...], "positions": [[[x, y, z] x 10], ...]}],
+     "tracks": [{"speaker": ..., "poses": [[27 floats] x N], "positions": [...]}]}
+
+``start`` is the utterance's first motion frame in seconds on the performance clock (always a
+whole frame), ``audio_offset`` the seconds from that frame to the first sample of its speech
+audio; word times and control frames count from the utterance's own frame 0. A track is one
+speaker's motion over the whole performance (``frames`` frames from time 0): its utterances
+in their places, listening motion between them (see :mod:`model.performance`). ``source``
+is the script it was generated from (relative to the motion file's folder when possible),
+or null.
 
 Floats are rounded to 5 decimals. NPZ (``*.npz``) holds ``poses_0``, ``positions_0``, ...
-as float32 arrays plus ``meta``: the same JSON header without the pose/position arrays.
-Any other format name or version is refused with :class:`MotionFileError`. Files are
-written by :mod:`core.fileio`'s rules (atomically for a regular file: a temporary file in
-the same folder, then ``os.replace``; a device or a link is never replaced).
+and ``track_poses_0``, ``track_positions_0``, ... as float32 arrays plus ``meta``: the same
+JSON header without the pose/position arrays. Version 1 files (no ``start``,
+``audio_offset``, ``tracks``) still load: their utterances are placed one after another
+from 0, their audio offsets are unknown (None) and they have no tracks. Any other format
+name or version is refused with :class:`MotionFileError`. Files are written by
+:mod:`core.fileio`'s rules (atomically for a regular file: a temporary file in the same
+folder, then ``os.replace``; a device or a link is never replaced).
 """
 
 from __future__ import annotations
 
 import io
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -32,7 +48,8 @@ from core.skeleton import BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from
 from core.words import TimedWord
 
 FORMAT = "sgt-motion"
-VERSION = 1
+VERSION = 2
+READABLE_VERSIONS = (1, 2)
 COORDINATES = "y-up, right-handed, metres; character faces +z"
 
 
@@ -49,6 +66,9 @@ class MotionClip:
     words: list[TimedWord] = field(default_factory=list)  # seconds from the clip's frame 0
     controls: list[Control] = field(default_factory=list)
     positions: np.ndarray | None = None
+    index: int | None = None  # the script's utterance number (0-based)
+    start: float = 0.0  # seconds on the performance clock of frame 0 (a whole frame)
+    audio_offset: float | None = None  # seconds from frame 0 to the speech audio's first sample
 
     def __post_init__(self):
         p = np.asarray(self.poses, dtype=np.float32)
@@ -68,6 +88,43 @@ class MotionClip:
     def n_frames(self) -> int:
         return int(self.poses.shape[0])
 
+    @property
+    def start_frame(self) -> int:
+        return int(round(self.start * FPS))
+
+
+@dataclass
+class Track:
+    """One speaker's continuous motion over the whole performance, from time 0."""
+
+    speaker: str | None
+    poses: np.ndarray
+    positions: np.ndarray | None = None
+
+    def __post_init__(self):
+        self.poses = np.asarray(self.poses, dtype=np.float32)
+        if self.poses.ndim != 2 or self.poses.shape[1] != POSE_DIM:
+            raise MotionFileError(f"track poses must have shape (T, {POSE_DIM}), got {self.poses.shape}")
+        if self.positions is None:
+            self.positions = positions_from_pose(self.poses).astype(np.float32)
+        else:
+            self.positions = np.asarray(self.positions, dtype=np.float32)
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.poses.shape[0])
+
+
+@dataclass
+class MotionFile:
+    """What a motion file holds: the utterances, the speakers' tracks (none in version 1
+    files) and the script it came from (a path from the current folder once read)."""
+
+    clips: list[MotionClip]
+    tracks: list[Track] = field(default_factory=list)
+    source: str | None = None
+    version: int = VERSION
+
 
 def _header() -> dict:
     return {
@@ -86,8 +143,11 @@ def _round(a: np.ndarray):
 
 def _utterance_meta(c: MotionClip) -> dict:
     return {
+        "index": c.index,
         "speaker": c.speaker,
         "text": c.text,
+        "start": round(c.start, 6),
+        "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6),
         "words": [w.to_dict(4) for w in c.words],
         "controls": [x.to_dict() for x in c.controls],
     }
@@ -102,8 +162,23 @@ def _kind(path) -> str:
     return suffix[1:]
 
 
-def save_motion(path, clips: Sequence[MotionClip], format: str | None = None) -> None:
-    """Write ``clips`` to ``path`` by :mod:`core.fileio`'s rules (atomically for a regular file).
+def _source_text(source, path) -> str | None:
+    if source is None:
+        return None
+    src = Path(source)
+    if not hasattr(path, "write"):
+        try:
+            return os.path.relpath(src.resolve(), Path(path).resolve().parent)
+        except ValueError:  # another drive
+            pass
+    return str(src.resolve())
+
+
+def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
+                tracks: Sequence[Track] = (), source=None) -> None:
+    """Write ``clips`` (and the speakers' ``tracks``) to ``path`` by :mod:`core.fileio`'s rules
+    (atomically for a regular file). ``source`` is the script's path, stored relative to the
+    motion file's folder.
 
     ``format`` ("json" or "npz") defaults to the path's extension; ``path`` may also be a binary
     stream (then ``format`` is needed)."""
@@ -113,23 +188,30 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None) ->
         kind = format
     else:
         raise MotionFileError(f"unknown motion file format '{format}' (use json or npz)")
-    clips = list(clips)
+    clips, tracks = list(clips), list(tracks)
     for c in clips:
         if c.fps != FPS:
             raise MotionFileError(f"clip at {c.fps} fps; motion files are {FPS} fps")
-    doc = _header()
+    frames = max([c.start_frame + c.n_frames for c in clips] + [t.n_frames for t in tracks] + [0])
+    doc = {**_header(), "frames": frames, "source": _source_text(source, path)}
     if kind == "json":
         doc["utterances"] = [
             {**_utterance_meta(c), "poses": _round(c.poses), "positions": _round(c.positions)}
             for c in clips
         ]
+        doc["tracks"] = [{"speaker": t.speaker, "poses": _round(t.poses), "positions": _round(t.positions)}
+                         for t in tracks]
         data = (json.dumps(doc, indent=1) + "\n").encode("utf-8")
     else:
         doc["utterances"] = [_utterance_meta(c) for c in clips]
+        doc["tracks"] = [{"speaker": t.speaker} for t in tracks]
         arrays = {"meta": np.array(json.dumps(doc))}
         for i, c in enumerate(clips):
             arrays[f"poses_{i}"] = np.asarray(c.poses, dtype=np.float32)
             arrays[f"positions_{i}"] = np.asarray(c.positions, dtype=np.float32)
+        for i, t in enumerate(tracks):
+            arrays[f"track_poses_{i}"] = np.asarray(t.poses, dtype=np.float32)
+            arrays[f"track_positions_{i}"] = np.asarray(t.positions, dtype=np.float32)
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         data = buf.getvalue()
@@ -141,10 +223,10 @@ def _check_header(doc, path: Path) -> None:
         raise MotionFileError(f"{path}: not an sgt motion file")
     if doc.get("format") != FORMAT:
         raise MotionFileError(f"{path}: format is {doc.get('format')!r}, expected '{FORMAT}'")
-    if doc.get("version") != VERSION:
+    if doc.get("version") not in READABLE_VERSIONS:
         raise MotionFileError(
             f"{path}: motion file version {doc.get('version')!r} is not supported "
-            f"(this sgt reads version {VERSION})"
+            f"(this sgt reads versions {', '.join(map(str, READABLE_VERSIONS))})"
         )
     if doc.get("fps") != FPS:
         raise MotionFileError(f"{path}: fps {doc.get('fps')!r}, expected {FPS}")
@@ -152,6 +234,8 @@ def _check_header(doc, path: Path) -> None:
         raise MotionFileError(f"{path}: joints do not match this skeleton")
     if not isinstance(doc.get("utterances"), list):
         raise MotionFileError(f"{path}: 'utterances' missing or not a list")
+    if not isinstance(doc.get("tracks", []), list):
+        raise MotionFileError(f"{path}: 'tracks' is not a list")
 
 
 def _clip(meta: dict, poses, positions, path: Path, i: int) -> MotionClip:
@@ -165,6 +249,7 @@ def _clip(meta: dict, poses, positions, path: Path, i: int) -> MotionClip:
             positions = np.asarray(positions, dtype=np.float32)
             if positions.shape != (poses.shape[0], N_JOINTS, 3):
                 raise ValueError(f"positions have shape {positions.shape}")
+        offset = meta.get("audio_offset")
         return MotionClip(
             poses=poses,
             positions=positions,
@@ -172,13 +257,48 @@ def _clip(meta: dict, poses, positions, path: Path, i: int) -> MotionClip:
             text=meta.get("text"),
             words=[TimedWord.from_dict(w) for w in meta.get("words") or []],
             controls=[Control.from_dict(x) for x in meta.get("controls") or []],
+            index=int(meta["index"]) if meta.get("index") is not None else i,
+            start=round(float(meta.get("start") or 0.0) * FPS) / FPS,  # a whole frame, rounded in the file
+            audio_offset=None if offset is None else float(offset),
         )
     except (ValueError, TypeError, AttributeError) as exc:
         raise MotionFileError(f"{path}: utterance {i}: {exc}") from None
 
 
+def _track(meta, poses, positions, path: Path, i: int, n_frames: int) -> Track:
+    if not isinstance(meta, dict):
+        raise MotionFileError(f"{path}: track {i} is not an object")
+    try:
+        poses = np.asarray(poses, dtype=np.float32)
+        if poses.ndim != 2 or poses.shape != (n_frames, POSE_DIM):
+            raise ValueError(f"poses have shape {poses.shape}, expected ({n_frames}, {POSE_DIM})")
+        if positions is not None:
+            positions = np.asarray(positions, dtype=np.float32)
+            if positions.shape != (n_frames, N_JOINTS, 3):
+                raise ValueError(f"positions have shape {positions.shape}")
+        return Track(meta.get("speaker"), poses, positions)
+    except (ValueError, TypeError) as exc:
+        raise MotionFileError(f"{path}: track {i}: {exc}") from None
+
+
+def _finish(doc: dict, clips: list[MotionClip], tracks: list[Track], path: Path) -> MotionFile:
+    if doc["version"] == 1:  # before the performance clock: one after another, offsets unknown
+        at = 0
+        for c in clips:
+            c.start, at = at / FPS, at + c.n_frames
+    source = doc.get("source")
+    if isinstance(source, str) and not hasattr(path, "write"):  # as the reader's paths go
+        source = os.path.normpath(path.parent / source)
+    return MotionFile(clips, tracks, source if isinstance(source, str) else None, doc["version"])
+
+
 def load_motion(path) -> list[MotionClip]:
-    """Read a motion file written by :func:`save_motion`."""
+    """The utterances of a motion file written by :func:`save_motion`."""
+    return load_motion_file(path).clips
+
+
+def load_motion_file(path) -> MotionFile:
+    """Everything a motion file written by :func:`save_motion` (any readable version) holds."""
     path = Path(path)
     kind = _kind(path)
     try:
@@ -188,11 +308,18 @@ def load_motion(path) -> list[MotionClip]:
             except json.JSONDecodeError as exc:
                 raise MotionFileError(f"{path}: not valid JSON: {exc}") from None
             _check_header(doc, path)
-            return [
+            clips = [
                 _clip(u, u.get("poses") if isinstance(u, dict) else None,
                       u.get("positions") if isinstance(u, dict) else None, path, i)
                 for i, u in enumerate(doc["utterances"])
             ]
+            n = _frames(doc, clips, path)
+            tracks = [
+                _track(t, t.get("poses") if isinstance(t, dict) else None,
+                       t.get("positions") if isinstance(t, dict) else None, path, i, n)
+                for i, t in enumerate(doc.get("tracks") or [])
+            ]
+            return _finish(doc, clips, tracks, path)
         try:
             with np.load(path, allow_pickle=False) as z:
                 if "meta" not in z.files:
@@ -205,10 +332,31 @@ def load_motion(path) -> list[MotionClip]:
                         raise MotionFileError(f"{path}: missing poses_{i}")
                     pos = z[f"positions_{i}"] if f"positions_{i}" in z.files else None
                     clips.append(_clip(u, z[f"poses_{i}"], pos, path, i))
-                return clips
+                n = _frames(doc, clips, path)
+                tracks = []
+                for i, t in enumerate(doc.get("tracks") or []):
+                    if f"track_poses_{i}" not in z.files:
+                        raise MotionFileError(f"{path}: missing track_poses_{i}")
+                    pos = z[f"track_positions_{i}"] if f"track_positions_{i}" in z.files else None
+                    tracks.append(_track(t, z[f"track_poses_{i}"], pos, path, i, n))
+                return _finish(doc, clips, tracks, path)
         except (ValueError, OSError, json.JSONDecodeError) as exc:
             if isinstance(exc, FileNotFoundError):
                 raise
             raise MotionFileError(f"{path}: cannot read as npz: {exc}") from None
     except FileNotFoundError:
         raise MotionFileError(f"{path}: no such file") from None
+
+
+def _frames(doc: dict, clips: list[MotionClip], path: Path) -> int:
+    """The performance's length in frames (version 2), checked against its utterances."""
+    if doc["version"] == 1:
+        return 0
+    n = doc.get("frames")
+    if type(n) is not int or n < 0:
+        raise MotionFileError(f"{path}: 'frames' must be a whole number of frames, not {n!r}")
+    for i, c in enumerate(clips):
+        if c.start < 0 or c.start_frame + c.n_frames > n:
+            raise MotionFileError(f"{path}: utterance {i} (start {c.start:g} s, {c.n_frames} frames) "
+                                  f"does not fit in the performance's {n} frames")
+    return n

@@ -28,12 +28,13 @@ from pathlib import Path
 from typing import Callable
 
 from core.controls import ControlArrays
-from core.motion import MotionClip
+from core.motion import MotionClip, Track, save_motion
 from core.seeds import SEED_MAX
 from core.words import TimedWord
 from dsl.compiler import compile_file
 from dsl.plan import Plan
 from model.neural import _model
+from model.performance import build_tracks
 from model.weights import WeightsError
 
 #: Engine name -> module with ``generate(inputs, *, seed, ...)``.
@@ -86,6 +87,21 @@ class Take:
     clips: list[MotionClip]
     diagnostics: list = field(default_factory=list)
     source: str = ""
+    seed: int = 0
+    _tracks: list | None = field(default=None, repr=False)
+
+    @property
+    def tracks(self) -> list[Track]:
+        """One continuous track per speaker over the whole performance (built on first use,
+        :func:`model.performance.build_tracks`)."""
+        if self._tracks is None:
+            self._tracks = build_tracks(self.plan, self.clips, self.seed)
+        return self._tracks
+
+    def save(self, path, format: str | None = None) -> None:
+        """Write the take as a motion file (utterances, tracks, the script's path)."""
+        source = self.plan.source if self.plan.source and not self.plan.source.startswith("<") else None
+        save_motion(path, self.clips, format, tracks=self.tracks, source=source)
 
     @property
     def utterances(self) -> list[int]:
@@ -124,7 +140,7 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
             progress(n, len(plan.utterances), u.text[:40])
         poses = fn(EngineInputs.from_plan(u), seed=base_seed + u.index)
         clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=list(u.words),
-                                controls=list(u.controls)))
+                                controls=list(u.controls), index=u.index, start=u.start, audio_offset=u.audio_offset))
     if progress:
         progress(len(plan.utterances), len(plan.utterances), "")
     return clips
@@ -162,7 +178,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
             missing = [n for n in utterances if n not in known]
             if missing:
                 raise NoSuchUtterance(f"no utterance {missing[0]} in the plan (it has {sorted(known)})")
-            plan = dataclasses.replace(plan, utterances=[u for u in plan.utterances if u.index in utterances])
+            plan = dataclasses.replace(plan, utterances=[dataclasses.replace(u) for u in plan.utterances if u.index in utterances])
     else:
         if script is None and source is None:
             raise TypeError("generate() needs a script path, a plan or a source text")
@@ -175,7 +191,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
             raise NoSuchUtterance(problem)
         plan, diagnostics, text = result.plan, result.diagnostics, result.script.source
     clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options)
-    return Take(plan, clips, diagnostics, text)
+    return Take(plan, clips, diagnostics, text, plan.seed if seed is None else seed)
 
 
 def generate_clips(script: Path | str | Plan | None = None, **options) -> list[MotionClip]:

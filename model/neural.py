@@ -29,6 +29,11 @@ from model.weights import load_weights
 WINDOW = 60
 HOP = 30
 SEED = 15  # seed-pose frames at the start of each window after the first
+#: torch's threads for generation when :class:`Options` does not say: one, by measurement
+#: (benchmarks/bench_threads.py): on the 2-core machine a second thread saves little when
+#: the machine is idle and costs several times the time when another process keeps a core
+#: busy (the threads wait for each other at every operation).
+DEFAULT_THREADS = 1
 
 
 @dataclass(frozen=True)
@@ -37,6 +42,7 @@ class Options:
     blend: bool = True  # exact pose-control blend
     ramp: int = 6  # frames of easing into and out of a controlled span
     weights: str | None = None  # path; None = the shipped weights
+    threads: int | None = None  # torch threads; None = DEFAULT_THREADS
 
 
 @lru_cache(maxsize=4)
@@ -52,6 +58,15 @@ def speech_inputs(inputs, n_frames: int):
         audio = np.zeros((n_frames, AUDIO_DIM), np.float32)
     ids, onsets = word_features(inputs.words, n_frames)
     return audio, ids, onsets
+
+
+def use_threads(n: int | None) -> None:
+    """Let torch use ``n`` threads (None: :data:`DEFAULT_THREADS`) in this process."""
+    import torch
+
+    n = n or DEFAULT_THREADS
+    if torch.get_num_threads() != n:
+        torch.set_num_threads(n)
 
 
 def _fade_weights(overlap: int) -> np.ndarray:
@@ -102,6 +117,7 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
 def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.ndarray:
     """Poses (T, 27) for one utterance (an :class:`~model.generate.EngineInputs`)."""
     opts = options or Options()
+    use_threads(opts.threads)
     model = _model(opts.weights)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
