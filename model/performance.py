@@ -33,8 +33,8 @@ MIN_EASE = 6
 #: Ease frames per metre of the largest joint distance at a boundary: a smoothstep's steepest
 #: step is 1.5 / frames of the distance, so 50 frames per metre keeps it at 3 cm a frame.
 EASE_PER_METRE = 50.0
-#: Longest ease, frames.
-MAX_EASE = 30
+#: Longest ease, frames (3 s: from arms down to arms up).
+MAX_EASE = 45
 #: Listening nods: chance per accented word of another speaker, delay after its onset (s),
 #: amplitude (degrees) and width (s) of the nod.
 NOD_CHANCE = 0.5
@@ -78,13 +78,29 @@ def listening(n_frames: int, accent_times, rng: np.random.Generator) -> np.ndarr
 
 
 def _blend(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Poses a -> b by weight w (n,), bone by bone, renormalised."""
-    return normalize_pose((1.0 - w[:, None]) * a + w[:, None] * b)
+    """Poses a -> b by weight w (n,): every bone direction turns along the great circle
+    (slerp), so even a bone turned round by 180 degrees moves smoothly."""
+    n = len(w)
+    a = normalize_pose(np.asarray(a, np.float64)).reshape(n, N_BONES, 3)
+    b = normalize_pose(np.asarray(b, np.float64)).reshape(n, N_BONES, 3)
+    dot = np.clip((a * b).sum(-1, keepdims=True), -1.0, 1.0)
+    ortho = b - dot * a
+    norm = np.linalg.norm(ortho, axis=-1, keepdims=True)
+    # opposite directions: any perpendicular will do; take the one nearest the x axis
+    side = np.cross(a, np.cross(np.array([1.0, 0.0, 0.0]), a))
+    side = np.where(np.linalg.norm(side, axis=-1, keepdims=True) < 1e-6, np.cross(a, [0.0, 0.0, 1.0]), side)
+    ortho = np.where(norm < 1e-6, side, ortho)
+    ortho /= np.linalg.norm(ortho, axis=-1, keepdims=True)
+    angle = np.arccos(dot) * w[:, None, None]
+    return normalize_pose((np.cos(angle) * a + np.sin(angle) * ortho).reshape(n, -1))
 
 
 def _ease_frames(a: np.ndarray, b: np.ndarray) -> int:
-    """Frames needed to ease from pose ``a`` to pose ``b`` (the largest joint distance)."""
+    """Frames needed to ease from pose ``a`` to pose ``b`` (the largest joint distance along
+    the arcs the bones turn through: up to pi/2 times the straight distance)."""
     d = float(np.linalg.norm(positions_from_pose(a) - positions_from_pose(b), axis=-1).max())
+    turn = np.arccos(np.clip((a.reshape(N_BONES, 3) * b.reshape(N_BONES, 3)).sum(-1), -1.0, 1.0)).max()
+    d *= max(1.0, turn / (2.0 * math.sin(max(turn, 1e-6) / 2.0)))  # arc over chord
     return int(min(MAX_EASE, max(MIN_EASE, math.ceil(EASE_PER_METRE * d))))
 
 

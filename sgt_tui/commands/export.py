@@ -145,6 +145,7 @@ def _write_timeline(path, clips, files, tracked: bool) -> None:
     """The sidecar: per utterance its speaker, text, first frame, frames, start and audio
     offset on the exported files' clock, and which file holds each speaker."""
     import json
+    from pathlib import Path
 
     from core.fileio import atomic_write
     from core.skeleton import FPS
@@ -157,5 +158,5 @@ def _write_timeline(path, clips, files, tracked: bool) -> None:
         rows.append({"index": i if c.index is None else c.index, "speaker": c.speaker, "text": c.text,
                      "start_frame": start, "frames": c.n_frames, "start": round(start / FPS, 6),
                      "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6)})
-    doc = {"fps": FPS, "files": {speaker_name(s): str(getattr(p, "name", p)) for p, s in files}, "utterances": rows}
+    doc = {"fps": FPS, "files": {speaker_name(s): Path(str(p)).name for p, s in files}, "utterances": rows}
     atomic_write(path, (json.dumps(doc, indent=1, ensure_ascii=False) + "\n").encode("utf-8"))
