@@ -749,7 +749,7 @@ Fix: move the words inside the span, or remove it.
 
 BAD_GAP = rule(
     "SGT310", "bad-gap", ERROR,
-    "'@gap' needs a duration from 0s to {max:g}s, not '{text}'",
+    "'@gap' needs a duration from 0s to {max}s, not '{text}'",
     "for example: @gap 0.8s   or   @gap 1500ms",
     """
 A script is one performance: its utterances play one after another on one clock, with a

@@ -260,7 +260,7 @@ def _do_gap(ctx, args, line, where):
         return
     seconds = parse_duration(arg.text)
     if seconds is None or not 0 <= seconds <= MAX_GAP:
-        ctx.report(rules.BAD_GAP, line, arg.col, arg.length, text=arg.text, max=MAX_GAP)
+        ctx.report(rules.BAD_GAP, line, arg.col, arg.length, text=arg.text, max=f"{MAX_GAP:g}")
         return
     span = Span(line, arg.col, arg.length)
     if ctx.in_header:

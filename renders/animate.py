@@ -20,6 +20,7 @@ from core.skeleton import FPS
 from renders import overlay
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
 from renders.mannequin import Mannequin
+from renders.video import write_mp4
 
 DEFAULT_SIZE = (320, 320)
 PALETTE_SAMPLES = 6
@@ -105,8 +106,6 @@ def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None 
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform, audio_s.
     """
-    from renders.video import write_mp4
-
     width, height = size
     own = mannequin is None
     m = mannequin or Mannequin(width, height)

@@ -38,13 +38,6 @@ def generate_script(path: Path, *, engine: str | None = None, utterances=None, s
     return take
 
 
-def load_clips(path_text: str, utterance: int | None = None, *, engine: str | None = None,
-               seed: int | None = None, options=None) -> list:
-    """Clips of a motion file (.json/.npz) or a script (.sgt, generated), narrowed to
-    ``utterance`` (0-based) when given."""
-    return load_performance(path_text, utterance, engine=engine, seed=seed, options=options, tracks=False).clips
-
-
 def load_performance(path_text: str, utterance: int | None = None, *, engine: str | None = None,
                      seed: int | None = None, options=None, tracks: bool = True):
     """A :class:`core.motion.MotionFile` of a motion file or a script (generated): its
