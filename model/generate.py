@@ -27,6 +27,8 @@ from functools import partial
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
+
 from core.controls import ControlArrays
 from core.motion import MotionClip, Track, save_motion
 from core.seeds import SEED_MAX
@@ -34,7 +36,7 @@ from core.words import TimedWord
 from dsl.compiler import compile_file
 from dsl.plan import Plan
 from model.neural import _model
-from model.performance import build_tracks
+from model.performance import SEED_FRAMES, build_tracks, listening_tracks
 from model.weights import WeightsError
 
 #: Engine name -> module with ``generate(inputs, *, seed, ...)``.
@@ -54,14 +56,17 @@ class EngineInputs:
     words: list[TimedWord]  # seconds on the motion timeline, lead-in already added
     audio_path: Path | None = None  # speech audio; it starts ``lead_in`` seconds into the motion
     lead_in: float = 0.0
+    #: (k, 27) poses of the speaker's track where the utterance starts (its listening motion):
+    #: engines that take seed poses (neural) start from them, so the utterance joins its track.
+    start_poses: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
         return self.arrays.n_frames
 
     @classmethod
-    def from_plan(cls, u) -> "EngineInputs":
-        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in)
+    def from_plan(cls, u, start_poses=None) -> "EngineInputs":
+        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in, start_poses)
 
 
 class GenerateError(Exception):
@@ -134,11 +139,13 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     base_seed = plan.seed if seed is None else seed
     _check_seed(base_seed)
+    listening = listening_tracks(plan, base_seed)
     clips = []
     for n, u in enumerate(plan.utterances):
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
-        poses = fn(EngineInputs.from_plan(u), seed=base_seed + u.index)
+        start_poses = listening[u.speaker][u.start_frame : u.start_frame + SEED_FRAMES]
+        poses = fn(EngineInputs.from_plan(u, start_poses), seed=base_seed + u.index)
         clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=list(u.words),
                                 controls=list(u.controls), index=u.index, start=u.start, audio_offset=u.audio_offset))
     if progress:

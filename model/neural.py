@@ -15,6 +15,7 @@ Post-processing (:mod:`model.postprocess`) is switchable through :class:`Options
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -121,6 +122,23 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     model = _model(opts.weights)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
-    raw = run_windows(model, audio, ids, onsets, inputs.arrays, seed)
-    return postprocess.finish(raw, inputs.arrays.pose, inputs.arrays.pose_mask, smoothing=opts.smoothing,
+    arrays = _seeded(inputs)
+    raw = run_windows(model, audio, ids, onsets, arrays, seed)
+    return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
                               blend=opts.blend, ramp=opts.ramp)
+
+
+def _seeded(inputs):
+    """The control arrays with ``inputs.start_poses`` (the track's poses where the utterance
+    starts) as pose controls on the first frames the user left free, as a window after the
+    first gets its predecessor's as seed poses: the utterance starts where the speaker's
+    track is (the blend then follows them exactly and eases into the network's motion)."""
+    start = getattr(inputs, "start_poses", None)
+    if start is None or not len(start):
+        return inputs.arrays
+    arrays = dataclasses.replace(inputs.arrays, pose=inputs.arrays.pose.copy(), pose_mask=inputs.arrays.pose_mask.copy())
+    k = min(len(start), arrays.n_frames)
+    free = arrays.pose_mask[:k] < 0.5
+    arrays.pose[:k][free] = np.asarray(start[:k], np.float32)[free]
+    arrays.pose_mask[:k][free] = 1.0
+    return arrays

@@ -7,8 +7,11 @@ the rules engine's idle layer (:func:`model.teacher.teach` without words: arms a
 breathing, weight shifts of the torso, slow head drift) plus small nods shortly after the
 other speakers' accented (content) words.
 
-Joins: an utterance's motion starts and ends wherever its engine left it, so it is eased in
-and out of the listening motion (:func:`place`). Each ease straddles the boundary (half
+Joins: engines that take seed poses (the neural engine, like its own sliding windows) start
+an utterance from its track's listening poses (:data:`SEED_FRAMES` of them,
+:func:`listening_tracks`), so it begins where the track is. An utterance ends wherever its
+engine left it (and the other engines start anywhere), so it is also eased in and out of
+the listening motion (:func:`place`). Each ease straddles the boundary (half
 before the utterance's first frame, holding that frame, half inside it), and is as long as
 the distance to cover needs (:data:`EASE_PER_METRE` frames per metre of the largest joint
 distance, at least :data:`MIN_EASE`), so no joint steps more than a few centimetres a frame
@@ -28,6 +31,8 @@ from core.skeleton import BONE_INDEX, FPS, N_BONES, normalize_pose, positions_fr
 from model.postprocess import smoothstep
 from model.teacher import STOPWORDS, teach
 
+#: Listening poses an utterance's generation starts from (the neural engine's seed poses).
+SEED_FRAMES = 15
 #: Shortest ease between listening and speaking motion, frames.
 MIN_EASE = 6
 #: Ease frames per metre of the largest joint distance at a boundary: a smoothstep's steepest
@@ -133,15 +138,21 @@ def place(track: np.ndarray, poses: np.ndarray, start: int, free_before: int, fr
     track[b0 : end + after] = _blend(listen, target, w)
 
 
+def listening_tracks(plan, seed: int = 0) -> dict:
+    """Speaker -> poses (``plan.n_frames``, 27): its listening motion over the whole performance
+    (deterministic for a plan and a seed)."""
+    return {speaker: listening(plan.n_frames, accents(plan, speaker), np.random.default_rng([seed, k]))
+            for k, speaker in enumerate(plan.speakers)}
+
+
 def build_tracks(plan, clips: list[MotionClip], seed: int = 0) -> list[Track]:
     """One :class:`~core.motion.Track` per speaker of ``plan`` (in order of their first line),
     ``plan.n_frames`` long: its utterances (``clips``, one per planned utterance) in their
-    places, listening motion everywhere else."""
+    places, listening motion (:func:`listening_tracks`) everywhere else."""
     n = plan.n_frames
     tracks = []
-    for k, speaker in enumerate(plan.speakers):
-        rng = np.random.default_rng([seed, k])
-        poses = listening(n, accents(plan, speaker), rng)
+    for speaker, listen in listening_tracks(plan, seed).items():
+        poses = listen.copy()
         own = [(u, c) for u, c in zip(plan.utterances, clips) if u.speaker == speaker]
         for i, (u, c) in enumerate(own):
             prev_end = own[i - 1][0].start_frame + own[i - 1][0].n_frames if i else 0

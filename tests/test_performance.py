@@ -11,6 +11,7 @@ import pytest
 from core.skeleton import FPS, JOINT_INDEX, REST_POSE, normalize_pose, positions_from_pose
 from dsl.compiler import compile_text
 from dsl.script import DEFAULT_GAP
+from model.performance import listening
 
 WRISTS = [JOINT_INDEX["left_wrist"], JOINT_INDEX["right_wrist"]]
 DIALOGUE = """@seed 4
@@ -182,3 +183,24 @@ def test_a_long_script_has_no_wrist_jump_at_boundaries():
                 if u.speaker == t.speaker and 0 < b < t.n_frames:
                     worst = max(worst, steps[b - 1])
     assert worst < 0.05, f"{100 * worst:.1f} cm"
+
+
+def test_the_neural_engine_starts_an_utterance_from_its_track():
+    from model import neural
+    from model.generate import EngineInputs
+    from model.weights import WeightsError, load_weights
+
+    try:
+        load_weights(None)
+    except WeightsError as exc:  # pragma: no cover
+        pytest.skip(str(exc))
+    u = compile_text("guide: well, that is [pose:point_right] over there\n", timing="estimate").plan.utterances[0]
+    track = listening(u.n_frames, [], np.random.default_rng(5))
+    free = np.flatnonzero(u.arrays.pose_mask[:15] < 0.5)
+    assert 0 in free  # the gesture starts later
+    seeded = neural.generate(EngineInputs.from_plan(u, track[:15]), seed=1)
+    plain = neural.generate(EngineInputs.from_plan(u), seed=1)
+    assert np.abs(seeded[0] - track[0]).max() < 1e-3  # it starts where the track is
+    assert np.abs(plain[0] - track[0]).max() > 1e-2
+    assert np.abs(seeded[-10:] - plain[-10:]).max() < 0.5  # and still makes the same gesture later
+    assert u.arrays.pose_mask[free].max() == 0  # the plan's own arrays are untouched
