@@ -139,12 +139,13 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     base_seed = plan.seed if seed is None else seed
     _check_seed(base_seed)
-    listening = listening_tracks(plan, base_seed)
+    # only the neural engine takes seed poses: the others need no listening motion here
+    listening = listening_tracks(plan, base_seed) if (engine or DEFAULT_ENGINE) == "neural" else None
     clips = []
     for n, u in enumerate(plan.utterances):
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
-        start_poses = listening[u.speaker][u.start_frame : u.start_frame + SEED_FRAMES]
+        start_poses = listening[u.speaker][u.start_frame : u.start_frame + SEED_FRAMES] if listening else None
         poses = fn(EngineInputs.from_plan(u, start_poses), seed=base_seed + u.index)
         clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=list(u.words),
                                 controls=list(u.controls), index=u.index, start=u.start, audio_offset=u.audio_offset))

@@ -29,7 +29,6 @@ import numpy as np
 from core.motion import MotionClip, Track
 from core.skeleton import BONE_INDEX, FPS, N_BONES, normalize_pose, positions_from_pose
 from model.postprocess import smoothstep
-from model.teacher import STOPWORDS, teach
 
 #: Listening poses an utterance's generation starts from (the neural engine's seed poses).
 SEED_FRAMES = 15
@@ -52,6 +51,8 @@ _WORD = re.compile(r"[^\W_]+(?:['\u2019][^\W_]+)*")
 
 def accents(plan, listener) -> list[float]:
     """Seconds on the performance clock of the other speakers' content-word onsets."""
+    from model.teacher import STOPWORDS  # lazy: the teacher loads the gesture library (the editor imports this)
+
     out = []
     for u in plan.utterances:
         if u.speaker == listener:
@@ -65,6 +66,8 @@ def accents(plan, listener) -> list[float]:
 
 def listening(n_frames: int, accent_times, rng: np.random.Generator) -> np.ndarray:
     """Poses (n, 27) of a listener: idle motion at rest and nods after some of ``accent_times``."""
+    from model.teacher import teach  # lazy: the teacher loads the gesture library (the editor imports this)
+
     if n_frames <= 0:
         return np.zeros((0, 3 * N_BONES), np.float32)
     dirs = teach([], n_frames, rng=rng).astype(np.float64).reshape(n_frames, N_BONES, 3)
