@@ -160,6 +160,7 @@ def _panel_clips(take, speaker: str | None, name: str):
 def _audio(take, name: str):
     """The performance's speech mixed on the clock of what is rendered: (samples, rate), or
     (None, None) for a take without audio offsets (a version 1 motion file)."""
+    from core.skeleton import FPS
     from renders.audio_mix import mix
 
     if any(c.audio_offset is None for c in take.clips):
@@ -173,7 +174,7 @@ def _audio(take, name: str):
     else:  # one after another
         parts, at = [], 0
         for c in take.clips:
-            parts.append((paths[c.index], at / 15 + c.audio_offset))
+            parts.append((paths[c.index], at / FPS + c.audio_offset))
             at += c.n_frames
         frames = at
     return mix(parts, frames)
