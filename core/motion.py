@@ -1,30 +1,46 @@
-"""Motion files: utterances of poses with their text, words and controls (JSON or NPZ).
+"""Motion files: a performance's utterances (poses with their text, words, controls and place
+on the performance clock) and each speaker's continuous track (JSON or NPZ).
 
 JSON (``*.json``)::
 
     {"format": "sgt-motion", "version": 2, "fps": 15,
      "joints": [...joint names], "bones": [[parent, child], ...],
      "coordinates": "y-up, right-handed, metres; character faces +z",
+     "frames": N, "source": "mall_guide.sgt",
      "hands": {"sides": ["left", "right"], "digits": ["thumb", ...]},
-     "utterances": [{"speaker": ..., "text": ..., "words": [{"word", "start", "end"}],
-                     "controls": [{...}], "poses": [[27 floats], ...],
-                     "positions": [[[x, y, z] x 10], ...],
-                     "hands": {"palm": [T x 2 x 3], "fingers": [T x 2 x 5 x 4]}}]}
+     "utterances": [{"index": 0, "speaker": ..., "text": ...,
+                     "start": 0.0, "audio_offset": 0.4,
+                     "words": [{"word", "start", "end"}], "controls": [{...}],
+                     "poses": [[27 floats], ...], "positions": [[[x, y, z] x 10], ...],
+                     "hands": {"palm": [T x 2 x 3], "fingers": [T x 2 x 5 x 4]}}],
+     "tracks": [{"speaker": ..., "poses": [[27 floats] x N], "positions": [...],
+                 "hands": {"palm": ..., "fingers": ...}}]}
+
+``start`` is the utterance's first motion frame in seconds on the performance clock (always a
+whole frame), ``audio_offset`` the seconds from that frame to the first sample of its speech
+audio; word times and control frames count from the utterance's own frame 0. A track is one
+speaker's motion over the whole performance (``frames`` frames from time 0): its utterances
+in their places, listening motion between them (see :mod:`model.performance`). ``source``
+is the script it was generated from (relative to the motion file's folder when possible),
+or null. Hands (:mod:`core.hands`: palm targets and finger angles in degrees per side and
+frame) belong to every utterance and track.
 
 Floats are rounded to 5 decimals (hands: palms 4, finger angles 2). NPZ (``*.npz``) holds
-``poses_0``, ``positions_0``, ``hand_palm_0``, ``hand_fingers_0``, ... as float32 arrays plus
-``meta``: the same JSON header without the arrays. Hands (:mod:`core.hands`: palm targets and
-finger angles in degrees per side and frame) came with version 2; a version 1 file (no hands)
-still loads, with relaxed hands. Any other format name or version is refused with
-:class:`MotionFileError`. Files are
-written by :mod:`core.fileio`'s rules (atomically for a regular file: a temporary file in
-the same folder, then ``os.replace``; a device or a link is never replaced).
+``poses_0``, ``positions_0``, ``hand_palm_0``, ``hand_fingers_0``, ... and ``track_poses_0``,
+``track_positions_0``, ``track_hand_palm_0``, ``track_hand_fingers_0``, ... as float32 arrays
+plus ``meta``: the same JSON header without the arrays. Version 1 files (no ``start``,
+``audio_offset``, ``tracks``, hands) still load: their utterances are placed one after another
+from 0, their audio offsets are unknown (None), they have no tracks and relaxed hands. Any
+other format name or version is refused with :class:`MotionFileError`. Files are written by
+:mod:`core.fileio`'s rules (atomically for a regular file: a temporary file in the same
+folder, then ``os.replace``; a device or a link is never replaced).
 """
 
 from __future__ import annotations
 
 import io
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -39,7 +55,7 @@ from core.words import TimedWord
 
 FORMAT = "sgt-motion"
 VERSION = 2
-#: Versions this sgt reads: 1 (no hands) and 2.
+#: Versions this sgt reads: 1 (one clip after another, no tracks, no hands) and 2.
 READABLE_VERSIONS = (1, 2)
 COORDINATES = "y-up, right-handed, metres; character faces +z"
 
@@ -59,6 +75,9 @@ class MotionClip:
     positions: np.ndarray | None = None
     #: The hands on the same frames (relaxed when not given).
     hands: HandTrack | None = None
+    index: int | None = None  # the script's utterance number (0-based)
+    start: float = 0.0  # seconds on the performance clock of frame 0 (a whole frame)
+    audio_offset: float | None = None  # seconds from frame 0 to the speech audio's first sample
 
     def __post_init__(self):
         p = np.asarray(self.poses, dtype=np.float32)
@@ -84,6 +103,49 @@ class MotionClip:
     def n_frames(self) -> int:
         return int(self.poses.shape[0])
 
+    @property
+    def start_frame(self) -> int:
+        return int(round(self.start * FPS))
+
+
+@dataclass
+class Track:
+    """One speaker's continuous motion over the whole performance, from time 0."""
+
+    speaker: str | None
+    poses: np.ndarray
+    positions: np.ndarray | None = None
+    #: The hands on the same frames (relaxed when not given).
+    hands: HandTrack | None = None
+
+    def __post_init__(self):
+        self.poses = np.asarray(self.poses, dtype=np.float32)
+        if self.poses.ndim != 2 or self.poses.shape[1] != POSE_DIM:
+            raise MotionFileError(f"track poses must have shape (T, {POSE_DIM}), got {self.poses.shape}")
+        if self.hands is None:
+            self.hands = HandTrack.rest(self.poses.shape[0])
+        elif self.hands.n_frames != self.poses.shape[0]:
+            raise MotionFileError(f"track hands have {self.hands.n_frames} frames, poses {self.poses.shape[0]}")
+        if self.positions is None:
+            self.positions = positions_from_pose(self.poses).astype(np.float32)
+        else:
+            self.positions = np.asarray(self.positions, dtype=np.float32)
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.poses.shape[0])
+
+
+@dataclass
+class MotionFile:
+    """What a motion file holds: the utterances, the speakers' tracks (none in version 1
+    files) and the script it came from (a path from the current folder once read)."""
+
+    clips: list[MotionClip]
+    tracks: list[Track] = field(default_factory=list)
+    source: str | None = None
+    version: int = VERSION
+
 
 def _header() -> dict:
     return {
@@ -103,8 +165,11 @@ def _round(a: np.ndarray):
 
 def _utterance_meta(c: MotionClip) -> dict:
     return {
+        "index": c.index,
         "speaker": c.speaker,
         "text": c.text,
+        "start": round(c.start, 6),
+        "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6),
         "words": [w.to_dict(4) for w in c.words],
         "controls": [x.to_dict() for x in c.controls],
     }
@@ -119,8 +184,23 @@ def _kind(path) -> str:
     return suffix[1:]
 
 
-def save_motion(path, clips: Sequence[MotionClip], format: str | None = None) -> None:
-    """Write ``clips`` to ``path`` by :mod:`core.fileio`'s rules (atomically for a regular file).
+def _source_text(source, path) -> str | None:
+    if source is None:
+        return None
+    src = Path(source)
+    if not hasattr(path, "write"):
+        try:
+            return os.path.relpath(src.resolve(), Path(path).resolve().parent)
+        except ValueError:  # another drive
+            pass
+    return str(src.resolve())
+
+
+def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
+                tracks: Sequence[Track] = (), source=None) -> None:
+    """Write ``clips`` (and the speakers' ``tracks``) to ``path`` by :mod:`core.fileio`'s rules
+    (atomically for a regular file). ``source`` is the script's path, stored relative to the
+    motion file's folder.
 
     ``format`` ("json" or "npz") defaults to the path's extension; ``path`` may also be a binary
     stream (then ``format`` is needed)."""
@@ -130,26 +210,35 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None) ->
         kind = format
     else:
         raise MotionFileError(f"unknown motion file format '{format}' (use json or npz)")
-    clips = list(clips)
+    clips, tracks = list(clips), list(tracks)
     for c in clips:
         if c.fps != FPS:
             raise MotionFileError(f"clip at {c.fps} fps; motion files are {FPS} fps")
-    doc = _header()
+    frames = max([c.start_frame + c.n_frames for c in clips] + [t.n_frames for t in tracks] + [0])
+    doc = {**_header(), "frames": frames, "source": _source_text(source, path)}
     if kind == "json":
         doc["utterances"] = [
             {**_utterance_meta(c), "poses": _round(c.poses), "positions": _round(c.positions),
              "hands": c.hands.to_dict()}
             for c in clips
         ]
+        doc["tracks"] = [{"speaker": t.speaker, "poses": _round(t.poses), "positions": _round(t.positions),
+                          "hands": t.hands.to_dict()} for t in tracks]
         data = (json.dumps(doc, indent=1) + "\n").encode("utf-8")
     else:
         doc["utterances"] = [_utterance_meta(c) for c in clips]
+        doc["tracks"] = [{"speaker": t.speaker} for t in tracks]
         arrays = {"meta": np.array(json.dumps(doc))}
         for i, c in enumerate(clips):
             arrays[f"poses_{i}"] = np.asarray(c.poses, dtype=np.float32)
             arrays[f"positions_{i}"] = np.asarray(c.positions, dtype=np.float32)
             arrays[f"hand_palm_{i}"] = c.hands.palm
             arrays[f"hand_fingers_{i}"] = c.hands.fingers
+        for i, t in enumerate(tracks):
+            arrays[f"track_poses_{i}"] = np.asarray(t.poses, dtype=np.float32)
+            arrays[f"track_positions_{i}"] = np.asarray(t.positions, dtype=np.float32)
+            arrays[f"track_hand_palm_{i}"] = t.hands.palm
+            arrays[f"track_hand_fingers_{i}"] = t.hands.fingers
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         data = buf.getvalue()
@@ -172,6 +261,8 @@ def _check_header(doc, path: Path) -> None:
         raise MotionFileError(f"{path}: joints do not match this skeleton")
     if not isinstance(doc.get("utterances"), list):
         raise MotionFileError(f"{path}: 'utterances' missing or not a list")
+    if not isinstance(doc.get("tracks", []), list):
+        raise MotionFileError(f"{path}: 'tracks' is not a list")
 
 
 def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None) -> MotionClip:
@@ -189,6 +280,7 @@ def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None) -> Motio
             hands = HandTrack.from_dict(hands)
         elif hands is not None:
             raise ValueError("hands must be an object with 'palm' and 'fingers'")
+        offset = meta.get("audio_offset")
         return MotionClip(
             hands=hands,
             poses=poses,
@@ -197,13 +289,52 @@ def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None) -> Motio
             text=meta.get("text"),
             words=[TimedWord.from_dict(w) for w in meta.get("words") or []],
             controls=[Control.from_dict(x) for x in meta.get("controls") or []],
+            index=int(meta["index"]) if meta.get("index") is not None else i,
+            start=round(float(meta.get("start") or 0.0) * FPS) / FPS,  # a whole frame, rounded in the file
+            audio_offset=None if offset is None else float(offset),
         )
     except (ValueError, TypeError, AttributeError) as exc:
         raise MotionFileError(f"{path}: utterance {i}: {exc}") from None
 
 
+def _track(meta, poses, positions, path: Path, i: int, n_frames: int, hands=None) -> Track:
+    if not isinstance(meta, dict):
+        raise MotionFileError(f"{path}: track {i} is not an object")
+    try:
+        poses = np.asarray(poses, dtype=np.float32)
+        if poses.ndim != 2 or poses.shape != (n_frames, POSE_DIM):
+            raise ValueError(f"poses have shape {poses.shape}, expected ({n_frames}, {POSE_DIM})")
+        if positions is not None:
+            positions = np.asarray(positions, dtype=np.float32)
+            if positions.shape != (n_frames, N_JOINTS, 3):
+                raise ValueError(f"positions have shape {positions.shape}")
+        if isinstance(hands, dict):
+            hands = HandTrack.from_dict(hands)
+        elif hands is not None:
+            raise ValueError("hands must be an object with 'palm' and 'fingers'")
+        return Track(meta.get("speaker"), poses, positions, hands)
+    except (ValueError, TypeError) as exc:
+        raise MotionFileError(f"{path}: track {i}: {exc}") from None
+
+
+def _finish(doc: dict, clips: list[MotionClip], tracks: list[Track], path: Path) -> MotionFile:
+    if doc["version"] == 1:  # before the performance clock: one after another, offsets unknown
+        at = 0
+        for c in clips:
+            c.start, at = at / FPS, at + c.n_frames
+    source = doc.get("source")
+    if isinstance(source, str) and not hasattr(path, "write"):  # as the reader's paths go
+        source = os.path.normpath(path.parent / source)
+    return MotionFile(clips, tracks, source if isinstance(source, str) else None, doc["version"])
+
+
 def load_motion(path) -> list[MotionClip]:
-    """Read a motion file written by :func:`save_motion`."""
+    """The utterances of a motion file written by :func:`save_motion`."""
+    return load_motion_file(path).clips
+
+
+def load_motion_file(path) -> MotionFile:
+    """Everything a motion file written by :func:`save_motion` (any readable version) holds."""
     path = Path(path)
     kind = _kind(path)
     try:
@@ -213,12 +344,20 @@ def load_motion(path) -> list[MotionClip]:
             except json.JSONDecodeError as exc:
                 raise MotionFileError(f"{path}: not valid JSON: {exc}") from None
             _check_header(doc, path)
-            return [
+            clips = [
                 _clip(u, u.get("poses") if isinstance(u, dict) else None,
                       u.get("positions") if isinstance(u, dict) else None, path, i,
                       u.get("hands") if isinstance(u, dict) else None)
                 for i, u in enumerate(doc["utterances"])
             ]
+            n = _frames(doc, clips, path)
+            tracks = [
+                _track(t, t.get("poses") if isinstance(t, dict) else None,
+                       t.get("positions") if isinstance(t, dict) else None, path, i, n,
+                       t.get("hands") if isinstance(t, dict) else None)
+                for i, t in enumerate(doc.get("tracks") or [])
+            ]
+            return _finish(doc, clips, tracks, path)
         try:
             with np.load(path, allow_pickle=False) as z:
                 if "meta" not in z.files:
@@ -234,10 +373,34 @@ def load_motion(path) -> list[MotionClip]:
                     if f"hand_palm_{i}" in z.files and f"hand_fingers_{i}" in z.files:
                         hands = {"palm": z[f"hand_palm_{i}"], "fingers": z[f"hand_fingers_{i}"]}
                     clips.append(_clip(u, z[f"poses_{i}"], pos, path, i, hands))
-                return clips
+                n = _frames(doc, clips, path)
+                tracks = []
+                for i, t in enumerate(doc.get("tracks") or []):
+                    if f"track_poses_{i}" not in z.files:
+                        raise MotionFileError(f"{path}: missing track_poses_{i}")
+                    pos = z[f"track_positions_{i}"] if f"track_positions_{i}" in z.files else None
+                    hands = None
+                    if f"track_hand_palm_{i}" in z.files and f"track_hand_fingers_{i}" in z.files:
+                        hands = {"palm": z[f"track_hand_palm_{i}"], "fingers": z[f"track_hand_fingers_{i}"]}
+                    tracks.append(_track(t, z[f"track_poses_{i}"], pos, path, i, n, hands))
+                return _finish(doc, clips, tracks, path)
         except (ValueError, OSError, json.JSONDecodeError) as exc:
             if isinstance(exc, FileNotFoundError):
                 raise
             raise MotionFileError(f"{path}: cannot read as npz: {exc}") from None
     except FileNotFoundError:
         raise MotionFileError(f"{path}: no such file") from None
+
+
+def _frames(doc: dict, clips: list[MotionClip], path: Path) -> int:
+    """The performance's length in frames (version 2), checked against its utterances."""
+    if doc["version"] == 1:
+        return 0
+    n = doc.get("frames")
+    if type(n) is not int or n < 0:
+        raise MotionFileError(f"{path}: 'frames' must be a whole number of frames, not {n!r}")
+    for i, c in enumerate(clips):
+        if c.start < 0 or c.start_frame + c.n_frames > n:
+            raise MotionFileError(f"{path}: utterance {i} (start {c.start:g} s, {c.n_frames} frames) "
+                                  f"does not fit in the performance's {n} frames")
+    return n

@@ -320,6 +320,22 @@ Fix: add the utterance after it, or remove the directive.
     files={"rec.wav": "@silence:0.5"},
 )
 
+DANGLING_GAP = rule(
+    "SGT118", "dangling-gap", WARNING,
+    "'@gap' is not followed by an utterance",
+    "put '@gap' on the line before the utterance it delays, or remove it",
+    """
+`@gap DURATION` after the first utterance sets the silence before the **next** utterance
+only (in the header it sets the gap between all lines); at the end of the file there is
+no next utterance, so it has no effect. It is a warning: the script still compiles.
+
+Example: a script whose last line is `@gap 2s`.
+
+Fix: move it before the utterance it should delay, or remove it.
+""",
+    example="guide: hello\n@gap 2s\n",
+)
+
 MISSING_VALUE = rule(
     "SGT113", "missing-value", ERROR,
     "'@{directive}' needs {what}",
@@ -730,6 +746,24 @@ Example: `guide: hello <speed:-1></> there`.
 Fix: move the words inside the span, or remove it.
 """,
     example="guide: hello <speed:-1></> there\n",
+)
+
+BAD_GAP = rule(
+    "SGT310", "bad-gap", ERROR,
+    "'@gap' needs a duration from 0s to {max}s, not '{text}'",
+    "for example: @gap 0.8s   or   @gap 1500ms",
+    """
+A script is one performance: its utterances play one after another on one clock, with a
+gap of silence between the end of one line's speech and the start of the next (0.5 s by
+default). `@gap DURATION` in the header sets that gap for every line; between two
+utterances it sets the gap before the next one only (a longer beat before an answer).
+The duration has a unit, `ms` or `s`, and lies from 0 s to the maximum in the message.
+
+Example: `@gap long` or `@gap 2` (no unit) or `@gap 90s`.
+
+Fix: give a duration with its unit inside the range: `@gap 2s`.
+""",
+    example="@gap 2\nguide: hello\n",
 )
 
 # -- 4xx: speech and timing -------------------------------------------------------------

@@ -284,7 +284,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
     return UtterancePlan(
         index=utt.index, speaker=utt.speaker, line=utt.line, text=utt.display, duration=n_frames / FPS,
         n_frames=n_frames, words=t.words, controls=controls, requests=requests, speech=speech, audio_path=t.audio_path,
-        lead_in=lead,
+        lead_in=lead, gap=script.header.gap if utt.gap is None else utt.gap,
     )
 
 

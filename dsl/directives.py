@@ -10,8 +10,9 @@
     @library ./gestures       # extra gesture folder, relative to the script
     @preset excited = speed:+2 space:+1.5
     @audio rec/line1.wav timings=rec/line1.TextGrid   # for the next utterance
+    @gap 0.8s                 # silence between lines (header); before the next line (later)
 
-All but ``@audio`` belong to the header, before the first utterance. A setting given twice
+All but ``@audio`` and ``@gap`` belong to the header, before the first utterance. A setting given twice
 (the same directive for the same speaker, a preset of the same name, the same folder, two
 ``@audio`` for one utterance) is a warning and the last one wins (:data:`core.rules.DUPLICATE`).
 """
@@ -26,11 +27,12 @@ from core import rules
 from core.controls import STYLE_NAMES
 from core.diagnostics import Diagnostic, Related
 from core.seeds import SEED_MAX
-from dsl.script import AudioRef, Header, Span
+from dsl.durations import parse_duration
+from dsl.script import MAX_GAP, AudioRef, Header, Span
 from dsl.speech.synth import PITCH_RANGE, RATE_RANGE
 from dsl.styles import parse_style_value
 
-DIRECTIVES = ("voice", "rate", "pitch", "seed", "library", "preset", "audio")
+DIRECTIVES = ("voice", "rate", "pitch", "seed", "library", "preset", "audio", "gap")
 DIRECTIVE_LIST = ", ".join("@" + d for d in DIRECTIVES)
 HEADER_ONLY = {"voice", "rate", "pitch", "seed", "library", "preset"}
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
@@ -54,6 +56,8 @@ class DirectiveContext:
         self.reserved = set(builtin_style_names)
         self.diagnostics: list[Diagnostic] = []
         self.pending_audio: AudioRef | None = None
+        self.pending_gap: tuple[float, Span] | None = None  # ``@gap`` after the first utterance
+        self.in_header = True
 
     def report(self, rule: rules.Rule, line: int, col: int, length: int, **kw) -> None:
         self.diagnostics.append(rule.at(self.file, line, col, length, **kw))
@@ -92,6 +96,7 @@ def apply_directive(ctx: DirectiveContext, text: str, line: int, first_utterance
         ctx.report(rules.HEADER_ONLY, line, 1, len(name) + 1, name=name,
                    related=(Related("the first utterance is here: the header ends before it", ctx.file, *first_utterance),))
         return
+    ctx.in_header = first_utterance is None
     args = split_args(text[m.end():], line, m.end() + 1)
     handler = globals()[f"_do_{name}"]
     handler(ctx, args, line, Span(line, 1, len(name) + 1))
@@ -247,6 +252,26 @@ def _do_preset(ctx, args, line, where):
     else:
         ctx.header.broken_presets.discard(name)
         ctx.header.presets[name] = values
+
+
+def _do_gap(ctx, args, line, where):
+    arg = _need_one(ctx, args, line, where, "gap", "@gap 0.8s")
+    if arg is None:
+        return
+    seconds = parse_duration(arg.text)
+    if seconds is None or not 0 <= seconds <= MAX_GAP:
+        ctx.report(rules.BAD_GAP, line, arg.col, arg.length, text=arg.text, max=f"{MAX_GAP:g}")
+        return
+    span = Span(line, arg.col, arg.length)
+    if ctx.in_header:
+        ctx.setting("gap", "'@gap'", span)
+        ctx.header.gap = seconds
+        return
+    if ctx.pending_gap is not None:
+        earlier = ctx.pending_gap[1]
+        ctx.report(rules.DUPLICATE, line, where.col, where.length, what="'@gap' before one utterance",
+                   related=(Related("the earlier one, overridden", ctx.file, earlier.line, earlier.col, earlier.length),))
+    ctx.pending_gap = (seconds, span)
 
 
 def _do_audio(ctx, args, line, where):

@@ -20,6 +20,7 @@ from core import rules
 from core.controls import STYLE_NAMES
 from core.diagnostics import Diagnostic, Fix, Related, TextEdit, sort_key
 from dsl.directives import DirectiveContext, apply_directive
+from dsl.durations import parse_duration
 from dsl.lines import Statement, decode_source, split_lines, split_statements, utf16_order
 from dsl.presets import BUILTIN_PRESETS
 from dsl.scan import scan_items
@@ -37,7 +38,6 @@ from dsl.styles import parse_style_value
 
 #: A spoken word: letters or digits, with inner apostrophes or hyphens ("don't", "left-hand").
 WORD_RE = re.compile(r"[^\W_]+(?:['\u2019\-][^\W_]+)*")
-DURATION_RE = re.compile(r"(\d+(?:\.\d*)?|\.\d+)(ms|s)\Z")
 ESCAPABLE = "[]<>\\#:"
 TAG_KINDS = ("pose", "pause")
 POSE_OPTIONS = ("x1", "x2", "x3", "flip", "hold")
@@ -50,15 +50,6 @@ _STYLE_HINT = "style tags look like <speed:-1 space:+0.5> ... </> or <happy>; wr
 #: Characters that hide in a script (see rules BIDI_CONTROL, INVISIBLE_CHARACTER, NUL_CHARACTER).
 _SUSPICIOUS_RE = re.compile("[\x00\u200b\u200e\u200f\u2060\ufeff\u202a-\u202e\u2066-\u2069]+")
 _BIDI = frozenset("\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
-
-
-def parse_duration(text: str) -> float | None:
-    """``300ms`` / ``1.2s`` -> seconds, or None when malformed."""
-    m = DURATION_RE.match(text)
-    if not m:
-        return None
-    value = float(m.group(1))
-    return value / 1000.0 if m.group(2) == "ms" else value
 
 
 class _Analyser:
@@ -172,9 +163,13 @@ class _Analyser:
             utt = self.utterance(stmt, len(utterances), header)
             utt.voice = header.voice_for(utt.speaker)
             utt.audio, ctx.pending_audio = ctx.pending_audio, None
+            if ctx.pending_gap is not None:
+                utt.gap, ctx.pending_gap = ctx.pending_gap[0], None
             utterances.append(utt)
         if ctx.pending_audio is not None:
             self.diags.append(rules.DANGLING_AUDIO.at(self.file, audio_line, 1, 6))
+        if ctx.pending_gap is not None:
+            self.diags.append(rules.DANGLING_GAP.at(self.file, ctx.pending_gap[1].line, 1, 4))
         self.diags.extend(ctx.diagnostics)
         return header, utterances
 

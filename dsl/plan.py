@@ -1,4 +1,12 @@
-"""The compiled plan: per utterance its words, controls and the per-frame control arrays.
+"""The compiled plan: per utterance its words, controls and the per-frame control arrays,
+and where it plays on the performance clock.
+
+A script is one performance (:meth:`Plan.lay_out`): its utterances play in order on one
+clock. Utterance ``i + 1``'s speech starts ``gap`` seconds (``@gap``, default
+:data:`dsl.script.DEFAULT_GAP`) after utterance ``i``'s speech ends, rounded up to a whole
+frame; its motion starts ``audio_offset`` (its lead-in) before its speech. A speaker's
+utterances never overlap on its own track: a line waits until the same speaker's previous
+motion (its retraction) is over. The first utterance's motion starts at 0.
 
 ``plan.json`` is deterministic and human-readable (reviewable in a diff); ``--npz`` holds the
 arrays the generator consumes (layout owned by :mod:`core.controls`). Both are written by
@@ -9,6 +17,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,10 +26,11 @@ import numpy as np
 from core.controls import STYLE_NAMES, Control, ControlArrays
 from core.fileio import atomic_write
 from core.hands import HandTrack
+from core.skeleton import FPS
 from core.words import TimedWord
 
 PLAN_FORMAT = "sgt-plan"
-PLAN_VERSION = 1
+PLAN_VERSION = 2  # 2: start, audio_offset and gap per utterance, frames of the performance
 
 
 @dataclass
@@ -71,6 +81,8 @@ class UtterancePlan:
     speech: dict = field(default_factory=dict)
     audio_path: Path | None = None
     lead_in: float = 0.0  # seconds of silence before the audio starts (words are already shifted)
+    gap: float = 0.5  # seconds of silence before this line's speech (after the previous line's)
+    start_frame: int = 0  # first motion frame on the performance clock (set by Plan.lay_out)
 
     _arrays: ControlArrays | None = field(default=None, repr=False)
     _hands: tuple[HandTrack, np.ndarray] | None = field(default=None, repr=False)
@@ -89,12 +101,30 @@ class UtterancePlan:
             self._hands = self.requests.build_hands()
         return self._hands
 
+    @property
+    def start(self) -> float:
+        """Seconds on the performance clock of the first motion frame."""
+        return self.start_frame / FPS
+
+    @property
+    def audio_offset(self) -> float:
+        """Seconds from the first motion frame to the first audio sample (the lead-in)."""
+        return self.lead_in
+
+    @property
+    def speech_duration(self) -> float:
+        """Seconds of speech audio (the motion is longer by the lead-in and the tail)."""
+        return self.duration - self.lead_in - self.speech.get("tail", 0.0)
+
     def to_dict(self) -> dict:
         return {
             "index": self.index,
             "speaker": self.speaker,
             "line": self.line,
             "text": self.text,
+            "start": round(self.start, 6),
+            "audio_offset": round(self.audio_offset, 6),
+            "gap": round(self.gap, 6),
             "duration": round(self.duration, 3),
             "frames": self.n_frames,
             "speech": self.speech,
@@ -110,6 +140,30 @@ class Plan:
     seed: int
     utterances: list[UtterancePlan]
 
+    def __post_init__(self) -> None:
+        self.lay_out()
+
+    @property
+    def n_frames(self) -> int:
+        """Frames of the whole performance (every utterance's motion ends by then)."""
+        return max((u.start_frame + u.n_frames for u in self.utterances), default=0)
+
+    @property
+    def speakers(self) -> list[str | None]:
+        """The speakers in order of their first line."""
+        return list(dict.fromkeys(u.speaker for u in self.utterances))
+
+    def lay_out(self) -> None:
+        """Place the utterances on the performance clock (see the module's docstring)."""
+        speech_end = 0.0
+        track_end: dict = {}
+        for n, u in enumerate(self.utterances):
+            lead = int(round(u.lead_in * FPS))
+            audio = lead if n == 0 else int(math.ceil((speech_end + u.gap) * FPS - 1e-6))
+            u.start_frame = max(0, audio - lead, track_end.get(u.speaker, 0))
+            speech_end = u.start + u.lead_in + u.speech_duration
+            track_end[u.speaker] = u.start_frame + u.n_frames
+
     def to_dict(self) -> dict:
         return {
             "format": PLAN_FORMAT,
@@ -117,6 +171,7 @@ class Plan:
             "source": self.source,
             "fps": self.fps,
             "seed": self.seed,
+            "frames": self.n_frames,
             "style_names": list(STYLE_NAMES),
             "utterances": [u.to_dict() for u in self.utterances],
         }

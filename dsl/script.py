@@ -90,6 +90,7 @@ class Utterance:
     pauses: list[Pause] = field(default_factory=list)
     voice: Voice = field(default_factory=Voice)
     audio: AudioRef | None = None
+    gap: float | None = None  # seconds of silence before this line (``@gap`` just before it); None: the header's
 
     display: str = ""  # the text as a reader sees it: no tags, whitespace collapsed
 
@@ -98,9 +99,16 @@ class Utterance:
         return [(w.start, w.end) for w in self.words]
 
 
+#: Seconds of silence between one line's speech and the next one's, unless ``@gap`` says otherwise.
+DEFAULT_GAP = 0.5
+#: The longest ``@gap``, seconds.
+MAX_GAP = 30.0
+
+
 @dataclass
 class Header:
     voice: Voice = field(default_factory=Voice)
+    gap: float = DEFAULT_GAP  # ``@gap`` in the header
     speaker_overrides: dict[str, dict] = field(default_factory=dict)  # speaker -> {name, rate, pitch}
     seed: int = 0
     library_dirs: list[Path] = field(default_factory=list)

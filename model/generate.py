@@ -29,13 +29,16 @@ from functools import partial
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
+
 from core.controls import ControlArrays
-from core.motion import MotionClip
+from core.motion import MotionClip, Track, save_motion
 from core.seeds import SEED_MAX
 from core.words import TimedWord
 from dsl.compiler import compile_file
 from dsl.plan import Plan
 from model.hands import motion_hands
+from model.performance import SEED_FRAMES, build_tracks, listening_tracks
 from model.runtime import load_runner
 from model.weights import WeightsError
 
@@ -56,14 +59,17 @@ class EngineInputs:
     words: list[TimedWord]  # seconds on the motion timeline, lead-in already added
     audio_path: Path | None = None  # speech audio; it starts ``lead_in`` seconds into the motion
     lead_in: float = 0.0
+    #: (k, 27) poses of the speaker's track where the utterance starts (its listening motion):
+    #: engines that take seed poses (neural) start from them, so the utterance joins its track.
+    start_poses: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
         return self.arrays.n_frames
 
     @classmethod
-    def from_plan(cls, u) -> "EngineInputs":
-        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in)
+    def from_plan(cls, u, start_poses=None) -> "EngineInputs":
+        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in, start_poses)
 
 
 class GenerateError(Exception):
@@ -89,6 +95,21 @@ class Take:
     clips: list[MotionClip]
     diagnostics: list = field(default_factory=list)
     source: str = ""
+    seed: int = 0
+    _tracks: list | None = field(default=None, repr=False)
+
+    @property
+    def tracks(self) -> list[Track]:
+        """One continuous track per speaker over the whole performance (built on first use,
+        :func:`model.performance.build_tracks`)."""
+        if self._tracks is None:
+            self._tracks = build_tracks(self.plan, self.clips, self.seed)
+        return self._tracks
+
+    def save(self, path, format: str | None = None) -> None:
+        """Write the take as a motion file (utterances, tracks, the script's path)."""
+        source = self.plan.source if self.plan.source and not self.plan.source.startswith("<") else None
+        save_motion(path, self.clips, format, tracks=self.tracks, source=source)
 
     @property
     def utterances(self) -> list[int]:
@@ -121,16 +142,20 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     base_seed = plan.seed if seed is None else seed
     _check_seed(base_seed)
+    # only the neural engine takes seed poses: the others need no listening motion here
+    listening = listening_tracks(plan, base_seed) if (engine or DEFAULT_ENGINE) == "neural" else None
     clips = []
     for n, u in enumerate(plan.utterances):
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
+        start_poses = listening[u.speaker][u.start_frame : u.start_frame + SEED_FRAMES] if listening else None
         layers: list = []  # an engine's own gesture hands (the rules engine's), then the pose controls'
         extra = {"hands_out": layers} if "hands_out" in inspect.signature(fn).parameters else {}
-        poses = fn(EngineInputs.from_plan(u), seed=base_seed + u.index, **extra)
+        poses = fn(EngineInputs.from_plan(u, start_poses), seed=base_seed + u.index, **extra)
         hands = motion_hands(poses, [*layers, u.hands])
         clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=list(u.words),
-                                controls=list(u.controls), hands=hands))
+                                controls=list(u.controls), hands=hands, index=u.index, start=u.start,
+                                audio_offset=u.audio_offset))
     if progress:
         progress(len(plan.utterances), len(plan.utterances), "")
     return clips
@@ -169,7 +194,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
             missing = [n for n in utterances if n not in known]
             if missing:
                 raise NoSuchUtterance(f"no utterance {missing[0]} in the plan (it has {sorted(known)})")
-            plan = dataclasses.replace(plan, utterances=[u for u in plan.utterances if u.index in utterances])
+            plan = dataclasses.replace(plan, utterances=[dataclasses.replace(u) for u in plan.utterances if u.index in utterances])
     else:
         if script is None and source is None:
             raise TypeError("generate() needs a script path, a plan or a source text")
@@ -183,7 +208,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
             raise NoSuchUtterance(problem)
         plan, diagnostics, text = result.plan, result.diagnostics, result.script.source
     clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options)
-    return Take(plan, clips, diagnostics, text)
+    return Take(plan, clips, diagnostics, text, plan.seed if seed is None else seed)
 
 
 def generate_clips(script: Path | str | Plan | None = None, **options) -> list[MotionClip]:

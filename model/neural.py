@@ -15,6 +15,8 @@ Post-processing (:mod:`model.postprocess`) is switchable through :class:`Options
 
 from __future__ import annotations
 
+import dataclasses
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +31,11 @@ from model.runtime import as_runner, load_runner
 WINDOW = 60
 HOP = 30
 SEED = 15  # seed-pose frames at the start of each window after the first
+#: torch's threads for generation when :class:`Options` does not say: one, by measurement
+#: (benchmarks/bench_threads.py): on the 2-core machine a second thread saves little when
+#: the machine is idle and costs several times the time when another process keeps a core
+#: busy (the threads wait for each other at every operation).
+DEFAULT_THREADS = 1
 
 
 @dataclass(frozen=True)
@@ -37,6 +44,7 @@ class Options:
     blend: bool = True  # exact pose-control blend
     ramp: int = 6  # frames of easing into and out of a controlled span
     weights: str | None = None  # path; None = the shipped weights
+    threads: int | None = None  # torch threads; None = DEFAULT_THREADS
 
 
 def speech_inputs(inputs, n_frames: int):
@@ -47,6 +55,18 @@ def speech_inputs(inputs, n_frames: int):
         audio = np.zeros((n_frames, AUDIO_DIM), np.float32)
     ids, onsets = word_features(inputs.words, n_frames)
     return audio, ids, onsets
+
+
+def use_threads(n: int | None) -> None:
+    """Let torch use ``n`` threads (None: :data:`DEFAULT_THREADS`) in this process, when the
+    runner is PyTorch's (torch already imported); onnxruntime sessions run
+    :data:`model.runtime.ORT_THREADS` threads each."""
+    torch = sys.modules.get("torch")
+    if torch is None:
+        return
+    n = n or DEFAULT_THREADS
+    if torch.get_num_threads() != n:
+        torch.set_num_threads(n)
 
 
 def _fade_weights(overlap: int) -> np.ndarray:
@@ -93,8 +113,30 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     """Poses (T, 27) for one utterance (an :class:`~model.generate.EngineInputs`)."""
     opts = options or Options()
     model = load_runner(opts.weights)
+    use_threads(opts.threads)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
-    raw = run_windows(model, audio, ids, onsets, inputs.arrays, seed)
-    return postprocess.finish(raw, inputs.arrays.pose, inputs.arrays.pose_mask, smoothing=opts.smoothing,
-                              blend=opts.blend, ramp=opts.ramp, bones=inputs.arrays.bone_mask)
+    arrays = _seeded(inputs)
+    raw = run_windows(model, audio, ids, onsets, arrays, seed)
+    return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
+                              blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask)
+
+
+def _seeded(inputs):
+    """The control arrays with ``inputs.start_poses`` (the track's poses where the utterance
+    starts) as pose controls on the first frames the user left free, as a window after the
+    first gets its predecessor's as seed poses: the utterance starts where the speaker's
+    track is (the blend then follows them exactly and eases into the network's motion)."""
+    start = getattr(inputs, "start_poses", None)
+    if start is None or not len(start):
+        return inputs.arrays
+    a = inputs.arrays
+    arrays = dataclasses.replace(a, pose=a.pose.copy(), pose_mask=a.pose_mask.copy(),
+                                 bone_mask=None if a.bone_mask is None else a.bone_mask.copy())
+    k = min(len(start), arrays.n_frames)
+    free = arrays.pose_mask[:k] < 0.5
+    arrays.pose[:k][free] = np.asarray(start[:k], np.float32)[free]
+    arrays.pose_mask[:k][free] = 1.0
+    if arrays.bone_mask is not None:  # a seeded frame controls every bone
+        arrays.bone_mask[:k][free] = 1.0
+    return arrays

@@ -1,4 +1,5 @@
-"""Preview GIFs, side-by-side comparison GIFs and contact sheets of motion clips.
+"""Preview GIFs and MP4 videos (with the speech), side-by-side panels and contact sheets of
+motion clips.
 
 Frames are rendered one at a time with one :class:`~renders.mannequin.Mannequin`,
 decorated (:mod:`renders.overlay`), mapped to one shared palette and streamed into a
@@ -20,6 +21,7 @@ from core.skeleton import FPS
 from renders import overlay
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
 from renders.mannequin import Mannequin
+from renders.video import write_mp4
 
 DEFAULT_SIZE = (320, 320)
 PALETTE_SAMPLES = 6
@@ -62,9 +64,17 @@ def _compose(panels, frame: int):
     return out
 
 
+def _panels(m, clip, compare, others, labels) -> list[_Panel]:
+    clips = [clip] + ([compare] if compare is not None else []) + list(others)
+    if labels is None and len(clips) > 1:
+        labels = tuple("ABCDEFGHIJ"[i % 10] for i in range(len(clips)))
+    return [_Panel(m, c, labels[i] if labels else None) for i, c in enumerate(clips)]
+
+
 def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip | None = None,
-               labels: tuple[str, str] | None = None, progress=None, mannequin=None) -> dict:
-    """Render ``clip`` (and, side by side, ``compare``) to a looping 15 fps GIF at ``path``.
+               labels: tuple[str, ...] | None = None, progress=None, mannequin=None, others=()) -> dict:
+    """Render ``clip`` (and, side by side, ``compare`` and ``others``, each with its label) to a
+    looping 15 fps GIF at ``path``.
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform.
     """
@@ -72,11 +82,7 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
     own = mannequin is None
     m = mannequin or Mannequin(width, height)
     try:
-        if compare is None:
-            panels = [_Panel(m, clip, labels[0] if labels else None)]
-        else:
-            la, lb = labels or ("A", "B")
-            panels = [_Panel(m, clip, la), _Panel(m, compare, lb)]
+        panels = _panels(m, clip, compare, others, labels)
         n = max(p.clip.n_frames for p in panels)
         samples = [_compose(panels, f) for f in _sample_frames(n, PALETTE_SAMPLES)]
         palette, pimg = build_palette(samples, overlay.FIXED_COLORS)
@@ -90,6 +96,29 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
         atomic_write(path, data)
         return {"frames": n, "width": writer.width, "height": writer.height,
                 "duration_s": sum(delays) / 100, "bytes": len(data), "platform": m.platform}
+    finally:
+        if own:
+            m.close()
+
+
+def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, audio=None,
+               sample_rate: int | None = None, size=DEFAULT_SIZE, progress=None, mannequin=None) -> dict:
+    """Render ``clips`` side by side (each with its label) to a 15 fps H.264 MP4 at ``path``,
+    with ``audio`` (mono, sample 0 with frame 0; :mod:`renders.audio_mix`) as its AAC track.
+
+    Returns a summary dict: frames, width, height, duration_s, bytes, platform, audio_s.
+    """
+    width, height = size
+    own = mannequin is None
+    m = mannequin or Mannequin(width, height)
+    try:
+        panels = _panels(m, clips[0], None, clips[1:], labels)
+        n = max(p.clip.n_frames for p in panels)
+        info = write_mp4(path, (np.asarray(_compose(panels, f)) for f in range(n)), audio=audio, sample_rate=sample_rate,
+                         n_frames=n, progress=progress)
+        return {"frames": n, "width": width * len(panels), "height": height, "duration_s": n / FPS,
+                "bytes": info["bytes"], "platform": m.platform,
+                "audio_s": None if audio is None else n / FPS}
     finally:
         if own:
             m.close()

@@ -1,11 +1,12 @@
-"""Choosing and joining utterances of a motion file (no GL, numpy only)."""
+"""Choosing and joining utterances of a motion file, and a speaker's track as one clip on the
+performance clock (no GL, numpy only)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from core.hands import concat
-from core.motion import MotionClip
+from core.motion import MotionClip, Track
 from core.skeleton import FPS
 from core.words import shift_words
 
@@ -44,3 +45,35 @@ def pick(clips: list[MotionClip], utterance: int | None) -> list[MotionClip]:
     if not 0 <= utterance < len(clips):
         raise IndexError(f"no utterance {utterance}: the motion has {len(clips)} (0..{len(clips) - 1})")
     return [clips[utterance]]
+
+
+def speaker_name(speaker: str | None) -> str:
+    """A speaker as a user reads it (and as files are named): its name, or ``unnamed``."""
+    return speaker or "unnamed"
+
+
+def track_clip(track: Track, clips: list[MotionClip]) -> MotionClip:
+    """``track`` as one clip from the performance's frame 0, with its speaker's words and
+    controls moved to the performance clock (what renders and exports of a track show)."""
+    own = [c for c in clips if c.speaker == track.speaker]
+    return MotionClip(
+        poses=track.poses,
+        positions=track.positions,
+        hands=track.hands,
+        speaker=track.speaker,
+        text=" / ".join(c.text for c in own if c.text) or None,
+        words=[w for c in own for w in shift_words(c.words, c.start)],
+        controls=[k.shifted(c.start_frame) for c in own for k in c.controls],
+    )
+
+
+def utterance_frames(n_frames: int, clips: list[MotionClip], joined: bool = False) -> list[int | None]:
+    """Per frame, the number of the utterance (0-based, the script's) playing then, None between
+    them. ``joined``: the clips as :func:`concat_clips` puts them, one after another."""
+    out: list[int | None] = [None] * n_frames
+    at = 0
+    for i, c in enumerate(clips):
+        start = at if joined else c.start_frame
+        out[start : start + c.n_frames] = [i if c.index is None else c.index] * len(out[start : start + c.n_frames])
+        at += c.n_frames
+    return out

@@ -139,14 +139,19 @@ def bvh_text(clip: MotionClip, rig: Rig = SGT) -> str:
     return "\n".join(lines) + "\n"
 
 
-def csv_text(clip: MotionClip) -> str:
-    """One row per frame: frame, time (s), then x, y, z of every joint in metres."""
+def csv_text(clip: MotionClip, utterances=None) -> str:
+    """One row per frame: frame, time (s), the utterance playing (its number; empty between
+    utterances), then x, y, z of every joint in metres. ``utterances``: the per-frame numbers
+    (:func:`renders.clips.utterance_frames`); None: the clip is one utterance, number 0."""
     buf = io.StringIO()
-    cols = ["frame", "time"] + [f"{j}_{a}" for j in JOINTS for a in "xyz"]
+    cols = ["frame", "time", "utterance"] + [f"{j}_{a}" for j in JOINTS for a in "xyz"]
     buf.write(",".join(cols) + "\n")
     pos = np.asarray(clip.positions, dtype=np.float64).reshape(clip.n_frames, -1)
+    if utterances is None:
+        utterances = [0] * clip.n_frames
     for t in range(clip.n_frames):
-        buf.write(f"{t},{t / FPS:.6f}," + ",".join(f"{x:.6f}" for x in pos[t]) + "\n")
+        u = utterances[t]
+        buf.write(f"{t},{t / FPS:.6f},{'' if u is None else u}," + ",".join(f"{x:.6f}" for x in pos[t]) + "\n")
     return buf.getvalue()
 
 
@@ -154,5 +159,5 @@ def write_bvh(path, clip: MotionClip, rig: Rig = SGT) -> None:
     atomic_write(path, bvh_text(clip, rig).encode("utf-8"))
 
 
-def write_csv(path, clip: MotionClip) -> None:
-    atomic_write(path, csv_text(clip).encode("utf-8"))
+def write_csv(path, clip: MotionClip, utterances=None) -> None:
+    atomic_write(path, csv_text(clip, utterances).encode("utf-8"))

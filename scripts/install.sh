@@ -23,10 +23,13 @@ echo "==> PyTorch (CPU build)"
 echo "==> sgt and its Python dependencies"
 "$PY" -m pip install -q -e '.[dev]'
 
-echo "==> main job: check examples/mall_guide.sgt, generate its motion, render a preview GIF and a contact sheet"
+echo "==> main job: check examples/mall_guide.sgt, generate its motion, render a video with sound, a preview GIF and a contact sheet"
 mkdir -p out
 sgt check examples/*.sgt
 sgt generate examples/mall_guide.sgt -o out/mall_guide.json
+sgt render out/mall_guide.json -o out/mall_guide.mp4
 sgt render out/mall_guide.json -o out/mall_guide.gif --sheet out/mall_guide.png
+sgt say examples/mall_guide.sgt -o out/mall_guide_speech --mix out/mall_guide.wav >/dev/null
 sgt export out/mall_guide.json -o out/mall_guide.bvh
-echo "done: open out/mall_guide.gif (preview) and out/mall_guide.png (contact sheet); out/mall_guide.bvh for Blender"
+echo "done: open out/mall_guide.mp4 (video with sound), out/mall_guide.gif (preview) and out/mall_guide.png (contact sheet);"
+echo "      out/mall_guide.bvh for Blender, out/mall_guide.wav: its speech on the same clock"

@@ -88,15 +88,16 @@ def test_csv_round_trip(tmp_path):
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
     header = rows[0]
-    assert header[:2] == ["frame", "time"]
-    assert header[2:5] == ["spine_x", "spine_y", "spine_z"]
+    assert header[:3] == ["frame", "time", "utterance"]
+    assert header[3:6] == ["spine_x", "spine_y", "spine_z"]
     assert header[-3:] == ["right_wrist_x", "right_wrist_y", "right_wrist_z"]
-    assert len(header) == 2 + 3 * len(JOINTS)
+    assert len(header) == 3 + 3 * len(JOINTS)
     data = np.array(rows[1:], dtype=float)
     assert data.shape[0] == clip.n_frames
     assert np.array_equal(data[:, 0], np.arange(clip.n_frames))
     assert np.allclose(data[:, 1], np.arange(clip.n_frames) / FPS, atol=1e-6)
-    assert np.allclose(data[:, 2:].reshape(-1, len(JOINTS), 3), clip.positions, atol=1e-5)
+    assert np.array_equal(data[:, 2], np.zeros(clip.n_frames))  # one utterance: number 0 throughout
+    assert np.allclose(data[:, 3:].reshape(-1, len(JOINTS), 3), clip.positions, atol=1e-5)
 
 
 # -- command line ----------------------------------------------------------------------------

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pytest
 
 from core.controls import Control
-from core.motion import MotionClip, MotionFileError, load_motion, save_motion
+from core.motion import VERSION, MotionClip, MotionFileError, Track, load_motion, load_motion_file, save_motion
 from core.skeleton import (
     FPS,
     JOINTS,
@@ -54,7 +55,7 @@ def test_json_layout(tmp_path):
     path = tmp_path / "m.json"
     save_motion(path, _clips())
     doc = json.loads(path.read_text())
-    assert doc["format"] == "sgt-motion" and doc["version"] == 2 and doc["fps"] == FPS
+    assert doc["format"] == "sgt-motion" and doc["version"] == VERSION and doc["fps"] == FPS
     assert doc["joints"] == list(JOINTS)
     assert len(doc["bones"]) == 9 and "faces +z" in doc["coordinates"]
     u = doc["utterances"][0]
@@ -71,7 +72,7 @@ def test_npz_layout(tmp_path):
     assert meta["format"] == "sgt-motion" and meta["utterances"][0]["speaker"] == "ann"
 
 
-@pytest.mark.parametrize("change,message", [({"version": 3}, "motion file version 3 is not supported"),
+@pytest.mark.parametrize("change,message", [({"version": VERSION + 1}, f"motion file version {VERSION + 1} is not supported"),
                                             ({"format": "bvh"}, "format is 'bvh', expected 'sgt-motion'"),
                                             ({"fps": 30}, "fps 30, expected 15")])
 def test_refuses_other_formats(tmp_path, change, message):
@@ -188,3 +189,63 @@ def test_bad_hands_are_file_errors(tmp_path, hands, message):
     path.write_text(json.dumps(doc))
     with pytest.raises(MotionFileError, match=message):
         load_motion(path)
+
+
+@pytest.mark.parametrize("suffix", [".json", ".npz"])
+def test_performance_clock_and_tracks_round_trip(tmp_path, suffix):
+    a, b = _clips()
+    a.index, a.start, a.audio_offset = 0, 0.0, 0.2
+    b.index, b.start, b.audio_offset = 3, 14 / FPS, 0.0  # after a gap of 2 frames
+    rng = np.random.default_rng(1)
+    tracks = [Track(s, normalize_pose(REST_POSE + 0.1 * rng.standard_normal((19, 27)).astype(np.float32)))
+              for s in ("ann", None)]
+    script = tmp_path / "take.sgt"
+    path = tmp_path / "out" / f"m{suffix}"
+    path.parent.mkdir()
+    save_motion(path, [a, b], tracks=tracks, source=script)
+    got = load_motion_file(path)
+    assert got.version == VERSION and got.source == os.path.normpath(path.parent / "../take.sgt")
+    assert [(c.index, c.start, c.audio_offset, c.start_frame) for c in got.clips] == [(0, 0.0, 0.2, 0), (3, 14 / FPS, 0.0, 14)]
+    assert [t.speaker for t in got.tracks] == ["ann", None]
+    for orig, back in zip(tracks, got.tracks):
+        assert np.allclose(back.poses, orig.poses, atol=1e-5)
+        assert np.allclose(back.positions, positions_from_pose(orig.poses), atol=1e-4)
+    if suffix == ".json":
+        doc = json.loads(path.read_text())
+        assert doc["source"] == "../take.sgt"  # relative to the motion file's folder
+        assert doc["frames"] == 19 and doc["utterances"][1]["start"] == round(14 / FPS, 6)
+        assert doc["utterances"][0]["audio_offset"] == 0.2 and len(doc["tracks"][0]["poses"]) == 19
+
+
+def test_version_1_files_still_load(tmp_path):
+    path = tmp_path / "old.json"
+    save_motion(path, _clips())
+    doc = json.loads(path.read_text())
+    doc["version"] = 1
+    for key in ("frames", "source", "tracks"):
+        del doc[key]
+    for u in doc["utterances"]:
+        for key in ("index", "start", "audio_offset"):
+            del u[key]
+    path.write_text(json.dumps(doc))
+    got = load_motion_file(path)
+    assert got.version == 1 and got.tracks == [] and got.source is None
+    # before the clock, utterances were one after another; their audio offsets are unknown
+    assert [(c.index, c.start_frame, c.audio_offset) for c in got.clips] == [(0, 0, None), (1, 12, None)]
+
+
+def test_a_track_or_an_utterance_outside_the_performance_is_refused(tmp_path):
+    a, b = _clips()
+    b.start = 20 / FPS
+    path = tmp_path / "m.json"
+    save_motion(path, [a, b], tracks=[Track("ann", a.poses)])
+    doc = json.loads(path.read_text())
+    assert doc["frames"] == 25
+    doc["frames"] = 24
+    path.write_text(json.dumps(doc))
+    with pytest.raises(MotionFileError, match="utterance 1 .* does not fit in the performance's 24 frames"):
+        load_motion_file(path)
+    doc["frames"] = 25
+    path.write_text(json.dumps(doc))
+    with pytest.raises(MotionFileError, match=r"track 0: poses have shape \(12, 27\), expected \(25, 27\)"):
+        load_motion_file(path)

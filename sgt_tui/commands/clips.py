@@ -38,28 +38,33 @@ def generate_script(path: Path, *, engine: str | None = None, utterances=None, s
     return take
 
 
-def load_clips(path_text: str, utterance: int | None = None, *, engine: str | None = None,
-               seed: int | None = None, options=None) -> list:
-    """Clips of a motion file (.json/.npz) or a script (.sgt, generated), narrowed to
-    ``utterance`` (0-based) when given."""
+def load_performance(path_text: str, utterance: int | None = None, *, engine: str | None = None,
+                     seed: int | None = None, options=None, tracks: bool = True):
+    """A :class:`core.motion.MotionFile` of a motion file or a script (generated): its
+    utterances, its speakers' tracks and the script. With ``utterance`` only that one, and
+    no tracks; ``tracks=False`` does not build a script's tracks."""
     path = existing_file(path_text)
     suffix = path.suffix.lower()
     if suffix in SCRIPT_SUFFIXES:
-        utterances = [utterance] if utterance is not None else None
-        return generate_script(path, engine=engine, utterances=utterances, seed=seed, options=options).clips
+        from core.motion import MotionFile  # lazy: numpy
+
+        take = generate_script(path, engine=engine, utterances=None if utterance is None else [utterance],
+                               seed=seed, options=options)
+        return MotionFile(take.clips, take.tracks if tracks and utterance is None else [], str(path))
     if suffix not in MOTION_SUFFIXES:
         raise UsageError(f"{path}: unknown input type '{suffix or '(none)'}' (use .json, .npz or .sgt)")
-    from core.motion import MotionFileError, load_motion  # lazy: numpy
-
-    try:
-        clips = load_motion(path)
-    except MotionFileError as exc:
-        raise InputError(str(exc)) from None
-    if not clips:
-        raise InputError(f"{path}: no utterances")
+    from core.motion import MotionFile, MotionFileError, load_motion_file  # lazy: numpy
     from renders.clips import pick  # lazy: numpy
 
     try:
-        return pick(clips, utterance)
+        whole = load_motion_file(path)
+    except MotionFileError as exc:
+        raise InputError(str(exc)) from None
+    if not whole.clips:
+        raise InputError(f"{path}: no utterances")
+    if utterance is None:
+        return whole
+    try:
+        return MotionFile(pick(whole.clips, utterance), [], whole.source, whole.version)
     except IndexError as exc:
         raise UsageError(f"{path}: {exc}") from None

@@ -26,9 +26,16 @@ Export a motion file (or a script, generated first) by the output's extension, o
   nao     NAO v6 joint angles (NAOqi names)     .json (angleInterpolation) .csv
   pepper  Pepper joint angles (NAOqi names)     .json (angleInterpolation) .csv
 
-All but .json/.npz motion files hold one take: without --utterance the utterances are
-joined one after another. '-o -' writes to standard output (JSON unless --format says
-otherwise). Formats are documented in docs/formats.md."""
+A script is one performance: every speaker has one continuous track over all of it
+(its lines, listening motion between them). .json/.npz motion files hold all utterances and
+tracks; every other format holds one speaker's track: with several speakers, one file per
+speaker (take.bvh -> take.guide.bvh, take.visitor.bvh) or, with --speaker NAME, one. A
+sidecar OUT_STEM.timeline.json says where each utterance starts in the files (frames and
+seconds) and where its audio starts; CSV rows also name the utterance playing. With
+--utterance N, only that utterance's own motion is written. Motion files from before the
+performance clock (version 1) have no tracks: their utterances are joined one after
+another. '-o -' writes to standard output (JSON unless --format says otherwise). Formats
+are documented in docs/formats.md."""
 
 FORMATS = ("bvh", "csv", "json", "npz", "glb", "vrma")
 #: What each --rig writes (renders.rigs owns the rigs; tests keep the names in step).
@@ -54,6 +61,7 @@ def register(sub) -> None:
     p.add_argument("--rig", choices=tuple(RIG_OUTPUTS), metavar="NAME",
                    help="target skeleton or robot: " + ", ".join(RIG_OUTPUTS) + " (default: sgt)")
     p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (0-based)")
+    p.add_argument("--speaker", metavar="NAME", help="only this speaker's track (one file)")
     from sgt_tui.commands.render import add_script_options
 
     add_script_options(p)
@@ -61,33 +69,94 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from sgt_tui.commands.clips import load_clips
-    from sgt_tui.commands.common import output_file, output_format, shown
+    from sgt_tui.commands.clips import load_performance
+    from sgt_tui.commands.common import STDOUT, output_file, output_format, shown
     from sgt_tui.errors import UsageError
 
     fmt = output_format(args.output, args.format, FORMATS, what="export")
     rig = args.rig or ("vrm" if fmt == "vrma" else "sgt")
     if fmt not in RIG_OUTPUTS[rig]:
         raise UsageError(f"-o {args.output}: --rig {rig} writes {', '.join('.' + f for f in RIG_OUTPUTS[rig])}, not .{fmt}")
-    out = output_file(args.output, binary=fmt in ("npz", "glb", "vrma"))
-    clips = load_clips(args.input, args.utterance, engine=args.engine, seed=args.seed)
+    if args.speaker is not None and args.utterance is not None:
+        raise UsageError("--speaker and --utterance: give one (an utterance has one speaker)")
+    binary = fmt in ("npz", "glb", "vrma")
+    out = output_file(args.output, binary=binary)
+    take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
 
     from core.motion import save_motion
-    from renders.clips import concat_clips
+    from renders.clips import concat_clips, speaker_name, track_clip, utterance_frames
+
+    clips, tracks = take.clips, take.tracks
+    if args.speaker is not None:
+        names = [speaker_name(t.speaker) for t in tracks] or sorted({speaker_name(c.speaker) for c in clips})
+        if args.speaker not in names:
+            raise UsageError(f"--speaker {args.speaker}: no such speaker in {args.input} (it has {', '.join(names)})")
+        tracks = [t for t in tracks if speaker_name(t.speaker) == args.speaker]
+        clips = [c for c in clips if speaker_name(c.speaker) == args.speaker]
+    if rig == "sgt" and fmt in ("json", "npz"):
+        save_motion(out, clips, format=fmt, tracks=tracks, source=take.source)
+        print(f"wrote {shown(out)}: {len(clips)} utterance(s), {len(tracks)} track(s)", file=sys.stderr)
+        return 0
+    if not tracks:  # one utterance, or a version 1 file: the utterances one after another
+        outputs = [(out, concat_clips(clips), utterance_frames(sum(c.n_frames for c in clips), clips, joined=True))]
+    elif len(tracks) == 1:
+        outputs = [(out, track_clip(tracks[0], clips), utterance_frames(tracks[0].n_frames, clips))]
+    else:
+        if args.output == STDOUT:
+            raise UsageError(f"-o -: {args.input} has {len(tracks)} speakers; name one with --speaker or write files")
+        outputs = [(output_file(str(_speaker_path(out, speaker_name(t.speaker))), binary=binary),
+                    track_clip(t, clips), utterance_frames(t.n_frames, [c for c in clips if c.speaker == t.speaker]))
+                   for t in tracks]
+    for target, clip, frames in outputs:
+        own = [u for u in dict.fromkeys(frames) if u is not None]
+        note = _write(target, clip, rig, fmt, frames)
+        print(f"wrote {shown(target)}: {len(own)} utterance(s), {clip.n_frames} frames" + (f"; {note}" if note else ""),
+              file=sys.stderr)
+    if args.output != STDOUT:
+        sidecar = _speaker_path(out, "timeline", ".json")
+        _write_timeline(sidecar, clips, [(o[0], o[1].speaker) for o in outputs], bool(tracks))
+        print(f"wrote {shown(sidecar)}: where each utterance and its audio start", file=sys.stderr)
+    return 0
+
+
+def _speaker_path(out, name: str, suffix: str | None = None):
+    """take.bvh -> take.NAME.bvh (take.NAME.SUFFIX)."""
+    from pathlib import Path
+
+    out = Path(out)
+    return out.with_name(f"{out.stem}.{name}{suffix or out.suffix}")
+
+
+def _write(target, clip, rig: str, fmt: str, frames) -> str:
     from renders.export import write_bvh, write_csv
 
-    note = ""
-    if rig == "sgt" and fmt in ("json", "npz"):
-        save_motion(out, clips, format=fmt)
-        frames = sum(c.n_frames for c in clips)
-    else:
-        clip = concat_clips(clips)
-        frames = clip.n_frames
-        if rig == "sgt" and fmt in ("bvh", "csv"):
-            (write_bvh if fmt == "bvh" else write_csv)(out, clip)
+    if rig == "sgt" and fmt in ("bvh", "csv"):
+        if fmt == "bvh":
+            write_bvh(target, clip)
         else:
-            from renders.rig_export import write_rig_file
+            write_csv(target, clip, frames)
+        return ""
+    from renders.rig_export import write_rig_file
 
-            note = write_rig_file(out, clip, rig, "." + fmt)
-    print(f"wrote {shown(out)}: {len(clips)} utterance(s), {frames} frames" + (f"; {note}" if note else ""), file=sys.stderr)
-    return 0
+    return write_rig_file(target, clip, rig, "." + fmt)
+
+
+def _write_timeline(path, clips, files, tracked: bool) -> None:
+    """The sidecar: per utterance its speaker, text, first frame, frames, start and audio
+    offset on the exported files' clock, and which file holds each speaker."""
+    import json
+    from pathlib import Path
+
+    from core.fileio import atomic_write
+    from core.skeleton import FPS
+    from renders.clips import speaker_name
+
+    at, rows = 0, []
+    for i, c in enumerate(clips):
+        start = c.start_frame if tracked else at
+        at += c.n_frames
+        rows.append({"index": i if c.index is None else c.index, "speaker": c.speaker, "text": c.text,
+                     "start_frame": start, "frames": c.n_frames, "start": round(start / FPS, 6),
+                     "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6)})
+    doc = {"fps": FPS, "files": {speaker_name(s): Path(str(p)).name for p, s in files}, "utterances": rows}
+    atomic_write(path, (json.dumps(doc, indent=1, ensure_ascii=False) + "\n").encode("utf-8"))

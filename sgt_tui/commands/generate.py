@@ -12,9 +12,13 @@ the speech where you wrote nothing, your [pose:...] gestures where you wrote the
 the requested style where you wrote <speed:...> and friends.
 
 Output (.json or .npz, chosen by the extension or --format; '-o -' writes JSON to
-standard output): fps, joint names, and per utterance
-its words, controls, joint positions (T x 10 x 3, metres, y-up) and the 27-number poses.
-See docs/formats.md."""
+standard output): fps, joint names, per utterance its place on the performance clock
+(start, audio_offset), words, controls, joint positions (T x 10 x 3, metres, y-up) and
+the 27-number poses, and each speaker's continuous track over the whole performance
+(listening motion between its lines). See docs/formats.md.
+
+--threads sets torch's thread count (default 1: on a shared or small machine more threads
+wait for each other; benchmarks/bench_threads.py measures it)."""
 
 ENGINE_HELP = "neural (default: the trained generator), keyframe (splines through your pose controls), rules (procedural)"
 
@@ -33,11 +37,18 @@ def register(sub) -> None:
     p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0], help="post-filter of the neural engine (default one_euro)")
     p.add_argument("--no-blend", action="store_true", help="neural engine: do not force exact pose following")
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
+    add_threads_option(p)
     p.set_defaults(run=run)
 
 
+def add_threads_option(p) -> None:
+    from sgt_tui.commands.common import positive_int
+
+    p.add_argument("--threads", type=positive_int, metavar="N",
+                   help="torch threads for the neural engine (default 1, measured best under load)")
+
+
 def run(args) -> int:
-    from core.motion import save_motion
     from core.skeleton import FPS
     from model.neural import Options
     from sgt_tui.commands.clips import generate_script
@@ -47,9 +58,10 @@ def run(args) -> int:
     fmt = output_format(args.output, args.format, ("json", "npz"))
     out = output_file(args.output, binary=fmt == "npz")
     weights = str(existing_file(args.weights)) if args.weights else None
-    options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=weights)
+    options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=weights, threads=args.threads)
     take = generate_script(path, engine=args.engine, utterances=args.utterance, seed=args.seed, options=options)
-    save_motion(out, take.clips, format=fmt)
-    frames = sum(len(c.poses) for c in take.clips)
-    print(f"wrote {shown(out)}: {len(take.clips)} utterances, {frames} frames ({frames / FPS:.1f}s)", file=sys.stderr)
+    take.save(out, format=fmt)
+    frames = take.plan.n_frames
+    print(f"wrote {shown(out)}: {len(take.clips)} utterances, {len(take.tracks)} speaker track(s), "
+          f"{frames} frames ({frames / FPS:.1f}s)", file=sys.stderr)
     return 0

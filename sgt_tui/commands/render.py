@@ -1,20 +1,25 @@
-"""sgt render: motion file or script -> preview GIF, contact sheet, side-by-side comparison."""
+"""sgt render: motion file or script -> preview GIF or MP4 with sound, contact sheet,
+side-by-side comparison."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
-HELP = "render motion (or a script) to a preview GIF and contact sheet"
+HELP = "render motion (or a script) to a preview GIF or an MP4 with sound, and a contact sheet"
 DESCRIPTION = """\
 Render a motion file (.json/.npz written by sgt) or a script (.sgt, generated first)
-offscreen to a looping 15 fps GIF of a shaded mannequin. Every frame shows the word
-being spoken, a timeline of the controls (pose in green, style in red), a playhead
-and the time.
+offscreen to a looping 15 fps GIF (-o OUT.gif) or a 15 fps MP4 video with the speech
+(-o OUT.mp4: H.264 and AAC; the audio of every utterance at its place on the performance
+clock, from the script the take was generated from). Every frame shows a shaded
+mannequin per speaker, side by side (one with --speaker NAME), the word being spoken,
+a timeline of the controls (pose in green, style in red), a playhead and the time.
 
---sheet also writes a PNG contact sheet: frames sampled along the utterance with the
-words under them. --compare renders a second take beside the first, labelled.
-Without --utterance all utterances are rendered one after another.
+--sheet also writes a PNG contact sheet: frames sampled along the take with the words
+under them. --compare renders a second take beside the first, labelled (one speaker).
+Without --utterance the whole performance is rendered: each speaker's track, listening
+between its lines. Motion files from before the performance clock (version 1) have no
+tracks: their utterances are rendered one after another, and an MP4 has no sound.
 
 Offscreen GL: EGL, falling back to OSMesa (set SGT_GL=egl|osmesa to choose)."""
 
@@ -25,12 +30,13 @@ def register(sub) -> None:
     p = sub.add_parser("render", help=HELP, description=DESCRIPTION,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("input", metavar="INPUT", help="motion file (.json/.npz) or script (.sgt)")
-    p.add_argument("-o", "--output", metavar="OUT.gif", required=True,
-                   help="write the GIF here ('-': standard output, not a terminal)")
+    p.add_argument("-o", "--output", metavar="OUT", required=True,
+                   help="write the .gif or .mp4 here ('-': a GIF on standard output, not a terminal)")
     p.add_argument("--sheet", metavar="PNG", help="also write a contact sheet PNG")
     p.add_argument("--compare", metavar="MOTION", help="render this second take side by side")
     p.add_argument("--size", metavar="WxH", default="320x320", help="frame size in pixels (default 320x320)")
     p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (0-based)")
+    p.add_argument("--speaker", metavar="NAME", help="only this speaker's track")
     add_script_options(p)
     p.set_defaults(run=run)
 
@@ -70,47 +76,135 @@ def _check_suffix(path: str, allowed: tuple[str, ...], option: str) -> None:
 def run(args) -> int:
     from pathlib import Path
 
-    from renders.clips import concat_clips
-    from sgt_tui.commands.clips import load_clips
-    from sgt_tui.commands.common import one_stdout, output_file, shown
+    from sgt_tui.commands.clips import load_performance
+    from sgt_tui.commands.common import STDOUT, one_stdout, output_file, shown
+    from sgt_tui.errors import UsageError
 
-    _check_suffix(args.output, (".gif",), "-o")
+    _check_suffix(args.output, (".gif", ".mp4"), "-o")
+    video = args.output != STDOUT and Path(args.output).suffix.lower() == ".mp4"
     if args.sheet:
         _check_suffix(args.sheet, (".png",), "--sheet")
     size = parse_size(args.size)
     one_stdout(**{"-o": args.output, "--sheet": args.sheet})
-    gif_out = output_file(args.output, binary=True)
+    out = output_file(args.output, binary=True)
     sheet_out = output_file(args.sheet, "--sheet", binary=True) if args.sheet else None
-    clip = concat_clips(load_clips(args.input, args.utterance, engine=args.engine, seed=args.seed))
-    other = None
+    take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
+    clips, labels = _panel_clips(take, args.speaker, args.input)
     if args.compare:
-        other = concat_clips(load_clips(args.compare, args.utterance, engine=args.engine, seed=args.seed))
-
-    from renders.animate import render_gif, render_sheet
-    from renders.gl import RenderSetupError
-    from renders.mannequin import Mannequin
-    from sgt_tui.errors import InputError
-    from sgt_tui.progress import ProgressBar
-
-    labels = None
-    if other is not None:
+        if len(clips) > 1:
+            raise UsageError(f"--compare shows one speaker beside another take: choose one with --speaker "
+                             f"({', '.join(labels)})")
+        other = load_performance(args.compare, args.utterance, engine=args.engine, seed=args.seed)
+        clips += _panel_clips(other, args.speaker, args.compare)[0][:1]
         a, b = Path(args.input).stem, Path(args.compare).stem
         if a == b:
             a, b = str(args.input), str(args.compare)
         labels = (f"A {a}", f"B {b}")
+    audio = rate = None
+    if video:
+        audio, rate = _audio(take, args.input)
+
+    from renders.animate import render_gif, render_mp4, render_sheet
+    from renders.gl import RenderSetupError
+    from renders.mannequin import Mannequin
+    from renders.video import VideoError
+    from sgt_tui.errors import InputError
+    from sgt_tui.progress import ProgressBar
+
     try:
         m = Mannequin(*size)
     except RenderSetupError as exc:
         raise InputError(str(exc)) from None
     try:
-        info = render_gif(clip, gif_out, size=size, compare=other, labels=labels,
-                          progress=ProgressBar("render"), mannequin=m)
-        print(f"wrote {shown(gif_out)}: {info['frames']} frames, {info['duration_s']:.2f} s, "
-              f"{info['width']}x{info['height']}, {info['bytes'] / 1024:.0f} KiB ({info['platform']})",
-              file=sys.stderr)
+        if video:
+            try:
+                info = render_mp4(clips, out, labels=labels, audio=audio, sample_rate=rate, size=size,
+                                  progress=ProgressBar("render"), mannequin=m)
+            except VideoError as exc:
+                raise InputError(str(exc)) from None
+            sound = "with sound" if audio is not None else "no sound"
+        else:
+            info = render_gif(clips[0], out, size=size, others=clips[1:], labels=labels,
+                              progress=ProgressBar("render"), mannequin=m)
+            sound = ""
+        print(f"wrote {shown(out)}: {info['frames']} frames, {info['duration_s']:.2f} s, "
+              f"{info['width']}x{info['height']}, {info['bytes'] / 1024:.0f} KiB"
+              f"{', ' + sound if sound else ''} ({info['platform']})", file=sys.stderr)
         if sheet_out is not None:
-            s = render_sheet(clip, sheet_out, size=size, mannequin=m)
+            s = render_sheet(clips[0], sheet_out, size=size, mannequin=m)
             print(f"wrote {shown(sheet_out)}: {len(s['frames'])} frames, {s['width']}x{s['height']}", file=sys.stderr)
     finally:
         m.close()
     return 0
+
+
+def _panel_clips(take, speaker: str | None, name: str):
+    """The clips to draw side by side, and their labels: each speaker's track on the
+    performance clock (only ``speaker``'s when given), or, without tracks, the utterances
+    one after another."""
+    from renders.clips import concat_clips, speaker_name, track_clip
+    from sgt_tui.errors import UsageError
+
+    names = [speaker_name(t.speaker) for t in take.tracks] or list(dict.fromkeys(speaker_name(c.speaker) for c in take.clips))
+    if speaker is not None and speaker not in names:
+        raise UsageError(f"--speaker {speaker}: no such speaker in {name} (it has {', '.join(names)})")
+    if take.tracks:
+        tracks = [t for t in take.tracks if speaker is None or speaker_name(t.speaker) == speaker]
+        clips = [track_clip(t, take.clips) for t in tracks]
+        labels = tuple(speaker_name(t.speaker) for t in tracks) if len(tracks) > 1 else None
+        return clips, labels
+    chosen = [c for c in take.clips if speaker is None or speaker_name(c.speaker) == speaker]
+    return [concat_clips(chosen)], None
+
+
+def _audio(take, name: str):
+    """The performance's speech mixed on the clock of what is rendered: (samples, rate), or
+    (None, None) for a take without audio offsets (a version 1 motion file)."""
+    from core.skeleton import FPS
+    from renders.audio_mix import mix
+
+    if any(c.audio_offset is None for c in take.clips):
+        print(f"note: {name} is a motion file from before the performance clock: the video has no sound "
+              "(generate it again for sound)", file=sys.stderr)
+        return None, None
+    paths = _speech_files(take, name)
+    if take.tracks:
+        parts = [(paths[c.index], c.start + c.audio_offset) for c in take.clips]
+        frames = take.tracks[0].n_frames
+    else:  # one after another
+        parts, at = [], 0
+        for c in take.clips:
+            parts.append((paths[c.index], at / FPS + c.audio_offset))
+            at += c.n_frames
+        frames = at
+    return mix(parts, frames)
+
+
+def _speech_files(take, name: str) -> dict:
+    """Utterance number -> its speech audio, from the script the take was generated from
+    (compiled again; its speech is cached), checked against the take."""
+    from pathlib import Path
+
+    from dsl.compiler import compile_file
+    from sgt_tui.commands.common import print_diagnostics
+    from sgt_tui.errors import InputError
+    from sgt_tui.progress import ProgressBar
+
+    if not take.source:
+        raise InputError(f"{name} does not name the script it was generated from, so its speech is unknown; "
+                         "render the script, or a GIF")
+    source = Path(take.source)
+    if not source.is_file():
+        raise InputError(f"{name} was generated from {source}, which is not there any more; render a GIF, "
+                         "or generate the take again")
+    result = compile_file(source, timing="speech", utterances=[c.index for c in take.clips], progress=ProgressBar("speech"))
+    if result.plan is None:
+        print_diagnostics(result.diagnostics, {str(source): result.script.source})
+        raise InputError(f"{source} (the script of {name}) has errors", printed=True)
+    planned = {u.index: u for u in result.plan.utterances}
+    for c in take.clips:
+        u = planned.get(c.index)
+        if u is None or u.text != c.text or u.n_frames != c.n_frames or abs(u.audio_offset - c.audio_offset) > 1e-3:
+            raise InputError(f"{source} has changed since {name} was generated (utterance {c.index}: "
+                             f"{c.text!r}); generate the take again")
+    return {c.index: planned[c.index].audio_path for c in take.clips}

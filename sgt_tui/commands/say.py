@@ -8,7 +8,11 @@ HELP = "synthesize the speech and print the word timing table"
 DESCRIPTION = """\
 Speak every utterance of a script with espeak-ng (or read its @audio recording),
 write one WAV per utterance, and print each word with its start and end time.
-Results are cached by content, so running it again is instant."""
+Results are cached by content, so running it again is instant.
+
+--mix OUT.wav also writes the whole performance as one WAV: every utterance's speech at
+its place on the performance clock (the gaps of @gap between lines), so that its sample
+0 plays with frame 0 of the motion `sgt generate` makes (and it lasts as long)."""
 
 
 def register(sub) -> None:
@@ -19,6 +23,7 @@ def register(sub) -> None:
     p.add_argument("-o", "--out-dir", metavar="DIR", help="folder for the WAV files (default: ./STEM_speech; created if missing)")
     p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
     p.add_argument("--json", action="store_true", help="print the words as JSON instead of a table")
+    p.add_argument("--mix", metavar="OUT.wav", help="also write the whole performance as one WAV, on the motion's clock ('-': standard output)")
     p.set_defaults(run=run)
 
 
@@ -28,10 +33,25 @@ def run(args) -> int:
 
     from core.fileio import atomic_write
     from dsl.compiler import compile_file
-    from sgt_tui.commands.common import check_utterances, existing_file, exit_code, output_folder, print_diagnostics
+    from sgt_tui.commands.common import (
+        STDOUT,
+        check_utterances,
+        existing_file,
+        exit_code,
+        output_file,
+        output_folder,
+        print_diagnostics,
+        shown,
+    )
+    from sgt_tui.errors import UsageError
     from sgt_tui.progress import ProgressBar
 
     path = existing_file(args.file)
+    if args.mix is not None and args.mix != STDOUT and Path(args.mix).suffix.lower() != ".wav":
+        raise UsageError(f"--mix {args.mix}: expected a .wav file")
+    if args.mix == STDOUT and args.json:
+        raise UsageError("--mix - and --json both write to standard output: write the mix to a file")
+    mix_out = output_file(args.mix, "--mix", binary=True) if args.mix is not None else None
     out_dir = output_folder(args.out_dir or f"{path.stem}_speech")
     result = compile_file(path, timing="speech", progress=ProgressBar("speech"), utterances=args.utterance)
     if result.plan is not None:
@@ -48,14 +68,26 @@ def run(args) -> int:
         lead = u.lead_in
         speech_end = u.duration - u.speech.get("tail", 0.0) - lead
         report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav), "duration": round(speech_end, 3),
-                       "words": [w.shifted(-lead).to_dict() for w in u.words]})
+                       "start": round(u.start + lead, 6), "words": [w.shifted(-lead).to_dict() for w in u.words]})
+    if mix_out is not None:
+        import sys
+
+        from dsl.speech.audio import wav_bytes
+        from renders.audio_mix import mix
+
+        samples, rate = mix([(u.audio_path, u.start + u.audio_offset) for u in result.plan.utterances], result.plan.n_frames)
+        atomic_write(mix_out, wav_bytes(samples, rate))
+        print(f"wrote {shown(mix_out)}: {len(samples) / rate:.2f} s at {rate} Hz, "
+              f"{result.plan.n_frames} motion frames", file=sys.stderr)
+        if args.mix == STDOUT:
+            return exit_code(result.diagnostics)
     if args.json:
         print(json.dumps(report, indent=2, ensure_ascii=False))
         return exit_code(result.diagnostics)
     for r in report:
         who = f"{r['speaker']}: " if r["speaker"] else ""
         print(f"[{r['index']}] {who}{r['text']}")
-        print(f"    {r['audio']}  ({r['duration']:.2f}s)")
+        print(f"    {r['audio']}  ({r['duration']:.2f}s, starts at {r['start']:.2f}s in the performance)")
         print(f"    {'word':<20} {'start':>7} {'end':>7}")
         for w in r["words"]:
             print(f"    {w['word']:<20} {w['start']:7.3f} {w['end']:7.3f}")

@@ -1,0 +1,185 @@
+"""A script's performance: one continuous track per speaker on the performance clock.
+
+Every utterance is generated on its own (any engine; :func:`model.generate.clips_from_plan`),
+at the place :meth:`dsl.plan.Plan.lay_out` gives it. A speaker's track covers the whole
+performance: its own utterances where it speaks and, everywhere else, **listening motion**:
+the rules engine's idle layer (:func:`model.teacher.teach` without words: arms at rest,
+breathing, weight shifts of the torso, slow head drift) plus small nods shortly after the
+other speakers' accented (content) words.
+
+Joins: engines that take seed poses (the neural engine, like its own sliding windows) start
+an utterance from its track's listening poses (:data:`SEED_FRAMES` of them,
+:func:`listening_tracks`), so it begins where the track is. An utterance ends wherever its
+engine left it (and the other engines start anywhere), so it is also eased in and out of
+the listening motion (:func:`place`). Each ease straddles the boundary (half
+before the utterance's first frame, holding that frame, half inside it), and is as long as
+the distance to cover needs (:data:`EASE_PER_METRE` frames per metre of the largest joint
+distance, at least :data:`MIN_EASE`), so no joint steps more than a few centimetres a frame
+at a boundary whatever the engine made. Eases before an utterance never reach back over the
+same speaker's previous one.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from core.hands import SIDES, HandTrack, slerp
+from core.motion import MotionClip, Track
+from core.skeleton import BONE_INDEX, FPS, N_BONES, normalize_pose, positions_from_pose
+from model.postprocess import smoothstep
+
+#: Listening poses an utterance's generation starts from (the neural engine's seed poses).
+SEED_FRAMES = 15
+#: Shortest ease between listening and speaking motion, frames.
+MIN_EASE = 6
+#: Ease frames per metre of the largest joint distance at a boundary: a smoothstep's steepest
+#: step is 1.5 / frames of the distance, so 50 frames per metre keeps it at 3 cm a frame.
+EASE_PER_METRE = 50.0
+#: Longest ease, frames (3 s: from arms down to arms up).
+MAX_EASE = 45
+#: Listening nods: chance per accented word of another speaker, delay after its onset (s),
+#: amplitude (degrees) and width (s) of the nod.
+NOD_CHANCE = 0.5
+NOD_DELAY = 0.15
+NOD_DEG = 4.0
+NOD_WIDTH = 0.14
+
+_WORD = re.compile(r"[^\W_]+(?:['\u2019][^\W_]+)*")
+
+
+def accents(plan, listener) -> list[float]:
+    """Seconds on the performance clock of the other speakers' content-word onsets."""
+    from model.teacher import STOPWORDS  # lazy: the teacher loads the gesture library (the editor imports this)
+
+    out = []
+    for u in plan.utterances:
+        if u.speaker == listener:
+            continue
+        for w in u.words:
+            m = _WORD.search(w.word.lower())
+            if m and m.group() not in STOPWORDS:
+                out.append(u.start + w.start)
+    return out
+
+
+def listening(n_frames: int, accent_times, rng: np.random.Generator) -> np.ndarray:
+    """Poses (n, 27) of a listener: idle motion at rest and nods after some of ``accent_times``."""
+    from model.teacher import teach  # lazy: the teacher loads the gesture library (the editor imports this)
+
+    if n_frames <= 0:
+        return np.zeros((0, 3 * N_BONES), np.float32)
+    dirs = teach([], n_frames, rng=rng).astype(np.float64).reshape(n_frames, N_BONES, 3)
+    t = np.arange(n_frames) / FPS
+    pitch = np.zeros(n_frames)
+    for a in accent_times:
+        if rng.random() < NOD_CHANCE:
+            pitch += math.radians(NOD_DEG) * np.exp(-0.5 * ((t - a - NOD_DELAY) / NOD_WIDTH) ** 2)
+    pitch = np.minimum(pitch, math.radians(1.5 * NOD_DEG))  # nods in a row do not add up to a bow
+    c, s = np.cos(pitch), np.sin(pitch)
+    for bone in ("nose", "head_top"):  # a positive pitch about +x turns the face (+z) down
+        b = BONE_INDEX[bone]
+        y, z = dirs[:, b, 1].copy(), dirs[:, b, 2].copy()
+        dirs[:, b, 1], dirs[:, b, 2] = c * y - s * z, s * y + c * z
+    return normalize_pose(dirs.reshape(n_frames, -1)).astype(np.float32)
+
+
+def _blend(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Poses a -> b by weight w (n,): every bone direction turns along the great circle
+    (slerp), so even a bone turned round by 180 degrees moves smoothly."""
+    n = len(w)
+    a = normalize_pose(np.asarray(a, np.float64)).reshape(n, N_BONES, 3)
+    b = normalize_pose(np.asarray(b, np.float64)).reshape(n, N_BONES, 3)
+    dot = np.clip((a * b).sum(-1, keepdims=True), -1.0, 1.0)
+    ortho = b - dot * a
+    norm = np.linalg.norm(ortho, axis=-1, keepdims=True)
+    # opposite directions: any perpendicular will do; take the one nearest the x axis
+    side = np.cross(a, np.cross(np.array([1.0, 0.0, 0.0]), a))
+    side = np.where(np.linalg.norm(side, axis=-1, keepdims=True) < 1e-6, np.cross(a, [0.0, 0.0, 1.0]), side)
+    ortho = np.where(norm < 1e-6, side, ortho)
+    ortho /= np.linalg.norm(ortho, axis=-1, keepdims=True)
+    angle = np.arccos(dot) * w[:, None, None]
+    return normalize_pose((np.cos(angle) * a + np.sin(angle) * ortho).reshape(n, -1))
+
+
+def _ease_frames(a: np.ndarray, b: np.ndarray) -> int:
+    """Frames needed to ease from pose ``a`` to pose ``b`` (the largest joint distance along
+    the arcs the bones turn through: up to pi/2 times the straight distance)."""
+    d = float(np.linalg.norm(positions_from_pose(a) - positions_from_pose(b), axis=-1).max())
+    turn = np.arccos(np.clip((a.reshape(N_BONES, 3) * b.reshape(N_BONES, 3)).sum(-1), -1.0, 1.0)).max()
+    d *= max(1.0, turn / (2.0 * math.sin(max(turn, 1e-6) / 2.0)))  # arc over chord
+    return int(min(MAX_EASE, max(MIN_EASE, math.ceil(EASE_PER_METRE * d))))
+
+
+def place(track: np.ndarray, poses: np.ndarray, start: int, free_before: int, free_after: int) -> None:
+    """Put an utterance's ``poses`` into ``track`` (listening motion, changed in place) at frame
+    ``start``, eased in and out. ``free_before``/``free_after``: frames of listening motion
+    before and after it that an ease may use."""
+    n = len(poses)
+    end = start + n
+    base = track[start:end].copy()
+    # ease in: from the listening motion to the utterance (its first pose held before it)
+    k = _ease_frames(track[max(0, start - 1)], poses[0])
+    before = min(k // 2, free_before)
+    inside = min(k - before, n // 2)
+    a = start - before
+    w = smoothstep((np.arange(before + inside) + 1) / (before + inside + 1))
+    target = np.concatenate([np.repeat(poses[:1], before, 0), poses[:inside]])
+    track[a : start + inside] = _blend(track[a : start + inside], target, w)
+    # the utterance's own frames
+    mid = slice(start + inside, end)
+    track[mid] = poses[inside:]
+    # ease out: back to the listening motion (the last pose held after it)
+    k = _ease_frames(poses[-1], track[min(len(track) - 1, end)] if end < len(track) else poses[-1])
+    after = min(k // 2, free_after)
+    inside_out = min(k - after, n - inside)
+    b0 = end - inside_out
+    w = 1.0 - smoothstep((np.arange(inside_out + after) + 1) / (inside_out + after + 1))
+    listen = np.concatenate([base[n - inside_out :], track[end : end + after]])
+    target = np.concatenate([poses[n - inside_out :], np.repeat(poses[-1:], after, 0)])
+    track[b0 : end + after] = _blend(listen, target, w)
+
+
+def place_hands(track: HandTrack, hands: HandTrack, start: int) -> None:
+    """Put an utterance's ``hands`` into a track's hands (relaxed while listening; changed in
+    place) at frame ``start``, eased in and out over :data:`MIN_EASE` frames inside the
+    utterance (palms turn along the arc, finger angles blend)."""
+    n = hands.n_frames
+    w = np.ones(n, np.float32)
+    k = min(MIN_EASE, n // 2)
+    if k:
+        ramp = smoothstep((np.arange(k) + 1) / (k + 1))
+        w[:k], w[n - k :] = ramp, ramp[::-1]
+    frames = slice(start, start + n)
+    for j, side in enumerate(SIDES):
+        track.palm[frames, j] = slerp(track.palm[frames, j], hands.palm[:, j], w, 1.0 if side == "right" else -1.0)
+    track.fingers[frames] = (1 - w)[:, None, None, None] * track.fingers[frames] + w[:, None, None, None] * hands.fingers
+
+
+def listening_tracks(plan, seed: int = 0) -> dict:
+    """Speaker -> poses (``plan.n_frames``, 27): its listening motion over the whole performance
+    (deterministic for a plan and a seed)."""
+    return {speaker: listening(plan.n_frames, accents(plan, speaker), np.random.default_rng([seed, k]))
+            for k, speaker in enumerate(plan.speakers)}
+
+
+def build_tracks(plan, clips: list[MotionClip], seed: int = 0) -> list[Track]:
+    """One :class:`~core.motion.Track` per speaker of ``plan`` (in order of their first line),
+    ``plan.n_frames`` long: its utterances (``clips``, one per planned utterance) in their
+    places, listening motion (:func:`listening_tracks`) everywhere else."""
+    n = plan.n_frames
+    tracks = []
+    for speaker, listen in listening_tracks(plan, seed).items():
+        poses = listen.copy()
+        hands = HandTrack.rest(n)
+        own = [(u, c) for u, c in zip(plan.utterances, clips) if u.speaker == speaker]
+        for i, (u, c) in enumerate(own):
+            prev_end = own[i - 1][0].start_frame + own[i - 1][0].n_frames if i else 0
+            next_start = own[i + 1][0].start_frame if i + 1 < len(own) else n
+            end = u.start_frame + c.n_frames
+            place(poses, c.poses, u.start_frame, (u.start_frame - prev_end) // 2, (next_start - end + 1) // 2)
+            place_hands(hands, c.hands, u.start_frame)
+        tracks.append(Track(speaker, poses, hands=hands))
+    return tracks
