@@ -11,7 +11,7 @@ Every held-out clip is one evaluation window (the corpus clips are single uttera
   :func:`~model.training.metrics.style_control`);
 - ``mean pose``: the static mean pose of the training split (PCS/SCS against the same
   controls, to show their range, as the paper's asterisked entries);
-- ``rules``: the rule teacher with another random seed (same words, style and side);
+- ``rules``: the rule teacher with another random seed (same words, style, side and audio accents);
 - ``keyframe``: the MANUAL baseline through the same 5-frame pose control.
 """
 
@@ -40,10 +40,11 @@ def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
 
 
 def _rules(clip, seed):
-    """The teacher with another random seed on the clip's words, style and side (no audio)."""
+    """The teacher with another random seed on the clip's words, style, side and accents (the
+    accent strength of its audio, stored by the corpus; word onsets for corpora without it)."""
     meta = clip["meta"]
     poses = teach([TimedWord.from_dict(w) for w in meta["words"]], len(clip["poses"]), style=meta.get("teacher_style") or meta.get("style"),
-                  lead_in=meta.get("lead_in", 0.0), rng=np.random.default_rng(RULES_SEED + seed))
+                  strength=clip.get("accent"), rng=np.random.default_rng(RULES_SEED + seed))
     return mirror_pose(poses) if meta.get("mirror") else poses
 
 

@@ -89,9 +89,7 @@ def _user_data(root):
     """(train, val) clips from a BVH folder (model/loaders.py), or None after printing the error."""
     import sys
 
-    import numpy as np
-
-    from model.features import AUDIO_DIM
+    from model.features import silence_features
     from model.training.loaders import LoaderError, load_folder
 
     try:
@@ -102,7 +100,7 @@ def _user_data(root):
     for c in clips:
         if "audio" not in c:
             print(f"sgt train: warning: take '{c['id']}' has no audio; it trains with silence", file=sys.stderr)
-            c["audio"] = np.zeros((len(c["poses"]), AUDIO_DIM), np.float32)
+            c["audio"] = silence_features(len(c["poses"]))
     if len(clips) < 2:
         print(f"sgt train: error: {root} has {len(clips)} take(s); at least 2 are needed (one for validation)", file=sys.stderr)
         return None
