@@ -3,8 +3,8 @@
 - Audio (Kucherenko et al. 4.2; SGToolkit uses raw audio through a CNN): ``N_MELS`` log-mel
   bands plus log energy, one vector per motion frame (``FPS`` = 15 per second, window of two
   frames centred on the frame). Levels are relative to the utterance's **speech level**: per
-  band, the power is divided by its ``LEVEL_PERCENTILE``-th percentile over the utterance
-  (the loud, voiced frames), a floor ``FLOOR_DB`` below that level is added, and the log is
+  band, the power is divided by its level over the utterance's loud frames
+  (:func:`speech_level`), a floor ``FLOOR_DB`` below that level is added, and the log is
   scaled by fixed constants (:func:`level_features`). So gain and microphone colour do not
   matter (real recordings versus TTS), and silence reads the same whatever its share of the
   utterance: digital zeros sit exactly on the floor (:func:`silence_features`), room noise a
@@ -114,24 +114,33 @@ def raw_features(audio: np.ndarray, n_frames: int, offset_frames: int = 0) -> tu
     return mel, rms2
 
 
-#: The speech level of a band: this percentile of its power over the utterance.
-LEVEL_PERCENTILE = 98.0
+#: The speech level of a band: this percentile of its power over the utterance's active frames,
+#: those within ACTIVE_DB of the band's loudest frame (silence and quiet noise are left out, so
+#: the level does not depend on how much of the utterance is silent).
+LEVEL_PERCENTILE = 90.0
+ACTIVE_DB = 30.0
 #: The floor, in dB below the speech level: digital silence reads exactly this.
 FLOOR_DB = 60.0
 #: Power below this (absolute) is taken as no signal at all when finding the speech level.
 _NO_SIGNAL = 1e-12
-#: Fixed scaling of the log levels (dB / 20 - 1, centred): speech about 0 to 1, the floor -2.
+#: Fixed scaling of the log levels: speech reads about 0 to 1, the floor -2.
 _DB_SCALE, _DB_OFFSET = 20.0, 1.0
 
 
-def level_features(power: np.ndarray) -> np.ndarray:
-    """Per column (band): ``(10 log10(p / L + 10^(-FLOOR_DB / 10))) / 20 + 1``, where ``L`` is
-    the column's :data:`LEVEL_PERCENTILE`-th percentile over the rows (frames), at least a tiny
-    absolute level, so that an utterance of pure digital silence sits on the floor too. Speech
-    reads about 0 to 1, the floor -2."""
+def speech_level(power: np.ndarray) -> np.ndarray:
+    """(1, bands): per column, the :data:`LEVEL_PERCENTILE`-th percentile of the frames within
+    :data:`ACTIVE_DB` of the column's maximum (at least a tiny absolute level)."""
     p = np.asarray(power, np.float64)
-    level = np.maximum(np.percentile(p, LEVEL_PERCENTILE, axis=0, keepdims=True), _NO_SIGNAL)
-    db = 10.0 * np.log10(p / level + 10.0 ** (-FLOOR_DB / 10.0))
+    top = np.maximum(p.max(axis=0, keepdims=True), _NO_SIGNAL)
+    active = np.where(p >= top * 10.0 ** (-ACTIVE_DB / 10.0), p, np.nan)
+    return np.maximum(np.nanpercentile(active, LEVEL_PERCENTILE, axis=0, keepdims=True), _NO_SIGNAL)
+
+
+def level_features(power: np.ndarray) -> np.ndarray:
+    """Per column (band): ``10 log10(p / L + 10^(-FLOOR_DB / 10)) / 20 + 1`` with ``L`` the
+    column's :func:`speech_level`. Speech reads about 0 to 1, silence the floor, -2."""
+    p = np.asarray(power, np.float64)
+    db = 10.0 * np.log10(p / speech_level(p) + 10.0 ** (-FLOOR_DB / 10.0))
     return db / _DB_SCALE + _DB_OFFSET
 
 
