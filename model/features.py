@@ -144,6 +144,11 @@ def level_features(power: np.ndarray) -> np.ndarray:
     return db / _DB_SCALE + _DB_OFFSET
 
 
+def level_db(features: np.ndarray) -> np.ndarray:
+    """The features back in dB relative to the speech level (the inverse of the scaling)."""
+    return (np.asarray(features, np.float64) - _DB_OFFSET) * _DB_SCALE
+
+
 def audio_features(audio: np.ndarray, n_frames: int, offset_frames: int = 0) -> np.ndarray:
     """(n_frames, AUDIO_DIM) float32 for ``audio`` at SAMPLE_RATE placed ``offset_frames`` into the motion.
 

@@ -24,11 +24,14 @@ class TrainConfig:
     huber_delta: float = 0.05
     ctrl: float = 50.0  # L1 on pose-controlled frames; 0 switches it off
     vel: float = 50.0  # L1 on velocities; 0 switches it off
+    kl: float = 0.0  # KL weight of the conditional-VAE noise (a training-only posterior encoder); 0 = off
+    p_prior: float = 0.3  # with the encoder: share of windows whose noise comes from the prior
     p_drop_all: float = 0.25
     p_pose: float = 0.5
     p_seed: float = 0.5
     p_style: float = 0.5
     seed: int = 0
     threads: int = 2
+    device: str = "auto"  # "auto": CUDA when present, else CPU; "cpu" forces the CPU
     minutes: float | None = None  # stop after this much wall time (finishing the epoch)
     net: dict = field(default_factory=dict)

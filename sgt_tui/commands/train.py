@@ -9,7 +9,10 @@ DESCRIPTION = """\
 Train the controllable generator (SGToolkit Eq. 7: Huber pose term, adversarial term,
 style-consistency term) on a corpus made by 'sgt corpus', or on your own BVH takes
 (--data). The learning rate follows a cosine decay over the epochs. Checkpoints after
-every epoch; running the same command again resumes. Per-epoch losses and validation
+every epoch; running the same command again resumes. Runs on several processes or GPUs
+when launched by torchrun (DistributedDataParallel; gloo on CPU, NCCL on CUDA), e.g.
+'torchrun --nproc_per_node 4 -m sgt_tui.cli train --corpus DIR -o OUT'; --batch is then
+the global batch, split over the processes. Per-epoch losses and validation
 figures go to OUT/metrics.jsonl; OUT/generator.pt holds the weights of the epoch with the
 best validation score (PCS/0.014 + SCS/0.249), OUT/last.pt the last epoch's. Copy
 OUT/generator.pt to model/weights/generator.pt to ship it."""
@@ -38,6 +41,12 @@ def register(sub) -> None:
                    help=f"weight of the style-consistency term (Eq. 7 gamma; default {TrainConfig.gamma:g})")
     p.add_argument("--vel-weight", type=float, default=TrainConfig.vel,
                    help=f"weight of the L1 velocity term, 0 = off (default {TrainConfig.vel:g})")
+    p.add_argument("--kl", type=float, default=TrainConfig.kl,
+                   help="KL weight of the conditional-VAE noise: a training-only encoder reads each reference window "
+                        f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
+    p.add_argument("--window", type=int, default=TrainConfig.window, help=f"training window in frames (default {TrainConfig.window})")
+    p.add_argument("--device", choices=("auto", "cpu"), default=TrainConfig.device,
+                   help="auto: CUDA when present, else the CPU (default auto)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--fresh", action="store_true", help="ignore an existing checkpoint")
     p.add_argument("--hidden", type=int, default=128, help="network width")
@@ -73,6 +82,7 @@ def run(args) -> int:
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
                       threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight,
+                      kl=args.kl, window=args.window, device=args.device,
                       net={"hidden": args.hidden, "gru": not args.no_gru, "smooth": args.smooth})
     try:
         train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
