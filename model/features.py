@@ -36,6 +36,9 @@ N_MELS = 32
 AUDIO_DIM = N_MELS + 1
 WORD_BUCKETS = 4096
 HOP = SAMPLE_RATE // FPS  # samples per motion frame
+#: What the audio numbers mean; weights files record it, so weights trained on other audio
+#: features are refused (v1: per-utterance z-scores; v2: levels relative to the speech level).
+AUDIO_FEATURES = "log-mel+energy, dB re speech level, floor -60 dB (v2)"
 
 
 def load_audio(path: Path | str, sample_rate: int = SAMPLE_RATE) -> np.ndarray:

@@ -215,6 +215,10 @@ def _gauss_smooth(x: np.ndarray, sigma: float) -> np.ndarray:
 # -- accents --------------------------------------------------------------------------------
 
 
+#: Weights of the frame's loudness and of its onset strength in :func:`accent_strength`.
+ACCENT_MIX = (0.6, 0.4)
+
+
 def accent_strength(audio, n: int, lead_in: float = 0.0) -> np.ndarray | None:
     """Per-frame accent strength in [0, 1] of ``audio`` (mono at SAMPLE_RATE starting ``lead_in``
     seconds into the ``n`` motion frames): 0.6 x the frame's log energy (scaled to the clip's
@@ -237,7 +241,7 @@ def accent_strength(audio, n: int, lead_in: float = 0.0) -> np.ndarray | None:
     s = np.log(rms + 1e-5)
     s = (s - s.min()) / max(1e-6, s.max() - s.min())
     f = flux / max(1e-6, np.percentile(flux, 99))
-    return np.clip(0.6 * s + 0.4 * np.clip(f, 0, 1), 0.0, 1.0)
+    return np.clip(ACCENT_MIX[0] * s + ACCENT_MIX[1] * np.clip(f, 0, 1), 0.0, 1.0)
 
 
 def _accents(words, n: int, strength, rng) -> list[tuple[int, float]]:

@@ -328,3 +328,15 @@ def test_cli_smoothing_choices_are_the_engines():
 
     assert SMOOTHING_CHOICES == postprocess.SMOOTHERS
     assert neural.Options().smoothing == SMOOTHING_CHOICES[0]
+
+
+def test_weights_record_the_audio_features(tmp_path, weights):
+    """Weights trained on the old per-utterance z-scored audio (files without the entry) or any
+    other audio features are refused: their network would read every audio number wrongly."""
+    from model.features import AUDIO_FEATURES
+
+    blob = torch.load(str(weights), weights_only=True)
+    assert blob["layout"]["audio_features"] == AUDIO_FEATURES
+    older = {k: v for k, v in blob["layout"].items() if k != "audio_features"}
+    with pytest.raises(WeightsError, match="audio_features"):
+        load_weights(_saved(tmp_path, {**blob, "layout": older}))

@@ -70,11 +70,16 @@ HIST_EDGES = np.linspace(0.0, HIST_MAX_SPEED, int(round(HIST_MAX_SPEED / HIST_BI
 JERK_TOLERANCE = 0.25
 
 #: Beat alignment: the Gaussian's sigma (seconds), the onset threshold (mean rise of the log-mel
-#: bands from one frame to the next, in dB) and the neighbourhood (frames each side) in which
-#: an onset or a motion beat must be the extreme.
+#: bands from one frame to the next, in dB), the neighbourhood (frames each side) in which an
+#: onset or a motion beat must be the extreme, the joints whose speed gives the motion beats
+#: and how much (m/s) that speed must have dropped within the BEAT_LOOKBACK frames before a
+#: beat (the end of a stroke, not a ripple of a hold).
 BEAT_SIGMA = 0.1
 ONSET_RISE_DB = 6.0
 BEAT_ORDER = 2
+BEAT_GROUP = "wrists"
+BEAT_DROP = 0.05
+BEAT_LOOKBACK = 5
 
 #: Keys of a :func:`report` row, in table order.
 ROW_KEYS = ("fgd", "pcs", "scs", "ape", "speed", "accel", "jerk", "jerk_ratio",
@@ -340,16 +345,20 @@ def audio_onsets(audio_features: np.ndarray, rise_db: float = ONSET_RISE_DB, ord
     return peaks[flux[peaks] >= rise_db] if len(peaks) else peaks
 
 
-def motion_beats(motion, group: str | Sequence[str] = "all", order: int = BEAT_ORDER) -> np.ndarray:
-    """Frames of the motion beats: local minima (within ``order`` frames each side) of the mean
-    joint speed of the group (all upper-body joints by default), the moments a stroke stops.
-    The speed of frame ``t`` is the centred difference ``|x[t+1] - x[t-1]| / 2`` (frames 1 to
-    T-2), so a stroke that stops at frame ``t`` has its minimum there."""
+def motion_beats(motion, group: str | Sequence[str] = BEAT_GROUP, order: int = BEAT_ORDER,
+                 drop: float = BEAT_DROP) -> np.ndarray:
+    """Frames of the motion beats, the moments a stroke stops: local minima (within ``order``
+    frames each side) of the mean joint speed of the group (the wrists by default) that lie at
+    least ``drop`` m/s below the fastest of the :data:`BEAT_LOOKBACK` frames before them. The
+    speed of frame ``t`` is the centred difference ``|x[t+1] - x[t-1]| / 2`` (frames 1 to T-2),
+    so a stroke that stops at frame ``t`` has its minimum there."""
     x = joint_positions(motion)[..., _joint_indices(group), :]
     if len(x) < 3:
         return np.zeros(0, np.int64)
-    speed = np.linalg.norm(x[2:] - x[:-2], axis=-1).mean(axis=-1) / 2
-    return _local_extrema(speed, order, "min") + 1
+    speed = np.linalg.norm(x[2:] - x[:-2], axis=-1).mean(axis=-1) / 2 * FPS
+    minima = _local_extrema(speed, order, "min")
+    keep = [t for t in minima if t > 0 and speed[max(0, t - BEAT_LOOKBACK):t].max() - speed[t] >= drop]
+    return np.asarray(keep, np.int64) + 1
 
 
 def beat_alignment(beats, onsets, sigma: float = BEAT_SIGMA, fps: float = FPS) -> float:
