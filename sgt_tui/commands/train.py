@@ -44,6 +44,8 @@ def register(sub) -> None:
     p.add_argument("--kl", type=float, default=TrainConfig.kl,
                    help="KL weight of the conditional-VAE noise: a training-only encoder reads each reference window "
                         f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
+    p.add_argument("--p-prior", type=float, default=TrainConfig.p_prior,
+                   help=f"with --kl: share of training windows whose noise comes from the prior (default {TrainConfig.p_prior:g})")
     p.add_argument("--window", type=int, default=TrainConfig.window, help=f"training window in frames (default {TrainConfig.window})")
     p.add_argument("--device", choices=("auto", "cpu"), default=TrainConfig.device,
                    help="auto: CUDA when present, else the CPU (default auto)")
@@ -82,7 +84,7 @@ def run(args) -> int:
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
                       threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight,
-                      kl=args.kl, window=args.window, device=args.device,
+                      kl=args.kl, p_prior=args.p_prior, window=args.window, device=args.device,
                       net={"hidden": args.hidden, "gru": not args.no_gru, "smooth": args.smooth})
     try:
         train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
