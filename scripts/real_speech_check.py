@@ -173,7 +173,7 @@ def main() -> int:
             path, words = speak_set(clips, out, kind if not tts else "zeros", tts)
             y = load_audio(path)
             n = frame_count(lead + len(y) / 16000 + tail)
-            feats = audio_features(y, n, int(round(lead * FPS)))
+            feats = audio_features(y, n, round(lead * FPS))
             timed = [TimedWord(w, a + lead, b + lead) for w, a, b in words]
             takes[(name, kind)] = (EngineInputs(ControlArrays.empty(n), timed, path, lead), feats, words)
     names = list(sets)

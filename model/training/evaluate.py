@@ -31,8 +31,8 @@ from core.controls import ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
 from model import keyframe, neural, postprocess
-from model.teacher import teach
 from model.style import style as style_of
+from model.teacher import teach
 from model.training import metrics
 from model.training.corpus import load_corpus
 from model.weights import load_weights

@@ -57,12 +57,12 @@ def festival_say(text: str, voice: str, wav_path: Path, stretch: float = 1.0) ->
         f"(set! utt (Utterance Text {_scheme_string(text)}))",
         "(utt.synth utt)",
         f"(utt.save.wave utt {_scheme_string(str(wav_path))} 'riff)",
-        "(mapcar (lambda (w) (format t \"W\\t%s\\t%f\\t%f\\n\" (item.name w) (item.feat w \"word_start\")"
-        " (item.feat w \"word_end\"))) (utt.relation.items utt 'Word))",
+        ("(mapcar (lambda (w) (format t \"W\\t%s\\t%f\\t%f\\n\" (item.name w) (item.feat w \"word_start\")"
+         " (item.feat w \"word_end\"))) (utt.relation.items utt 'Word))"),
     ])
     scm = Path(wav_path).with_suffix(".scm")
     scm.write_text(script + "\n", encoding="utf-8")
-    proc = subprocess.run(["festival", "--batch", str(scm)], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(["festival", "--batch", str(scm)], capture_output=True, text=True, timeout=120, check=False)
     words = []
     for line in proc.stdout.splitlines():
         parts = line.split("\t")
