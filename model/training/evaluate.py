@@ -132,7 +132,8 @@ def style_following(clips, model, *, seed: int = 0, smoothing: str = "one_euro",
                 arrays = ControlArrays.empty(len(clip["poses"]))
                 arrays.style[:, k] = value
                 arrays.style_mask[:, k] = 1.0
-                got.append(style_of(_neural(model, clip, arrays, seed + i, smoothing=smoothing))[:, k])
+                speaking = np.asarray(clip["word_ids"]) > 0
+                got.append(style_of(_neural(model, clip, arrays, seed + i, smoothing=smoothing))[speaking, k])
             achieved.append(float(np.concatenate(got).mean()))
         slope = float(np.polyfit(np.asarray(levels, np.float64), np.asarray(achieved), 1)[0])
         out[name] = {"requested": list(levels), "achieved": achieved, "slope": slope}
@@ -146,7 +147,7 @@ def format_style_following(result: dict) -> str:
     lines = [head, "-" * len(head)]
     for name, r in result.items():
         lines.append(f"{name:<12}" + "".join(f" {a:+6.2f}" for a in r["achieved"]) + f"  {r['slope']:6.2f}")
-    lines.append("achieved style (normalised units, mean over clips and frames) for each requested value")
+    lines.append("achieved style (normalised units, mean over the clips' speaking frames) for each requested value")
     return "\n".join(lines) + "\n"
 
 

@@ -91,6 +91,27 @@ def simulate_controls(poses: np.ndarray, ref_style: np.ndarray, rng: np.random.G
     return pose, pmask, style, smask
 
 
+def restyle_requests(style: np.ndarray, style_mask: np.ndarray, pose_mask: np.ndarray, word_ids: np.ndarray,
+                     rng: np.random.Generator, p: float) -> np.ndarray:
+    """Counterfactual style requests, in place: on a share ``p`` of the windows that have no pose
+    control and are mostly speech, one style dimension is requested at a value drawn uniformly
+    in [-2.5, 2.5] instead of the reference's own. There is no reference motion for such a
+    request, so those windows (True in the returned (B,) mask) train only the style term
+    (towards the request) and the adversarial term: the network learns to reach the whole
+    style range, not only the styles its training windows happen to have. Windows mostly
+    silent are left alone (silence means rest, whatever the style)."""
+    b = len(style)
+    out = np.zeros(b, bool)
+    for i in range(b):
+        if pose_mask[i].any() or (word_ids[i] > 0).mean() < 0.6 or rng.random() >= p:
+            continue
+        k = int(rng.integers(style.shape[-1]))
+        style[i, :, k] = rng.uniform(-2.5, 2.5)
+        style_mask[i, :, k] = 1.0
+        out[i] = True
+    return out
+
+
 # -- training ---------------------------------------------------------------------------------
 
 
@@ -277,6 +298,13 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
             with torch.no_grad():
                 ref_style = style_of(ref)
             pose, pmask, sty, smask = simulate_controls(batch["poses"], ref_style.cpu().numpy(), rng, cfg)
+            target = ref_style
+            keep = torch.ones(local_batch, device=dev)  # windows the reference terms apply to
+            if cfg.p_restyle > 0:
+                restyled = restyle_requests(sty, smask, pmask, batch["word_ids"], rng, cfg.p_restyle)
+                if restyled.any():
+                    target = torch.as_tensor(np.where(smask > 0, sty, ref_style.cpu().numpy()), device=dev)
+                    keep = torch.as_tensor(~restyled, dtype=torch.float32, device=dev)
             z = torch.as_tensor(rng.standard_normal((local_batch, noise_dim)), dtype=torch.float32, device=dev)
             loss = torch.zeros((), device=dev)
             if encoder is not None:
@@ -292,8 +320,10 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
                 sums["kl"] += kl.item()
             out = net(audio, ids, onsets, torch.as_tensor(pose, device=dev), torch.as_tensor(pmask, device=dev),
                       torch.as_tensor(sty, device=dev), torch.as_tensor(smask, device=dev), z)
-            huber = torch.nn.functional.huber_loss(out, ref, delta=cfg.huber_delta)
-            style_loss = (style_of(out) - ref_style).abs().mean()
+            kept = keep.sum().clamp_min(1)
+            huber = (torch.nn.functional.huber_loss(out, ref, delta=cfg.huber_delta, reduction="none").mean((1, 2))
+                     * keep).sum() / kept
+            style_loss = (style_of(out) - target).abs().mean()
             loss = loss + cfg.alpha * huber + cfg.gamma * style_loss
             m = torch.as_tensor(pmask, device=dev)
             if cfg.ctrl > 0:
@@ -301,7 +331,7 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
                 loss = loss + cfg.ctrl * ctrl
                 sums["ctrl"] += ctrl.item()
             if cfg.vel > 0:
-                vel = (torch.diff(out, dim=1) - torch.diff(ref, dim=1)).abs().mean()
+                vel = ((torch.diff(out, dim=1) - torch.diff(ref, dim=1)).abs().mean((1, 2)) * keep).sum() / kept
                 loss = loss + cfg.vel * vel
                 sums["vel"] += vel.item()
             if critic is not None:

@@ -46,6 +46,9 @@ def register(sub) -> None:
                         f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
     p.add_argument("--p-prior", type=float, default=TrainConfig.p_prior,
                    help=f"with --kl: share of training windows whose noise comes from the prior (default {TrainConfig.p_prior:g})")
+    p.add_argument("--restyle", type=float, default=TrainConfig.p_restyle, metavar="P",
+                   help="share of speech windows trained on a style request other than their own, with the style "
+                        f"and adversarial terms only, so style controls reach the whole range (default {TrainConfig.p_restyle:g})")
     p.add_argument("--window", type=int, default=TrainConfig.window, help=f"training window in frames (default {TrainConfig.window})")
     p.add_argument("--device", choices=("auto", "cpu"), default=TrainConfig.device,
                    help="auto: CUDA when present, else the CPU (default auto)")
@@ -84,7 +87,7 @@ def run(args) -> int:
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
                       threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight,
-                      kl=args.kl, p_prior=args.p_prior, window=args.window, device=args.device,
+                      kl=args.kl, p_prior=args.p_prior, p_restyle=args.restyle, window=args.window, device=args.device,
                       net={"hidden": args.hidden, "gru": not args.no_gru, "smooth": args.smooth})
     try:
         train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
