@@ -308,12 +308,14 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
             z = torch.as_tensor(rng.standard_normal((local_batch, noise_dim)), dtype=torch.float32, device=dev)
             loss = torch.zeros((), device=dev)
             if encoder is not None:
-                # conditional VAE: the noise of a window drawn from the encoder's posterior of its
-                # reference, except for cfg.p_prior of them (noise from the prior, as generation
-                # draws it), so the controls are followed whatever the noise says
+                # conditional VAE: the noise of an uncontrolled window is drawn from the encoder's
+                # posterior of its reference (except for cfg.p_prior of them); a window with any
+                # pose or style control gets noise from the prior, as generation draws it, so the
+                # network learns to follow the controls, not what the posterior says of the reference
                 mu, logvar = encoder(ref)
                 eps = torch.as_tensor(rng.standard_normal((local_batch, noise_dim)), dtype=torch.float32, device=dev)
-                post = torch.as_tensor(rng.random(local_batch) >= cfg.p_prior, device=dev)
+                free = (pmask.max(axis=1) == 0) & (smask.reshape(local_batch, -1).max(axis=1) == 0)
+                post = torch.as_tensor(free & (rng.random(local_batch) >= cfg.p_prior), device=dev)
                 z = torch.where(post[:, None], mu + torch.exp(0.5 * logvar) * eps, z)
                 kl = (0.5 * (mu.pow(2) + logvar.exp() - 1.0 - logvar).sum(-1) * post).sum() / post.sum().clamp_min(1)
                 loss = loss + cfg.kl * kl

@@ -25,7 +25,8 @@ class TrainConfig:
     ctrl: float = 50.0  # L1 on pose-controlled frames; 0 switches it off
     vel: float = 50.0  # L1 on velocities; 0 switches it off
     kl: float = 0.0  # KL weight of the conditional-VAE noise (a training-only posterior encoder); 0 = off
-    p_prior: float = 0.3  # with the encoder: share of windows whose noise comes from the prior
+    p_prior: float = 0.0  # with the encoder: share of uncontrolled windows whose noise comes from the prior
+    # (controlled windows always get the prior's)
     p_restyle: float = 0.0  # share of speech windows given a counterfactual style request (train.restyle_requests)
     p_drop_all: float = 0.25
     p_pose: float = 0.5

@@ -45,7 +45,8 @@ def register(sub) -> None:
                    help="KL weight of the conditional-VAE noise: a training-only encoder reads each reference window "
                         f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
     p.add_argument("--p-prior", type=float, default=TrainConfig.p_prior,
-                   help=f"with --kl: share of training windows whose noise comes from the prior (default {TrainConfig.p_prior:g})")
+                   help="with --kl: share of uncontrolled training windows whose noise comes from the prior (windows with "
+                        f"controls always get the prior's; default {TrainConfig.p_prior:g})")
     p.add_argument("--restyle", type=float, default=TrainConfig.p_restyle, metavar="P",
                    help="share of speech windows trained on a style request other than their own, with the style "
                         f"and adversarial terms only, so style controls reach the whole range (default {TrainConfig.p_restyle:g})")
