@@ -16,8 +16,9 @@ spoken by espeak-ng with the same gaps (``espeak-ng``) are the TTS comparison. F
 shipped model (or ``--weights``) generates ``--seeds`` takes and the script reports:
 
 - wrist speed while speaking (frames inside a word) and while silent (frames more than
-  ``QUIET_AFTER`` s after the last word and ``QUIET_BEFORE`` s before the next), and their ratio
-  (target at least 2);
+  ``QUIET_AFTER`` s after the last word and ``QUIET_BEFORE`` s before the next: the middle of
+  the long gaps, where a speaker rests; the teacher needs about a second to lower its arms
+  after speaking), their ratio (target at least 2) and the fastest silent frame (``max``);
 - the Pearson correlation of the wrists' speed with the speech energy (the last audio
   feature, dB re the speech level / 20 + 1), per take, averaged (target at least 0.4): per
   frame (``corr``), and of their 1 s moving averages (``corr 1s``: whether the hands move
@@ -141,6 +142,7 @@ def measure(poses, feats, speaking, silent, other_feats) -> dict:
 
     other = other_feats[np.arange(len(feats)) % len(other_feats)]
     return {"speaking": float(speed[speaking].mean()), "silent": float(speed[silent].mean()) if silent.any() else float("nan"),
+            "silent_max": float(speed[silent].max()) if silent.any() else float("nan"),
             "corr": corr(energy[1:], speed[1:]),
             "corr_1s": corr(np.convolve(energy[1:], kernel, "valid"), np.convolve(speed[1:], kernel, "valid")),
             "ba": clips_beat_alignment([poses], [feats]), "ba_shuffled": clips_beat_alignment([poses], [other])}
@@ -190,10 +192,10 @@ def main() -> int:
             results.append(measure(poses, feats, speaking, silent, other))
         mean = {k: float(np.nanmean([r[k] for r in results])) for k in results[0]}
         rows.append((name, kind, len(words), inputs.n_frames / FPS, mean))
-    print(f"{'set':10} {'gaps':10} {'words':>5} {'dur s':>6} {'speak m/s':>9} {'silent':>7} {'ratio':>6} "
+    print(f"{'set':10} {'gaps':10} {'words':>5} {'dur s':>6} {'speak m/s':>9} {'silent':>7} {'max':>6} {'ratio':>6} "
           f"{'corr':>5} {'corr 1s':>7} {'BA':>5} {'BA shuf':>7}")
     for name, kind, nw, dur, m in rows:
-        print(f"{name:10} {kind:10} {nw:5d} {dur:6.1f} {m['speaking']:9.3f} {m['silent']:7.3f} "
+        print(f"{name:10} {kind:10} {nw:5d} {dur:6.1f} {m['speaking']:9.3f} {m['silent']:7.3f} {m['silent_max']:6.3f} "
               f"{m['speaking'] / m['silent']:6.2f} {m['corr']:5.2f} {m['corr_1s']:7.2f} {m['ba']:5.2f} {m['ba_shuffled']:7.2f}")
     human = [m for _, kind, _, _, m in rows if kind != "espeak-ng"]
     print(f"human speech ({len(human)} recordings x {args.seeds} takes, {args.engine}): speaking/silent ratio "
