@@ -17,9 +17,7 @@ _.style_close
 # highlighting (sgt_tui/app/script_area.py), and Textual reads them.
 _.record
 _.history
-_._highlights
 _.theme
-_._build_highlight_map
 
 # -- used outside the scanned code -------------------------------------------------------------
 # The documented command that retrains the shipped FGD extractor (fgd.load's fix message,
@@ -39,18 +37,6 @@ _.can_redo  # tests/test_editor_core.py
 _.reload  # tests/test_editor_core.py: ScriptFile.reload
 _.worker_pid  # tests/test_editor_jobs.py: the job worker process is reused
 
-# -- left to their owners (issue 9), reported to the lead -----------------------------------------
-# core.rules' registry API: the diagnostics engineer registers the rules with it.
-_.rule
-# Dead in dsl/, removed by the diagnostics engineer on their branch (issue 9 item 9).
-_.speaker_col
-_.own_values
-_.has_errors
-_.voiced_start_in
-_.rel  # dsl/parser.py: _tag_syntax_message's unused parameter
-# Dead in sgt_tui/editor (the editor engineer's files): never called.
-_.preset_values
-_._body_start
 
 # -- PyAV stream and frame settings (renders/video.py): PyAV reads these attributes -------------
 _.pix_fmt
@@ -58,3 +44,16 @@ _.time_base
 # renders/video.py: the MP4 writer of `sgt render -o take.mp4`; tests/test_video.py covers
 # encode_mp4, which it wraps.
 _.write_mp4
+# Textual calls these: a command Provider's discover (the palette's list before typing), and the
+# TextArea methods the script area overrides so Home/End go to the start/end of a wrapped line.
+_.discover
+_.get_cursor_line_start_location
+_.get_cursor_line_end_location
+# The utterance whose take is current; tests/test_editor_app.py reads it to check the preview.
+_.current_key
+# The grammar's own parser (dsl/body.py): the definition the scanner is proved equal to
+# (tests/test_scan.py parses random bodies with both).
+_.lark_parser
+# The Python API's one-call form (README "Python API", model/generate.py's docstring; the README
+# block is run by tests/test_readme_api.py).
+_.generate_clips

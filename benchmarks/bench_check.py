@@ -7,8 +7,11 @@ pause marks, escapes, speakers) followed by 2-8 random words, so that about 98% 
 are distinct (nothing in the front end caches by line, so repetition would not help it anyway).
 Then times:
 - the whole `sgt check FILE` command in a subprocess (interpreter start and imports included),
-  and the same on the script with a mistake on every 10th line (Lark, error recovery and
-  did-you-mean suggestions, ~700 diagnostics printed),
+  warm (the usual case), and the same on the script with a mistake on every 10th line (error
+  recovery and did-you-mean suggestions, ~700 diagnostics, the first 50 printed),
+- cold: the same with an empty speech cache (`sgt check` does not use it: the overlap check
+  runs on estimated timing, see docs/language.md) and with an empty Python bytecode cache
+  (every module, numpy included, compiled again: the first run after an install),
 - in-process: parse + static checks (`analyse`), and the whole front end `sgt check` runs
   (`compile_file` with estimated timing: + timing + pose placement and overlap checks),
   both with the garbage collector on as in any program and off as in `sgt check`,
@@ -109,6 +112,14 @@ def main() -> int:
         sgt = [sys.executable, "-m", "sgt_tui.cli"]
         report(f"`sgt check` subprocess ({args.lines} lines)", timeit(lambda: subprocess.run(sgt + ["check", "-q", str(path)], check=False, capture_output=True), args.repeat))
         report("  same, a mistake every 10th line", timeit(lambda: subprocess.run(sgt + ["check", str(bad)], check=False, capture_output=True), args.repeat))
+
+        def cold(kind: str):
+            fresh = Path(tempfile.mkdtemp(dir=tmp))
+            env = dict(os.environ, SGT_CACHE_DIR=str(fresh)) if kind == "speech" else dict(os.environ, PYTHONPYCACHEPREFIX=str(fresh))
+            return subprocess.run(sgt + ["check", "-q", str(path)], check=False, capture_output=True, env=env)
+
+        report("  cold: empty speech cache", timeit(lambda: cold("speech"), args.repeat))
+        report("  cold: empty bytecode cache", timeit(lambda: cold("bytecode"), args.repeat))
         source, names = path.read_text(encoding="utf-8"), lib.names()
         front_end = lambda: compile_file(path, timing="estimate", library=lib)  # noqa: E731
         parse = lambda: analyse(source, str(path), gesture_names=names)  # noqa: E731

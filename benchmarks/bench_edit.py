@@ -48,6 +48,7 @@ def ten_second_utterance() -> str:
 
 def keystroke(lines: int, repeat: int) -> None:
     from bench_check import make_script
+
     from sgt_tui.editor.analysis import Analyser
 
     text = make_script(lines)
@@ -73,22 +74,23 @@ def keystroke(lines: int, repeat: int) -> None:
 
 
 async def _app_keystrokes(path: Path, repeat: int) -> list[float]:
-    from sgt_tui.app.main import ANALYSIS_DELAY, EditorApp
+    from sgt_tui.app.main import EditorApp
+    from sgt_tui.app.services import ANALYSIS_DELAY
     from sgt_tui.editor.files import ScriptFile
 
     app = EditorApp(ScriptFile.open(path), engine="rules", cursor_blink=False)
     marks: dict[str, float] = {}
-    replace, apply = app.doc.replace, app.apply_analysis
+    replace, shown = app.doc.replace, app.update_cursor_info
 
     def timed_replace(*a, **kw):  # the key reaches the document
         marks["edit"] = time.perf_counter()
         return replace(*a, **kw)
 
-    def timed_apply(*a, **kw):  # diagnostics, timeline and preview updated; the repaint follows
-        apply(*a, **kw)
+    def timed_shown(*a, **kw):  # the last step of showing an analysis: timeline and preview updated
+        shown(*a, **kw)
         marks["shown"] = time.perf_counter()
 
-    app.doc.replace, app.apply_analysis = timed_replace, timed_apply
+    app.doc.replace, app.update_cursor_info = timed_replace, timed_shown
     from_edit = []
     async with app.run_test(size=(80, 24)) as pilot:
         await pilot.pause()
@@ -98,7 +100,7 @@ async def _app_keystrokes(path: Path, repeat: int) -> list[float]:
             app.area.move_cursor((u.line - 1, 12))
             await pilot.pause()
             await pilot.press("a")
-            while app.analysed_version != app.doc.version:
+            while app.shown_version != app.doc.version:
                 await asyncio.sleep(0.001)
             from_edit.append(marks["shown"] - marks["edit"] - ANALYSIS_DELAY)
     return from_edit
@@ -139,11 +141,11 @@ async def _app_regenerate(path: Path, engine: str, repeat: int, weights: str | N
     async with app.run_test(size=(80, 24)) as pilot:
         await pilot.pause()
         for i in range(repeat + 1):  # the first run warms the worker, models and speech cache
-            app.generated.clear()
+            app.takes.generated.clear()
             t = time.perf_counter()
             await pilot.press("ctrl+g")
             while not app.player.label.startswith("generated"):
-                if not app.runner.busy and "failed" in app.last_message:
+                if not app.jobs.busy and "failed" in app.last_message:
                     raise SystemExit(app.last_message)
                 await asyncio.sleep(0.002)
             if i:

@@ -12,5 +12,7 @@ and the import-linter contracts in pyproject.toml).
 - :mod:`core.diagnostics` diagnostics as data, and their one text/JSON renderer
 - :mod:`core.rules`       the registry of diagnostic codes (``sgt explain``)
 - :mod:`core.fileio`      safe file writes
+- :mod:`core.interrupts`  ctrl+c held while a library would swallow it
 - :mod:`core.paths`       user locations: config, cache, gesture folders (XDG honoured)
+- :mod:`core.seeds`       the range of random seeds (``@seed``, ``--seed``)
 """

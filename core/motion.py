@@ -12,7 +12,8 @@ JSON (``*.json``)::
 Floats are rounded to 5 decimals. NPZ (``*.npz``) holds ``poses_0``, ``positions_0``, ...
 as float32 arrays plus ``meta``: the same JSON header without the pose/position arrays.
 Any other format name or version is refused with :class:`MotionFileError`. Files are
-written atomically (temporary file in the same folder, then ``os.replace``).
+written by :mod:`core.fileio`'s rules (atomically for a regular file: a temporary file in
+the same folder, then ``os.replace``; a device or a link is never replaced).
 """
 
 from __future__ import annotations
@@ -92,17 +93,26 @@ def _utterance_meta(c: MotionClip) -> dict:
     }
 
 
-def _kind(path: Path) -> str:
+def _kind(path) -> str:
+    if hasattr(path, "write"):
+        raise MotionFileError("name the motion file format (json or npz) to write it to a stream")
     suffix = Path(path).suffix.lower()
     if suffix not in (".json", ".npz"):
         raise MotionFileError(f"{path}: unknown motion file type '{suffix}' (use .json or .npz)")
     return suffix[1:]
 
 
-def save_motion(path, clips: Sequence[MotionClip]) -> None:
-    """Write ``clips`` to ``path`` (.json or .npz), atomically."""
-    path = Path(path)
-    kind = _kind(path)
+def save_motion(path, clips: Sequence[MotionClip], format: str | None = None) -> None:
+    """Write ``clips`` to ``path`` by :mod:`core.fileio`'s rules (atomically for a regular file).
+
+    ``format`` ("json" or "npz") defaults to the path's extension; ``path`` may also be a binary
+    stream (then ``format`` is needed)."""
+    if format is None:
+        kind = _kind(path)
+    elif format in ("json", "npz"):
+        kind = format
+    else:
+        raise MotionFileError(f"unknown motion file format '{format}' (use json or npz)")
     clips = list(clips)
     for c in clips:
         if c.fps != FPS:
@@ -113,7 +123,7 @@ def save_motion(path, clips: Sequence[MotionClip]) -> None:
             {**_utterance_meta(c), "poses": _round(c.poses), "positions": _round(c.positions)}
             for c in clips
         ]
-        data = json.dumps(doc, indent=1).encode("utf-8")
+        data = (json.dumps(doc, indent=1) + "\n").encode("utf-8")
     else:
         doc["utterances"] = [_utterance_meta(c) for c in clips]
         arrays = {"meta": np.array(json.dumps(doc))}

@@ -11,17 +11,25 @@ template's fields::
 
 The rule fills in the code, name, severity, message and hint; nothing else formats a
 diagnostic (the renderer in :mod:`core.diagnostics` is the only place that turns one into
-text). Code ranges: 1xx layout and syntax, 2xx names and references, 3xx values, 4xx speech
-and timing, 5xx gesture specs and configuration, 6xx files and encodings.
+text). Other places go in ``related=`` (:class:`~core.diagnostics.Related`, never "(line N,
+col M)" in a message) and suggested edits in ``fixes=`` (:func:`did_you_mean` makes them for a
+misspelt name, with the hint that names them).
+
+Code ranges: 1xx layout and syntax, 2xx names and references, 3xx values, 4xx speech and
+timing, 5xx gesture specs and configuration, 6xx files and encodings. Codes are stable: a
+retired rule keeps its code, documented as reserved. Each rule carries an ``example`` script
+that triggers it (tests/test_rules.py runs every one; ``sgt explain`` shows it with what
+``sgt check`` says about it).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
-from core.diagnostics import ERROR, NOTE, WARNING, Diagnostic, Fix, Related, TextEdit
+from core.diagnostics import ERROR, NOTE, WARNING, Diagnostic, Fix, Related, TextEdit, suggest
 
-__all__ = ["Rule", "RULES", "lookup", "replacements", "ERROR", "WARNING", "NOTE"]
+__all__ = ["Rule", "RULES", "lookup", "replacements", "did_you_mean", "ERROR", "WARNING", "NOTE"]
 
 
 @dataclass(frozen=True)
@@ -32,6 +40,15 @@ class Rule:
     template: str
     hint: str | None
     explanation: str
+    #: A script that triggers the rule (``sgt explain`` shows it and what ``sgt check`` says about
+    #: it; tests/test_rules.py checks that it really does), the files it needs beside it
+    #: (relative path -> text; ``"@silence:SECONDS"`` stands for a silent WAV of that length),
+    #: environment variables it needs, and the script's encoding ("utf-8" writes lone
+    #: surrogates as the bytes they escape). "" when no script can (the explanation says why).
+    example: str = ""
+    files: tuple[tuple[str, str], ...] = ()
+    env: tuple[tuple[str, str], ...] = ()
+    encoding: str = "utf-8"
 
     def message(self, **fields) -> str:
         return self.template.format(**fields)
@@ -41,7 +58,7 @@ class Rule:
            severity: str | None = None, **fields) -> Diagnostic:
         """A diagnostic of this rule at ``file:line:col`` (1-based; line 0 = the whole file).
 
-        ``hint="default"`` takes the rule's hint; pass a string to give a specific one, or None
+        ``hint="default"`` takes the rule's hint (a template with the same fields); pass a string to give a specific one, or None
         for none. ``severity`` overrides the rule's default (e.g. a timing problem found with
         estimated timing)."""
         return Diagnostic(
@@ -51,7 +68,7 @@ class Rule:
             line=line,
             col=col,
             length=max(1, length),
-            hint=self.hint if hint == "default" else hint,
+            hint=(self.hint.format(**fields) if self.hint else None) if hint == "default" else hint,
             code=self.code,
             name=self.name,
             related=tuple(related),
@@ -63,11 +80,14 @@ RULES: dict[str, Rule] = {}
 _BY_NAME: dict[str, Rule] = {}
 
 
-def rule(code: str, name: str, severity: str, template: str, hint: str | None, explanation: str) -> Rule:
+def rule(code: str, name: str, severity: str, template: str, hint: str | None, explanation: str, *,
+         example: str = "", files: dict[str, str] | None = None, env: dict[str, str] | None = None,
+         encoding: str = "utf-8") -> Rule:
     """Register a rule (module level only: codes and names are unique)."""
     if code in RULES or name in _BY_NAME:
         raise ValueError(f"duplicate rule {code} {name}")
-    r = Rule(code, name, severity, template, hint, explanation.strip())
+    r = Rule(code, name, severity, template, hint, explanation.strip(), example,
+             tuple(sorted((files or {}).items())), tuple(sorted((env or {}).items())), encoding)
     RULES[code] = _BY_NAME[name] = r
     return r
 
@@ -80,3 +100,989 @@ def lookup(code_or_name: str) -> Rule | None:
 def replacements(file: str, line: int, col: int, length: int, texts, title: str = "replace with '{}'") -> tuple[Fix, ...]:
     """One fix per text, each replacing the span ``line:col`` (``length`` characters) by it."""
     return tuple(Fix(title.format(t), (TextEdit(line, col, length, t),)) for t in texts)
+
+
+def did_you_mean(word: str, choices, line: int, col: int, length: int, fmt: str = "{}") -> tuple[str | None, tuple[Fix, ...]]:
+    """A "did you mean ...?" hint for a misspelt ``word`` and one fix per close choice, each
+    replacing the span ``line:col`` (``length`` characters) by ``fmt.format(choice)``; the hint
+    names exactly the replacement texts. (None, ()) when nothing is close."""
+    found = [fmt.format(c) for c in suggest(word, choices)]
+    if not found:
+        return None, ()
+    names = [f"'{f}'" for f in found]
+    hint = "did you mean " + (names[0] if len(names) == 1 else ", ".join(names[:-1]) + f" or {names[-1]}") + "?"
+    return hint, tuple(Fix(f"replace with '{f}'", (TextEdit(line, col, length, f),)) for f in found)
+
+
+def delete(line: int, col: int, length: int, title: str) -> Fix:
+    """A fix that removes ``length`` characters at ``line:col``."""
+    return Fix(title, (TextEdit(line, col, length, ""),))
+
+
+# ======================================================================================
+# The catalogue. Codes are stable: never reuse or renumber one; a retired rule stays,
+# documented as reserved. Names are the slugs `sgt check --format json` has always given.
+# ======================================================================================
+
+# -- 1xx: layout and syntax -------------------------------------------------------------
+
+INDENT = rule(
+    "SGT101", "indent", ERROR,
+    "indented line continues {what}: only utterances may continue on indented lines",
+    "indent only the continuation lines of an utterance",
+    """
+A line that starts with spaces or tabs continues the utterance above it. Directives
+(`@voice`, `@rate`, ...) are one line each, so an indented line after a directive, or at the
+top of the file, has nothing to continue and is not read at all.
+
+Example: an indented `Hello there.` right under `@rate 150`.
+
+Fix: remove the indentation to make the line an utterance of its own, or move it under
+the utterance it belongs to.
+""",
+    example="@rate 150\n  Hello there.\n",
+)
+
+SYNTAX = rule(
+    "SGT102", "syntax", ERROR,
+    "unexpected '{char}'",
+    None,
+    """
+The parser met a character it cannot place in an utterance. The more specific rules
+(stray-closer, unclosed, bad-tag, trailing-backslash) cover every case the language
+reference knows of; this one is the fallback for anything else, so that no input is ever
+rejected without a location.
+
+No script is known to trigger it: the explanation is kept so that the code stays stable.
+
+Fix: look at the character under the caret; escape it with a backslash if it is meant to be
+spoken.
+""",
+)
+
+STRAY_CLOSER = rule(
+    "SGT103", "stray-closer", ERROR,
+    "unexpected '{char}' in speech",
+    "write '\\{char}' for a literal {what}",
+    """
+`]` and `>` end a tag, so one that closes nothing is an error rather than a spoken
+character (a forgotten `[` or `<` would otherwise be read aloud).
+
+Example: `guide: the answer is ] here`.
+
+Fix: escape it (`\\]`, `\\>`) to speak it, or add the missing opening bracket.
+""",
+    example="guide: the answer is ] here\n",
+)
+
+UNCLOSED = rule(
+    "SGT104", "unclosed", ERROR,
+    "unclosed '{char}': this {what} has no '{closer}'",
+    "add '{closer}' to end the tag, or write '\\{char}' for a literal '{char}'",
+    """
+A `[` starts a tag (`[pose:...]`, `[pause ...]`) and a `<` a style tag (`<speed:-1>`); the
+tag must end with `]` or `>` on the same line. The rest of the line up to the next tag is
+skipped, so later errors on the line are still reported.
+
+Example: `guide: hello [pose:wave there`.
+
+Fix: add the closing bracket, or escape the opening one (`\\[`, `\\<`) to speak it.
+""",
+    example="guide: hello [pose:wave there\n",
+)
+
+BAD_TAG = rule(
+    "SGT105", "bad-tag", ERROR,
+    "malformed {what} {text}",
+    None,
+    """
+The text between the brackets is not a tag. Tags look like `[pose:point_right x2 flip
+hold=500ms]` or `[pause 300ms]`; style tags like `<speed:-1 space:+0.5>`, `<happy>`, and
+closing tags `</speed>` or `</>`. Names are letters, digits, `_` and `-`; values are numbers
+or durations; nothing else may appear inside.
+
+Example: `guide: hi [pose:wave, x2] there` (a comma inside the tag).
+
+Fix: write the tag as shown above, or escape the bracket to speak it.
+""",
+    example="guide: hi [pose:wave, x2] there\n",
+)
+
+BAD_ESCAPE = rule(
+    "SGT106", "bad-escape", ERROR,
+    "unknown escape '\\{char}'",
+    "escapes are \\[ \\] \\< \\> \\\\ \\# \\:",
+    """
+A backslash makes the next character literal, but only for the characters that mean
+something in a script: `\\[ \\] \\< \\> \\\\ \\# \\:`. Any other escape is probably a typo.
+
+Example: `guide: a \\q b`.
+
+Fix: remove the backslash, or write `\\\\` for a literal backslash.
+""",
+    example="guide: a \\q b\n",
+)
+
+TRAILING_BACKSLASH = rule(
+    "SGT107", "trailing-backslash", ERROR,
+    "a '\\' at the end of a line escapes nothing",
+    "write '\\\\' for a literal backslash",
+    """
+A backslash escapes the next character; at the end of a line there is none. (Lines are not
+joined with a backslash as in a shell: indent the next line to continue an utterance.)
+
+Example: `guide: the path is C:\\`.
+
+Fix: write `\\\\` for a literal backslash, or remove it.
+""",
+    example="guide: the path is C:\\\n",
+)
+
+UNMATCHED_CLOSE = rule(
+    "SGT108", "unmatched-close", ERROR,
+    "closing tag {text} with no open style span",
+    "remove it, or open a span before it with <speed:...>",
+    """
+A closing tag (`</speed>`, `</>`) ends the innermost open style span of the utterance; here
+no span is open. Spans never continue into the next utterance.
+
+Example: `guide: slower now</speed> please`.
+
+Fix: remove the closing tag, or add the opening tag where the span should start.
+""",
+    example="guide: slower now</speed> please\n",
+)
+
+MISMATCHED_CLOSE = rule(
+    "SGT109", "mismatched-close", ERROR,
+    "mismatched closing tag {text}",
+    "the innermost open span is <{top}...>; close it with </{top}> or </>",
+    """
+A closing tag `</NAME>` must name the first item of the innermost open span (`</speed>`
+for `<speed:-1 space:1>`, `</happy>` for `<happy>`). When the name belongs to a span further
+out (crossed spans), that span is closed there and the inner one stays open; when no open
+span has that name, the tag is ignored. Either way the problem is reported once.
+
+Example: `guide: <speed:-1>slowly</space> now`.
+
+Fix: name the innermost span, or write `</>`, which closes the innermost span whatever it is.
+""",
+    example="guide: <speed:-1>slowly</space> now\n",
+)
+
+DIRECTIVE_NAME = rule(
+    "SGT110", "directive-name", ERROR,
+    "a directive needs a name after '@'",
+    "directives are: {names}",
+    """
+A line starting with `@` is a directive, and the directive's name must follow the `@`
+directly, without a space (`@voice`, `@rate`, `@pitch`, `@seed`, `@library`, `@preset`,
+`@audio`).
+
+Example: `@ voice en-us`.
+
+Fix: write the name right after the `@` (`@voice en-us`); to speak a line that starts with
+`@`, put a speaker in front of it.
+""",
+    example="@ voice en-us\nhello\n",
+)
+
+HEADER_ONLY = rule(
+    "SGT111", "header-only", ERROR,
+    "'@{name}' must be in the header, before the first utterance",
+    "move it to the top of the file",
+    """
+Settings that apply to the whole script (`@voice`, `@rate`, `@pitch`, `@seed`, `@library`,
+`@preset`) are read before the first utterance, so that every utterance sees the same ones.
+Only `@audio`, which belongs to the utterance after it, may appear later.
+
+Example: a `@seed 3` line after the first utterance.
+
+Fix: move the directive above the first utterance.
+""",
+    example="hello there\n@seed 3\n",
+)
+
+DANGLING_AUDIO = rule(
+    "SGT112", "dangling-audio", ERROR,
+    "'@audio' is not followed by an utterance",
+    "put '@audio' on the line before the utterance it belongs to",
+    """
+`@audio FILE` gives the recording of the **next** utterance; at the end of the file there is
+none, so the recording would be silently unused.
+
+Example: a script whose last line is `@audio rec/line9.wav`.
+
+Fix: add the utterance after it, or remove the directive.
+""",
+    example="hello\n@audio rec.wav\n",
+    files={"rec.wav": "@silence:0.5"},
+)
+
+MISSING_VALUE = rule(
+    "SGT113", "missing-value", ERROR,
+    "'@{directive}' needs {what}",
+    "for example: {example}",
+    """
+The directive has no value, or a `@preset` has a name but no style values. A directive
+without its value would silently keep the default (`@rate` 165 words per minute, `@voice`
+en-us, `@seed` 0), so it is an error rather than a no-op.
+
+Example: `@rate` on its own.
+
+Fix: give the value, as in the hint (`@rate 160`, `@preset shy = space:-2`).
+""",
+    example="@rate\nhello\n",
+)
+
+EXTRA_ARGUMENT = rule(
+    "SGT114", "extra-argument", ERROR,
+    "unexpected '{text}' after the '@{directive}' value",
+    "for example: {example}",
+    """
+The directive takes one value, and there is more on the line. Values are not lists: only
+the first one would be used, so the rest is an error rather than silently ignored. (A
+comment starts with `#`; `@preset` takes several style items and `@audio` a `timings=`
+option, and are not concerned.)
+
+Example: `@seed 7 8`.
+
+Fix: remove the extra text, or make it a comment.
+""",
+    example="@seed 7 8\nhello\n",
+)
+
+SPEAKER_SPACE = rule(
+    "SGT115", "speaker-space", WARNING,
+    "'{text}:' looks like a speaker, but speaker names have no spaces: the whole line is spoken",
+    "write '{fixed}:' for a speaker, or '{text}\\:' to speak the colon",
+    """
+A speaker is one word (letters of any alphabet, digits, `_` and `-`, not starting with a
+digit) followed by a colon and a space. A line that starts with two or three words and a
+colon is spoken whole, `mall guide:` included, which is rarely what was meant.
+
+Example: `mall guide: Hello`.
+
+Fix: join the name (`mall_guide: Hello`), or escape the colon (`mall guide\\: Hello`) to
+speak it and silence this warning.
+""",
+    example="mall guide: Hello\n",
+)
+
+SPEAKER_COLON = rule(
+    "SGT116", "speaker-colon", WARNING,
+    "'{name}:{rest}' looks like a speaker without a space after the colon: it is spoken as text",
+    "write '{name}: {rest}' for a speaker, or '{name}\\:{rest}' to speak it",
+    """
+A speaker needs a space (or the end of the line) after its colon, so `g:hello` is not the
+speaker `g` saying "hello": it is the text "g:hello", spoken as two words.
+
+Example: `g:hello`.
+
+Fix: add the space (`g: hello`), or escape the colon (`g\\:hello`) to speak it as written
+and silence this warning.
+""",
+    example="g:hello\n",
+)
+
+MARK_IN_WORD = rule(
+    "SGT117", "mark-in-word", WARNING,
+    "{what} inside the word '{word}': it is spoken as {parts}",
+    "put the {what} before or after the word",
+    """
+Tags and style tags stand between words. One written inside a word splits it: the speech
+engine says the two halves as separate words (and the plan's text shows them apart), so
+`Lo[pose:nod]ok` is spoken "Lo ok", not "Look".
+
+Example: `guide: Lo[pose:nod]ok here`.
+
+Fix: move the tag before the word (a pose control anchors to the next word's onset) or
+after it.
+""",
+    example="guide: Lo[pose:nod]ok here\n",
+)
+
+# -- 2xx: names and references ----------------------------------------------------------
+
+UNKNOWN_GESTURE = rule(
+    "SGT201", "unknown-gesture", ERROR,
+    "unknown gesture '{name}'",
+    "'sgt library list' shows the gestures",
+    """
+`[pose:NAME]` names a gesture of the motion library: the built-in ones, the folders of
+`@library`, `SGT_LIBRARY_PATH`, `./sgt.toml` and the user configuration. A gesture spec that
+is malformed is skipped, and the note says so when its file name matches.
+
+Example: `guide: hi [pose:wavee] there`.
+
+Fix: use one of the names the hint suggests or `sgt library list` shows, or add the gesture
+to a library folder (docs/library.md).
+""",
+    example="guide: hi [pose:wavee] there\n",
+)
+
+UNKNOWN_TAG = rule(
+    "SGT202", "unknown-tag", ERROR,
+    "unknown tag '{kind}'",
+    "tags are [pose:NAME ...] and [pause DURATION]; write '\\[' for a literal '['",
+    """
+Square-bracket tags are `[pose:NAME options]` (play a gesture) and `[pause DURATION]`
+(insert silence); nothing else. A misspelt kind is reported rather than spoken, since a
+bracket in speech must be escaped anyway.
+
+Example: `guide: wait [paws 300ms] now`.
+
+Fix: correct the tag's kind, or escape the bracket (`\\[`) to speak it.
+""",
+    example="guide: wait [paws 300ms] now\n",
+)
+
+MISSING_NAME = rule(
+    "SGT203", "missing-name", ERROR,
+    "a pose control needs a gesture name: [pose:NAME]",
+    "for example [pose:point_right]; 'sgt library list' shows the names",
+    """
+A pose control says which gesture to play: `[pose:NAME]`, with the name of a gesture of
+the motion library (`sgt library list`), then its options. Without a name there is nothing
+to play.
+
+Example: `guide: look [pose:] there` or `guide: look [pose] there`.
+
+Fix: add the gesture's name after `pose:`.
+""",
+    example="guide: look [pose] there\n",
+)
+
+UNKNOWN_OPTION = rule(
+    "SGT204", "unknown-option", ERROR,
+    "unknown pose option '{key}'",
+    "options are x1, x2, x3 (speed), flip (mirror) and hold=DURATION",
+    """
+A pose control takes the options `x1`, `x2`, `x3` (speed: a 2x gesture takes half the
+time), `flip` (mirror left and right) and `hold=DURATION` (keep the key pose longer). Any
+other word inside the tag is an error, so that a typo never changes a gesture silently.
+
+Example: `guide: there [pose:point_right x4] it is`.
+
+Fix: use one of those options.
+""",
+    example="guide: there [pose:point_right x4] it is\n",
+)
+
+UNKNOWN_STYLE = rule(
+    "SGT205", "unknown-style", ERROR,
+    "unknown {what} '{name}'",
+    "style items are speed:V, space:V and handedness:V with V from -3 to 3 (e.g. <speed:-1 space:+0.5>), or a preset such as <happy>",
+    """
+Inside `<...>` each item is a style element with a value (`speed`, `space`, `handedness`)
+or a preset (`happy`, `sad`, `angry`, `calm`, or one defined with `@preset`). In a `@preset`
+definition only style elements are allowed.
+
+Example: `guide: <hapy>smile</hapy>`.
+
+Fix: correct the name; `@preset NAME = ...` defines a new preset.
+""",
+    example="guide: <hapy>smile</hapy>\n",
+)
+
+UNKNOWN_DIRECTIVE = rule(
+    "SGT206", "unknown-directive", ERROR,
+    "unknown directive '@{name}'",
+    "directives are: {names}",
+    """
+The directives are `@voice`, `@rate`, `@pitch`, `@seed`, `@library`, `@preset` and
+`@audio` (docs/language.md#directives). A line that starts with `@` is always a directive,
+so a misspelt one is reported rather than spoken.
+
+Example: `@voise en-us`.
+
+Fix: correct the name; to speak a line that starts with `@`, put a speaker in front of it.
+""",
+    example="@voise en-us\nhello\n",
+)
+
+UNKNOWN_AUDIO_OPTION = rule(
+    "SGT207", "unknown-audio-option", ERROR,
+    "unknown '@audio' option '{text}'",
+    "the only option is timings=FILE (a TextGrid or JSON word list)",
+    """
+`@audio FILE` takes one option, `timings=FILE`: a Praat TextGrid or a JSON list of
+`{"word", "start", "end"}` objects with the word times of the recording.
+
+Example: `@audio rec.wav timing=rec.json`.
+
+Fix: write `timings=`; leave it out to align the recording automatically.
+""",
+    example="@audio rec.wav timing=rec.json\nhello there\n",
+    files={"rec.wav": "@silence:1.0", "rec.json": '[{"word": "hello", "start": 0.1, "end": 0.4}, {"word": "there", "start": 0.5, "end": 0.9}]'},
+)
+
+BAD_NAME = rule(
+    "SGT208", "bad-name", ERROR,
+    "preset name '{name}' is not valid",
+    "use lower-case letters, digits and '_', starting with a letter",
+    """
+Preset names are lower-case letters, digits and `_`, starting with a letter, so that they
+cannot be confused with style values or tags. Uses of the broken preset are not reported
+again: fix the definition and they work.
+
+Example: `@preset Excited = speed:+2`.
+
+Fix: rename it (`@preset excited = speed:+2`).
+""",
+    example="@preset Excited = speed:+2\nhello <Excited>there</>\n",
+)
+
+RESERVED_NAME = rule(
+    "SGT209", "reserved-name", ERROR,
+    "preset name '{name}' is taken by a built-in style name or preset",
+    "pick another name",
+    """
+A preset may not reuse the name of a style element (`speed`, `space`, `handedness`) or a
+built-in preset (`happy`, `sad`, `angry`, `calm`): a script would read differently depending
+on which one won.
+
+Example: `@preset happy = speed:1`.
+
+Fix: pick another name.
+""",
+    example="@preset happy = speed:1\nhello\n",
+)
+
+DUPLICATE = rule(
+    "SGT210", "duplicate", WARNING,
+    "{what} is given more than once; the last one wins",
+    "remove the earlier one",
+    """
+One rule for every repeated setting: a style item repeated in one tag (`<speed:1 speed:2>`),
+a pose option repeated or given twice in two forms (`x2 x3`, `flip flip`, two `hold=`),
+a directive repeated (`@seed`, `@voice`, `@rate`, `@pitch` for the same speaker, a
+`@preset` of the same name, the same `@library` folder, two `@audio` before one utterance).
+In every case **the last one wins**, the note points at the earlier one, and the result is
+the same as if the earlier one were not there.
+
+Example: `guide: <speed:1 speed:2>fast</>`.
+
+Fix: remove the one you do not mean.
+""",
+    example="guide: <speed:1 speed:2>fast</> words\n",
+)
+
+UNKNOWN_VOICE = rule(
+    "SGT211", "unknown-voice", ERROR,
+    "unknown {what} '{voice}'",
+    "'sgt voices' lists the voices",
+    """
+`@voice` names an espeak-ng voice: a language code such as `en-us`, `en-gb` or `fr`,
+optionally with a `+variant` (`en-us+m3`). `sgt check` asks the installed espeak-ng, the
+same one `sgt compile` speaks with, so both give the same verdict.
+
+Example: `@voice en-uss`.
+
+Fix: use a name `sgt voices` lists.
+""",
+    example="@voice en-uss\nhello\n",
+)
+
+# -- 3xx: values ------------------------------------------------------------------------
+
+BAD_NUMBER = rule(
+    "SGT301", "bad-number", ERROR,
+    "{what} must be a whole number, not '{text}'",
+    "use a value from {lo} to {hi}",
+    """
+`@rate` (words per minute, 80-450), `@pitch` (0-100) and `@seed` (0-2147483647) take
+whole numbers, optionally after a speaker for `@rate` and `@pitch` (`@rate bot: 200`).
+Words and decimals are not accepted.
+
+Example: `@rate fast`.
+
+Fix: give a number in the range the hint shows.
+""",
+    example="@rate fast\nhello\n",
+)
+
+OUT_OF_RANGE = rule(
+    "SGT302", "out-of-range", ERROR,
+    "{what} {value} is out of range",
+    "use {allowed}",
+    """
+The value is well-formed but outside what the setting allows: a speaking rate of 80-450
+words per minute, a pitch of 0-100, a seed of 0-2147483647, a pause or a hold of more than
+0 and at most 10 s, a style value from -3 to 3 (style values are normalised statistics: 1
+is one standard deviation of the training motion).
+
+Example: `guide: <speed:7>fast</>`.
+
+Fix: use a value inside the range the hint shows.
+""",
+    example="guide: <speed:7>fast</> words\n",
+)
+
+BAD_DURATION = rule(
+    "SGT303", "bad-duration", ERROR,
+    "{what} needs a duration like 300ms or 1.2s{given}",
+    "a duration is a number and a unit, ms or s",
+    """
+Durations (`[pause 300ms]`, `hold=1.5s`) are a number with the unit `ms` (milliseconds)
+or `s` (seconds), without a space. A bare number is refused because 3 could mean 3 seconds
+or 3 milliseconds; the fixes offer both.
+
+Example: `guide: wait [pause 3] now` (no unit).
+
+Fix: add the unit: `[pause 3s]`.
+""",
+    example="guide: wait [pause 3] now\n",
+)
+
+BAD_PAUSE = rule(
+    "SGT304", "bad-pause", ERROR,
+    "a pause needs one duration: [pause 300ms] or [pause 1.2s]",
+    None,
+    """
+`[pause DURATION]` inserts that much silence into the speech at that point (everything
+after it moves later); it takes exactly one duration and nothing else: no name after a
+colon, no options.
+
+Example: `guide: wait [pause] now` or `[pause 1s 2s]`.
+
+Fix: give one duration.
+""",
+    example="guide: wait [pause] now\n",
+)
+
+STYLE_VALUE = rule(
+    "SGT305", "style-value", ERROR,
+    "'{name}' needs a number from -3 to 3{given}",
+    "style items are speed:V, space:V and handedness:V with V from -3 to 3 (e.g. <speed:-1 space:+0.5>), or a preset such as <happy>",
+    """
+A style element takes a value after a colon: `speed:-1`, `space:+0.5`, `handedness:2`.
+Values are numbers from -3 to 3 (normalised statistics of the training motion: 0 is the
+average, 1 one standard deviation); words like `fast` or `wide` are not values.
+
+Example: `guide: <space:wide>arms out</>`.
+
+Fix: give a number from -3 to 3.
+""",
+    example="guide: <space:wide>arms out</> now\n",
+)
+
+OPTION_VALUE = rule(
+    "SGT306", "option-value", ERROR,
+    "option '{key}' takes no value",
+    "write just '{key}'",
+    """
+The pose options `x1`, `x2`, `x3` and `flip` are words on their own; only `hold` takes a
+value (`hold=500ms`). `flip=1` or `x2=yes` would suggest that `flip=0` turns mirroring off,
+which it does not, so a value is an error.
+
+Example: `guide: there [pose:point_right flip=1] it is`.
+
+Fix: write the option alone (`flip`).
+""",
+    example="guide: there [pose:point_right flip=1] it is\n",
+)
+
+PRESET_VALUE = rule(
+    "SGT307", "preset-value", ERROR,
+    "preset '{name}' takes no value",
+    "write <{name}>, or combine: <{name} speed:-1>",
+    """
+A preset is a named set of style values (`happy` is speed +2.5 and space +1.5); it takes
+no value of its own, so `<happy:2>` has no meaning. To change one of its values, add the
+element after it: later items win.
+
+Example: `guide: <happy:2>yes</>`.
+
+Fix: `<happy>` or `<happy speed:1>`.
+""",
+    example="guide: <happy:2>yes</> indeed\n",
+)
+
+EMPTY_UTTERANCE = rule(
+    "SGT308", "empty-utterance", ERROR,
+    "pose control on an utterance with no words",
+    "a pose control is anchored to a word; add speech text",
+    """
+A pose control lands its stroke on the onset of the next word (or the end of the previous
+one); an utterance without words (only tags, pauses or punctuation) has nothing to anchor it
+to, and no speech to time it against.
+
+Example: `guide: [pose:wave]`.
+
+Fix: add the words the gesture goes with.
+""",
+    example="guide: [pose:wave]\n",
+)
+
+EMPTY_SPAN = rule(
+    "SGT309", "empty-span", WARNING,
+    "style span holds no words",
+    "put words between the opening and closing tags",
+    """
+A style span covers the frames from the onset of its first word to the end of its last
+word; one with no words between its tags covers no frames and has no effect. It is a
+warning: the script still compiles.
+
+Example: `guide: hello <speed:-1></> there`.
+
+Fix: move the words inside the span, or remove it.
+""",
+    example="guide: hello <speed:-1></> there\n",
+)
+
+# -- 4xx: speech and timing -------------------------------------------------------------
+
+OVERLAP = rule(
+    "SGT401", "overlap", WARNING,
+    "pose control '{name}' overlaps '{other}' in frames {first}-{last}{how}: {resolution}",
+    "to keep both gestures whole, use x2 or x3 for a shorter gesture, anchor the later one to a later word, or add a [pause] between them",
+    """
+Two pose controls whose frames overlap cannot both be followed. The compiler resolves it
+the same way everywhere (check, compile, say, generate, the editor), as behaviour
+realisers do with gestures that collide:
+
+- the earlier gesture keeps everything up to the end of its stroke (and its hold), and its
+  retraction is cut where the later one starts;
+- if the later one would start before the earlier one's stroke is done, it waits until
+  then (its stroke then lands after its word).
+
+It is a warning, not an error: `sgt check` estimates word times from the text, and only
+real speech timing shows exactly which overlaps occur, so an error would make check and
+compile disagree. `sgt check --timing` uses the real timing.
+
+Example: `look [pose:point_right] here [pose:point_left] and there now`.
+
+Fix: if the resolution is not what you want, use x2 or x3 for a shorter gesture, anchor
+the later one to a later word, or add a `[pause]` between them.
+""",
+    example="look [pose:point_right] here [pose:point_left] and there now\n",
+)
+
+SPEECH = rule(
+    "SGT402", "speech", ERROR,
+    "speech failed: {detail}",
+    None,
+    """
+The speech engine (espeak-ng) or the aligner (pocketsphinx) failed: the library is not
+installed, its data is missing, or the automatic alignment of a recording found no match.
+`sgt check` asks the engine for the script's voices, so a missing engine is reported there
+too; an alignment failure is found only by running it (`sgt check --timing`).
+
+No script triggers it on a working installation.
+
+Fix: install espeak-ng (`apt-get install espeak-ng`), or give the recording a timings file
+(`@audio rec.wav timings=rec.TextGrid`).
+""",
+)
+
+TIMING = rule(
+    "SGT403", "timing", ERROR,
+    "speech timing returned times for {got} of {expected} words",
+    None,
+    """
+The speech timing gave a different number of words than the script has. Every control is
+placed by word, so the utterance is refused rather than shifted silently. It means a broken
+speech engine or a corrupt cache entry, not a problem in the script.
+
+No script triggers it on a working installation.
+
+Fix: clear the speech cache (`rm -r ~/.cache/sgt/speech`, or `$SGT_CACHE_DIR/speech`) and
+try again; report it if it persists.
+""",
+)
+
+GENERATION = rule(
+    "SGT405", "generation", ERROR,
+    "{detail}",
+    None,
+    """
+A generation or render job of the editor failed for a reason that is not in the script: the
+generator's weights are missing or do not fit this version of sgt, the worker process
+stopped, or the output could not be written. The message says which.
+
+No script triggers it on a working installation.
+
+Fix: follow the message (for weights: `sgt train`, or `--weights PATH` / the shipped
+model/weights/generator.pt); the editor's worker log is in ~/.cache/sgt/editor/worker.log.
+""",
+)
+
+TIMINGS_MISMATCH = rule(
+    "SGT404", "timings-mismatch", ERROR,
+    "{detail}",
+    "the timings file must list the script's words, in order",
+    """
+A timings file (`@audio FILE timings=FILE`) gives one interval per spoken word of the
+utterance. The words are compared after folding case, accents and punctuation; the first
+one that differs is reported at the word in the script, with its time in the recording. A
+word that starts after the end of the audio means the timings belong to another recording.
+
+Example: `@audio rec.wav timings=rec.json` before `bot: Hello where.` when rec.json says
+"hello there".
+
+Fix: correct the utterance or the timings file (re-run the aligner on the right text).
+""",
+    example="@audio rec.wav timings=rec.json\nbot: Hello where.\n",
+    files={"rec.wav": "@silence:2.0", "rec.json": '[{"word": "hello", "start": 0.2, "end": 0.6}, {"word": "there", "start": 0.7, "end": 1.2}]'},
+)
+
+# -- 5xx: gesture specs and configuration ------------------------------------------------
+
+BAD_SPEC = rule(
+    "SGT501", "bad-spec", WARNING,
+    "gesture spec {spec} skipped: {where}{message}",
+    "fix the file; the other gestures still load",
+    """
+A gesture spec file (`NAME.toml` in a library folder) is malformed: TOML syntax, a missing
+or unknown key, a time outside the gesture, a bone direction that is not three numbers
+(docs/library.md has the format). The file is skipped and the other gestures load; the
+location is the line and column in the TOML file. A script that uses the skipped gesture
+gets an unknown-gesture error with a note pointing here.
+
+Example: a file `moves/broken.toml` with `name = "broken"` and `duration = ` (no value),
+loaded by `@library moves`.
+
+Fix: correct the file as the message says.
+""",
+    example="@library moves\nhello [pose:broken] there\n",
+    files={"moves/broken.toml": 'name = "broken"\nduration = \n'},
+)
+
+LIBRARY_FOLDER = rule(
+    "SGT502", "library-folder", WARNING,
+    "gesture folder '{folder}' (from {source}) {problem}",
+    "fix or remove the entry; the other gestures still load",
+    """
+A gesture folder named in the configuration (`SGT_LIBRARY_PATH`, `./sgt.toml`, the user's
+`config.toml`) does not exist or cannot be read. Its gestures are missing; the others load.
+(`@library` in a script is checked as an error instead: missing-folder.)
+
+Example: `SGT_LIBRARY_PATH=/nonexistent sgt check a.sgt`.
+
+Fix: create the folder or correct the entry the message names.
+""",
+    example="hello\n",
+    env={"SGT_LIBRARY_PATH": "/nonexistent-sgt-gestures"},
+)
+
+BAD_CONFIG = rule(
+    "SGT503", "bad-config", WARNING,
+    "library configuration {config} ignored: {where}{message}",
+    "the format is [library] paths = [\"folder\", ...]",
+    """
+A configuration file (`./sgt.toml` or the user's `config.toml`) is not valid TOML or its
+`[library]` table is not `paths = ["folder", ...]`. The file is ignored.
+
+Example: a `./sgt.toml` with `[library` (no closing bracket).
+
+Fix: correct the file as the message says.
+""",
+    example="hello\n",
+    files={"sgt.toml": "[library\npaths = 3\n"},
+)
+
+# -- 6xx: files and encodings -----------------------------------------------------------
+
+IO = rule(
+    "SGT601", "io", ERROR,
+    "cannot read the script: {reason}",
+    None,
+    """
+The script file could not be read: it does not exist, it is a folder, or permissions forbid
+it. `sgt check` reports it and goes on with the other files (exit status 1).
+
+No script text triggers it; `sgt check missing.sgt` does.
+
+Fix: check the path and the file's permissions.
+""",
+)
+
+ENCODING = rule(
+    "SGT602", "encoding", ERROR,
+    "the file is not valid UTF-8",
+    "save the file as UTF-8",
+    """
+Scripts are UTF-8 (a BOM is accepted). The caret points at the first byte that is not; the
+rest of the file is still checked, with that byte replaced.
+
+Example: a script saved as Latin-1 with an "é" in it.
+
+Fix: save the file as UTF-8 (`iconv -f latin1 -t utf-8 old.sgt > new.sgt`).
+""",
+    example="guide: caf\udce9 au lait\n",
+)
+
+UTF16 = rule(
+    "SGT603", "utf16", ERROR,
+    "this file is UTF-16 ({order}); sgt reads UTF-8",
+    "save it as UTF-8, e.g. iconv -f UTF-16 -t UTF-8 in.sgt > out.sgt",
+    """
+Some Windows editors save text as UTF-16 ("Unicode" in Notepad's save dialog). Read as
+UTF-8 it would be garbage (every other byte a NUL), so the file is recognised by its
+byte-order mark or its NUL bytes and not analysed further.
+
+Example: a script saved as "Unicode" by Notepad.
+
+Fix: save it as UTF-8.
+""",
+    example="guide: hello\n",
+    encoding="utf-16",
+)
+
+MISSING_FILE = rule(
+    "SGT604", "missing-file", ERROR,
+    "{what} '{text}' not found",
+    "looked for {path}; paths are relative to the script's folder",
+    """
+A file named by `@audio` (the recording or its `timings=` file) does not exist. Paths are
+relative to the script's folder (not to the current directory), `~` is expanded, and names
+with spaces can be quoted (`@audio "take 1.wav"`).
+
+Example: `@audio missing.wav`.
+
+Fix: correct the path.
+""",
+    example="@audio missing.wav\nhello\n",
+)
+
+MISSING_FOLDER = rule(
+    "SGT605", "missing-folder", ERROR,
+    "gesture folder '{text}' does not exist",
+    "looked for {path}; paths are relative to the script's folder",
+    """
+`@library FOLDER` adds a folder of gesture specs whose gestures override built-ins of the
+same name; it must exist. Paths are relative to the script's folder (not to the current
+directory), `~` is expanded.
+
+Example: `@library nowhere`.
+
+Fix: correct the path or create the folder.
+""",
+    example="@library nowhere\nhello\n",
+)
+
+BAD_FORMAT = rule(
+    "SGT606", "bad-format", ERROR,
+    "word timings must be a .TextGrid or .json file, not '{suffix}'",
+    None,
+    """
+The `timings=` file of `@audio` is chosen by its extension: `.TextGrid` (Praat, what the
+Montreal Forced Aligner writes) or `.json`.
+
+Example: `@audio rec.wav timings=rec.txt`.
+
+Fix: convert the timings, or rename the file if it already has one of those formats.
+""",
+    example="@audio rec.wav timings=rec.txt\nhello\n",
+    files={"rec.wav": "@silence:0.5", "rec.txt": "hello 0.1 0.4\n"},
+)
+
+UNREADABLE_AUDIO = rule(
+    "SGT607", "unreadable-audio", ERROR,
+    "cannot read the audio file '{audio}': {reason}",
+    "recordings are WAV, FLAC or MP3 (anything libsndfile reads)",
+    """
+The recording named by `@audio` exists but is not audio the toolkit can read (or it is
+empty). `sgt check` opens it the same way `sgt compile` does.
+
+Example: `@audio notes.wav` where notes.wav is a text file.
+
+Fix: point at the right file, or convert it (`ffmpeg -i in.m4a out.wav`).
+""",
+    example="@audio notes.wav\nhello\n",
+    files={"notes.wav": "these are my notes, not audio\n"},
+)
+
+BAD_TIMINGS = rule(
+    "SGT608", "bad-timings", ERROR,
+    "malformed timings file '{timings}': {reason}",
+    "timings are a Praat TextGrid or a JSON list of {{\"word\", \"start\", \"end\"}} objects",
+    """
+The `timings=` file of `@audio` could not be read as word timings: not a TextGrid, invalid
+JSON, a word without a start or end, times that go backwards. The caret is under the
+`timings=` value.
+
+Example: `@audio rec.wav timings=rec.json` where rec.json holds `{"words": 3}`.
+
+Fix: regenerate the file with the aligner, or correct it by hand (docs/language.md).
+""",
+    example="@audio rec.wav timings=rec.json\nhello\n",
+    files={"rec.wav": "@silence:0.5", "rec.json": '[{"word": "hello", "start": 0.5}]'},
+)
+
+BIDI_CONTROL = rule(
+    "SGT609", "bidi-control", WARNING,
+    "bidirectional control character {chars}: the line may display in another order than it is read",
+    "remove it; write right-to-left text without control characters",
+    """
+Bidirectional overrides and isolates (U+202A-U+202E, U+2066-U+2069) and the invisible
+direction marks (U+200E, U+200F) change the order in which a line is displayed, not the
+order in which it is read, so a script can show one thing in an editor and say another
+("Trojan Source"). They are never needed in an `.sgt` script. Excerpts show them as U+FFFD.
+
+Example: a line with U+202E (right-to-left override) in it.
+
+Fix: remove the character.
+""",
+    example="guide: hello \u202eereht\n",
+)
+
+INVISIBLE_CHARACTER = rule(
+    "SGT610", "invisible-character", WARNING,
+    "invisible character {chars}",
+    "remove it: it is not spoken and hides in editors",
+    """
+Zero-width spaces (U+200B), word joiners (U+2060) and byte-order marks after the start of
+the file (U+FEFF) are invisible: they split or join words without showing it, usually
+after a copy from a web page. (Zero-width joiners in emoji and scripts that need them,
+U+200C and U+200D, are fine.)
+
+Example: `hel\u200blo` (a zero-width space inside "hello").
+
+Fix: remove the character.
+""",
+    example="guide: hel\u200blo there\n",
+)
+
+NUL_CHARACTER = rule(
+    "SGT611", "nul-character", WARNING,
+    "{count} NUL character{s} (U+0000)",
+    "remove them: a text file never holds NUL bytes (is this a binary file?)",
+    """
+NUL bytes are not text: a file with them is binary, was cut short by a crash, or is in
+another encoding (UTF-16 is recognised and reported on its own). They are not spoken, and
+each run of them on a line is reported once.
+
+Example: a line with a U+0000 byte.
+
+Fix: remove them, or open the right file.
+""",
+    example="guide: hello\x00 there\n",
+)
+
+
+def materialise_example(r: Rule, folder) -> Path:
+    """Write ``r``'s example script and its files into ``folder``; returns the script's path.
+
+    A file whose text is ``"@silence:SECONDS"`` becomes a silent 16 kHz mono WAV (standard
+    library only). The caller sets :attr:`Rule.env` and runs from ``folder`` when the example
+    needs it (``./sgt.toml``)."""
+    import wave
+
+    folder = Path(folder)
+    for rel, text in r.files:
+        target = folder / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if text.startswith("@silence:"):
+            with wave.open(str(target), "wb") as w:
+                w.setnchannels(1)
+                w.setsampwidth(2)
+                w.setframerate(16000)
+                w.writeframes(b"\0\0" * int(16000 * float(text.split(":", 1)[1])))
+        else:
+            target.write_text(text, encoding="utf-8")
+    script = folder / "example.sgt"
+    errors = "surrogateescape" if r.encoding == "utf-8" else "strict"
+    script.write_bytes(r.example.encode(r.encoding, errors))
+    return script

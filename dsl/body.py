@@ -1,25 +1,16 @@
-"""Parse one utterance body (the text after the optional ``speaker:``) into items.
+"""The reference parser of an utterance body: Lark with the grammar in dsl/sgt.lark.
 
-Well-formed bodies, nearly all of them, go through the regular-expression scanner
-(:mod:`dsl.scan`); the rest through Lark with the grammar in dsl/sgt.lark, which raises
-``lark.exceptions.UnexpectedInput`` at the first syntax error. Both give the same items (see
-:mod:`dsl.scan` for their shape). Lark is imported only when a body needs it.
+The grammar is the language's definition. The analyser itself reads every body with the
+regular-expression scanner (:mod:`dsl.scan`), which builds the same items about ten times
+faster and stops where the grammar fails; tests/test_scan.py checks the two against each
+other on random bodies. Lark is imported only by :func:`lark_parser` (the tests, and anyone who
+wants the grammar's own parse).
 """
 
 from __future__ import annotations
 
 from functools import lru_cache
 from pathlib import Path
-
-from dsl.scan import scan_body
-
-
-def parse_items(body: str) -> list[tuple]:
-    """The items of ``body``; raises Lark's ``UnexpectedInput`` on a syntax error."""
-    items = scan_body(body)
-    if items is None:
-        items = _lark().parse(body)
-    return items
 
 
 def _span_of(children) -> tuple[int, int]:
@@ -34,7 +25,7 @@ def _named(children):
 
 
 @lru_cache(maxsize=1)
-def _lark():
+def lark_parser():
     """The LALR parser; it builds the items while parsing (no parse tree)."""
     from lark import Lark, Transformer
 

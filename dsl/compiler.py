@@ -2,10 +2,11 @@
 
 ::
 
-    from dsl import compile_file
+    from dsl import compile_file, compile_text
     result = compile_file("examples/mall_guide.sgt")
     if result.ok:
         arrays = result.plan.utterances[0].arrays   # pose (T,27), pose_mask (T,), style (T,3), style_mask (T,3)
+    result = compile_text("guide: Hello [pose:wave] there.")   # a script given as text, no file
 
 Every problem is a :class:`~core.diagnostics.Diagnostic` in ``result.diagnostics``; nothing a
 user writes raises.
@@ -18,14 +19,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
+from core import rules
+from core.diagnostics import Diagnostic, Related, sort_key
 from core.skeleton import FPS, frame_count, seconds_to_frame
 from dsl.parser import analyse, read_source
 from dsl.plan import ArrayRequests, Control, Plan, UtterancePlan
+from dsl.resources import check_resources, speech_diagnostic
 from dsl.script import Script, Utterance
-from dsl.speech import SpeechError, list_voices
+from dsl.speech import SpeechError
 from dsl.timing import Timing, estimate_timing, speech_timing
-from library import load_library
+from library import LibraryProblem, load_library
 
 Progress = Callable[[int, int, str], None]
 
@@ -41,39 +44,59 @@ class CompileResult:
         return not any(d.is_error for d in self.diagnostics)
 
 
-def _library_problems(library, file: str) -> list[Diagnostic]:
-    out = []
-    for p in getattr(library, "problems", []):
-        line = getattr(p, "line", None) or 0
-        out.append(
-            Diagnostic(WARNING, f"gesture spec skipped: {p.field}: {p.message}", str(p.path), line, 1 if line else 0, 1,
-                       "fix the file; the other gestures still load", "bad-spec")
-        )
-    return out
+def library_diagnostic(p: LibraryProblem) -> Diagnostic:
+    """The warning for one problem met while loading the motion library, at its TOML line and
+    column, with fixes for a misspelt key."""
+    where = f"{p.field}: " if p.field and p.field not in ("toml", "file") else ""
+    fixes = rules.replacements(str(p.path), p.line, p.col, p.length, p.suggestions) if p.line else ()
+    kw = {"hint": "did you mean " + " or ".join(f"'{s}'" for s in p.suggestions) + "?", "fixes": fixes} if fixes else {}
+    if p.kind == "folder":
+        return rules.LIBRARY_FOLDER.at(str(p.path), 0, 0, folder=str(p.path), source=p.source or "the configuration", problem=p.message)
+    if p.kind == "config":
+        return rules.BAD_CONFIG.at(str(p.path), p.line, p.col, p.length, config=p.path.name, where=where, message=p.message, **kw)
+    return rules.BAD_SPEC.at(str(p.path), p.line, p.col, p.length, spec=p.path.name, where=where, message=p.message, **kw)
+
+
+def _skipped_specs(library):
+    """``name -> Related`` for gesture specs that were skipped because they are malformed."""
+    def skipped(name: str):
+        for p in getattr(library, "problems", ()):
+            if p.kind == "spec" and p.path.stem == name:
+                return Related(f"{p.path.name} was skipped because it is malformed: {p.message}",
+                               str(p.path), p.line, p.col, p.length)
+        return None
+    return skipped
 
 
 def load_script(path: Path | str, *, library=None, source: str | None = None):
-    """Read and statically analyse a script file; returns (script, library, diagnostics)."""
+    """Read and analyse a script file: the text (:func:`dsl.parser.analyse`), the motion
+    library's problems, and the voices and recordings it uses (:mod:`dsl.resources`).
+
+    This is the one analysis ``sgt check``, ``compile``, ``say``, ``generate`` and the editor
+    share. Returns (script, library, diagnostics); an unreadable file is a diagnostic."""
     path = Path(path)
     diags: list[Diagnostic] = []
     if source is None:
         try:
             source, diags = read_source(path)
         except OSError as exc:
-            d = Diagnostic(ERROR, f"cannot read the script: {exc.strerror or exc}", str(path), 0, 0, 1, None, "io")
+            reason = "it is a folder" if isinstance(exc, IsADirectoryError) else (exc.strerror or str(exc)).lower()
+            d = rules.IO.at(str(path), 0, 0, reason=reason)
             return Script(str(path), "", None, [], [d]), None, [d]  # type: ignore[arg-type]
     holder = {}
 
-    def names(header):
-        lib = library if library is not None else load_library(extra_dirs=header.library_dirs)
-        holder["lib"] = lib
-        return lib.names()
+    def get_library(header):
+        if "lib" not in holder:
+            holder["lib"] = library if library is not None else load_library(extra_dirs=header.library_dirs)
+        return holder["lib"]
 
-    script = analyse(source, str(path), gesture_names=names, base_dir=path.parent)
-    lib = holder.get("lib")
-    if lib is None:  # no utterance: still load the library so its problems are reported
-        lib = library if library is not None else load_library(extra_dirs=script.header.library_dirs)
-    diags = diags + script.diagnostics + _library_problems(lib, str(path))
+    def skipped(name):
+        return _skipped_specs(holder.get("lib"))(name)
+
+    script = analyse(source, str(path), gesture_names=lambda header: get_library(header).names(),
+                     base_dir=path.parent, skipped_gesture=skipped)
+    lib = get_library(script.header)  # also with no utterance: its problems are reported
+    diags = diags + script.diagnostics + [library_diagnostic(p) for p in lib.problems] + check_resources(script)
     return script, lib, diags
 
 
@@ -89,8 +112,12 @@ def compile_file(
 ) -> CompileResult:
     """Compile a script file. ``timing`` is "speech" (real word times) or "estimate" (fast).
 
-    With "estimate", timing-dependent problems (overlapping pose controls) are warnings, since
-    real speech may differ; with "speech" they are errors.
+    With ``source`` the text is compiled instead of the file's contents (the file need not
+    exist: see :func:`compile_text`); ``utterances`` (0-based numbers) compiles only those.
+
+    The verdict (errors or not) does not depend on ``timing``: overlapping pose controls are
+    warnings resolved the same way under both (:func:`resolve_overlaps`); only a failing speech
+    engine or aligner is found by "speech" alone.
     """
     script, lib, diags = load_script(path, library=library, source=source)
     if script.header is None or any(d.is_error for d in diags):
@@ -111,42 +138,34 @@ def compile_file(
     return CompileResult(script, plan if not any(d.is_error for d in diags) else None, diags)
 
 
+def compile_text(text: str, path: Path | str = "<text>", **options) -> CompileResult:
+    """Compile a script given as text; no file is read or written.
+
+    ``path`` names the script in diagnostics and in the plan; relative ``@audio`` and
+    ``@library`` paths resolve against its folder (the current folder for the default).
+    ``options`` are :func:`compile_file`'s (``timing``, ``utterances``, ``library``, ...).
+    """
+    return compile_file(path, source=text, **options)
+
+
 def _timing(script: Script, utt: Utterance, mode: str, cache_dir, diags: list[Diagnostic]) -> Timing | None:
     if mode == "estimate":
         return estimate_timing(utt)
     try:
         t = speech_timing(utt, cache_dir)
     except SpeechError as exc:
-        diags.append(_speech_diagnostic(script, utt, exc))
+        diags.append(speech_diagnostic(script, utt, exc))
         return None
     if len(t.words) != len(utt.words):  # a broken engine must not shift every control silently
-        diags.append(Diagnostic(ERROR, f"speech timing returned {len(t.words)} words for {len(utt.words)}", script.path, utt.line, 1, 1, None, "timing"))
+        diags.append(rules.TIMING.at(script.path, utt.line, 1, 1, got=len(t.words), expected=len(utt.words)))
         return None
     return t
 
 
-def _speech_diagnostic(script: Script, utt: Utterance, exc) -> Diagnostic:
-    message = getattr(exc, "message", None) or str(exc)
-    line, col, length, hint, sugg = utt.line, 1, 1, None, ()
-    idx = getattr(exc, "word_index", None)
-    if idx is not None and 0 <= idx < len(utt.words):
-        w = utt.words[idx].where
-        line, col, length = w.line, w.col, w.length
-    elif utt.audio is not None:
-        line, col, length = utt.audio.where.line, utt.audio.where.col, utt.audio.where.length
-    elif "voice" in message.lower():
-        where = script.header.voice_where.get(utt.speaker or "") or script.header.voice_where.get("")
-        if where is not None:
-            line, col, length = where.line, where.col, where.length
-        try:
-            hint, sugg = did_you_mean(utt.voice.name, list_voices())
-        except Exception:  # the engine itself is missing: the message already says so
-            pass
-    return Diagnostic(ERROR, message, script.path, line, col, length, hint, "speech", tuple(sugg))
-
-
-def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, int, int]]:
-    """(mark, gesture, start frame, frames) per pose control: its stroke lands on its anchor frame.
+def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, int, int, int]]:
+    """(mark, gesture, start frame, frames, key frames) per pose control: its stroke lands on
+    its anchor frame; the first ``key frames`` run to the end of its stroke and hold (the whole
+    clip when it marks no stroke), which :func:`resolve_overlaps` never cuts.
 
     The clip itself is built only when the control arrays are (``sgt check`` never needs them)."""
     out = []
@@ -155,9 +174,46 @@ def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, i
         if gesture is None:  # already reported by the analyser
             continue
         at = t.words[mark.word_index].start if mark.word_index is not None else t.words[mark.after_word].end
-        start = seconds_to_frame(at) - (gesture.stroke_frame(mark.speed) or 0)
-        out.append((mark, gesture, start, gesture.clip_length(speed=mark.speed, hold=mark.hold)))
+        stroke = gesture.stroke_frame(mark.speed)
+        length = gesture.clip_length(speed=mark.speed, hold=mark.hold)
+        keep = length if stroke is None else stroke + 1 + (frame_count(mark.hold) if mark.hold > 0 else 0)
+        out.append((mark, gesture, seconds_to_frame(at) - (stroke or 0), length, keep))
     return out
+
+
+def resolve_overlaps(poses) -> list[tuple]:
+    """Place pose controls that would overlap, the same way under any timing.
+
+    ``poses`` are (mark, gesture, start frame, frames, key frames) in source order (see
+    :func:`_place_poses`). Returns, in that order, (mark, gesture, start, frames, note): where
+    each plays and for how long, and for one that collided with the previous gesture, ``note``
+    = (previous mark, first and last overlapping frame, what was done). The rule (as behaviour
+    realisers resolve colliding gestures): the earlier gesture keeps its key frames (up to the
+    end of its stroke and hold) and its retraction is cut where the later one starts; a later
+    one that would start before the earlier one's key frames are over waits until then. After
+    this no two controls overlap, so the last one placed is the only one a new one can meet."""
+    out = [[mark, gesture, start, length, None] for mark, gesture, start, length, _ in poses]
+    if len(poses) < 2:
+        return [tuple(p) for p in out]
+    order = sorted(range(len(poses)), key=lambda i: poses[i][2])  # stable: source order on ties
+    prev, prev_i = None, -1
+    for i in order:
+        p = out[i]
+        mark, start, length = p[0], p[2], p[3]
+        if prev is not None:
+            p_mark, p_start, p_len, p_keep = prev[0], prev[2], prev[3], poses[prev_i][4]
+            if start < p_start + p_len:
+                first, last = max(start, p_start), min(start + length, p_start + p_len) - 1
+                if start >= p_start + p_keep:
+                    resolution = f"'{p_mark.name}' is cut after its stroke, at frame {start}"
+                else:
+                    wait = p_start + p_keep - start
+                    start = p[2] = start + wait
+                    resolution = f"'{mark.name}' waits {wait} frame{'s' if wait != 1 else ''} ({wait / FPS:.2f} s) for the stroke of '{p_mark.name}'"
+                prev[3] = start - p_start  # the earlier one's retraction ends where this one starts
+                p[4] = (p_mark, first, last, resolution)
+        prev, prev_i = p, i
+    return [tuple(p) for p in out]
 
 
 def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: bool, diags: list[Diagnostic]) -> UtterancePlan:
@@ -165,13 +221,12 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
     # a lead-in before the speech (whole frames, so onsets keep their frame phase) and a tail
     # after it, so that no gesture loses its preparation or its retraction.
     poses = _place_poses(utt, t, lib)
-    lead_frames = max([0] + [-start for _, _, start, _ in poses])
+    lead_frames = max([0] + [-p[2] for p in poses])
     lead = lead_frames / FPS
     if lead_frames:
         t = t.shifted(lead)
-        poses = [(m, g, start + lead_frames, n) for m, g, start, n in poses]
-    n_frames = max([frame_count(t.duration)] + [start + n for _, _, start, n in poses])
-    tail = max(0.0, n_frames / FPS - t.duration)
+        poses = [(m, g, start + lead_frames, n, keep) for m, g, start, n, keep in poses]
+    n_frames = max([frame_count(t.duration)] + [p[2] + p[3] for p in poses])
     requests = ArrayRequests(n_frames)
     controls: list[Control] = []
 
@@ -190,25 +245,21 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         b = max(a + 1, min(n_frames, seconds_to_frame(end)))
         controls.append(Control("pause", "pause", a, b, p.where.line, p.where.col, {"seconds": p.seconds}))
 
-    placed: list[tuple[int, int, object]] = []
-    for mark, gesture, start, length in poses:
-        lo, hi = start, start + length
+    for mark, gesture, start, length, note in resolve_overlaps(poses):
         w = mark.where
-        for plo, phi, other in placed:
-            if lo < phi and plo < hi:
-                how = " (with estimated timing; real speech may differ)" if estimated else ""
-                diags.append(Diagnostic(
-                    WARNING if estimated else ERROR,
-                    f"pose control '{mark.name}' overlaps '{other.name}' (line {other.where.line}, col {other.where.col}) in frames {max(lo, plo)}-{min(hi, phi)}{how}",
-                    script.path, w.line, w.col, w.length,
-                    "use x2 or x3 for a shorter gesture, anchor it to a later word, or add a [pause] between them",
-                    "overlap",
-                ))
-                break
-        else:
-            requests.poses.append((start, gesture, mark))
-        placed.append((lo, hi, mark))
-        controls.append(Control("pose", mark.name, lo, hi, w.line, w.col, mark.options))
+        if note is not None:
+            other, first, last, resolution = note
+            o = other.where
+            diags.append(rules.OVERLAP.at(
+                script.path, w.line, w.col, w.length, name=mark.name, other=other.name, first=first, last=last,
+                how=" (with estimated timing; real speech may differ)" if estimated else "", resolution=resolution,
+                related=(Related(f"'{other.name}' is here", script.path, o.line, o.col, o.length),),
+            ))
+        requests.poses.append((start, gesture, mark, length))
+        controls.append(Control("pose", mark.name, start, start + length, w.line, w.col, mark.options))
+        if start + length > n_frames:  # a gesture that waited may end after the others
+            n_frames = requests.n_frames = start + length
+    tail = max(0.0, n_frames / FPS - t.duration)
 
     controls.sort(key=lambda c: (c.start_frame, c.kind, c.line, c.col))
     speech = {"engine": t.source, "lead_in": round(lead, 6), "tail": round(tail, 6)}

@@ -11,7 +11,9 @@
     @preset excited = speed:+2 space:+1.5
     @audio rec/line1.wav timings=rec/line1.TextGrid   # for the next utterance
 
-All but ``@audio`` belong to the header, before the first utterance.
+All but ``@audio`` belong to the header, before the first utterance. A setting given twice
+(the same directive for the same speaker, a preset of the same name, the same folder, two
+``@audio`` for one utterance) is a warning and the last one wins (:data:`core.rules.DUPLICATE`).
 """
 
 from __future__ import annotations
@@ -20,13 +22,16 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from core import rules
 from core.controls import STYLE_NAMES
-from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean
+from core.diagnostics import Diagnostic, Related
+from core.seeds import SEED_MAX
 from dsl.script import AudioRef, Header, Span
 from dsl.speech.synth import PITCH_RANGE, RATE_RANGE
-from dsl.styles import STYLE_ITEM_HELP, parse_style_value
+from dsl.styles import parse_style_value
 
 DIRECTIVES = ("voice", "rate", "pitch", "seed", "library", "preset", "audio")
+DIRECTIVE_LIST = ", ".join("@" + d for d in DIRECTIVES)
 HEADER_ONLY = {"voice", "rate", "pitch", "seed", "library", "preset"}
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
 _ARG_RE = re.compile(r'"([^"]*)"|\'([^\']*)\'|(\S+)')
@@ -50,8 +55,16 @@ class DirectiveContext:
         self.diagnostics: list[Diagnostic] = []
         self.pending_audio: AudioRef | None = None
 
-    def error(self, line: int, col: int, length: int, message: str, hint: str | None = None, code: str = "", severity: str = ERROR, suggestions=()) -> None:
-        self.diagnostics.append(Diagnostic(severity, message, self.file, line, col, max(1, length), hint, code, tuple(suggestions)))
+    def report(self, rule: rules.Rule, line: int, col: int, length: int, **kw) -> None:
+        self.diagnostics.append(rule.at(self.file, line, col, length, **kw))
+
+    def setting(self, key: str, what: str, where: Span) -> None:
+        """Record where setting ``key`` is given; warn when it was given before (the last wins)."""
+        earlier = self.header.settings_where.get(key)
+        if earlier is not None:
+            self.report(rules.DUPLICATE, where.line, where.col, where.length, what=what,
+                        related=(Related("the earlier one, overridden", self.file, *earlier),))
+        self.header.settings_where[key] = where
 
 
 def split_args(text: str, line: int, first_col: int) -> list[Arg]:
@@ -62,19 +75,22 @@ def split_args(text: str, line: int, first_col: int) -> list[Arg]:
     return args
 
 
-def apply_directive(ctx: DirectiveContext, text: str, line: int, seen_utterance: bool) -> None:
-    """Check one directive line and apply it to ``ctx.header``."""
+def apply_directive(ctx: DirectiveContext, text: str, line: int, first_utterance: Span | None) -> None:
+    """Check one directive line and apply it to ``ctx.header``; ``first_utterance`` is where the
+    first utterance is when one came before this line (None in the header)."""
     m = re.match(r"@([A-Za-z_][A-Za-z0-9_\-]*)?", text)
     name = m.group(1) if m else None
     if not name:
-        ctx.error(line, 1, 1, "a directive needs a name after '@'", "directives are: " + ", ".join("@" + d for d in DIRECTIVES), "directive-name")
+        ctx.report(rules.DIRECTIVE_NAME, line, 1, 1, names=DIRECTIVE_LIST)
         return
     if name not in DIRECTIVES:
-        hint, sugg = did_you_mean(name, DIRECTIVES)
-        ctx.error(line, 1, len(name) + 1, f"unknown directive '@{name}'", hint or ("directives are: " + ", ".join("@" + d for d in DIRECTIVES)), "unknown-directive", suggestions=tuple("@" + s for s in sugg))
+        hint, fixes = rules.did_you_mean(name, DIRECTIVES, line, 1, len(name) + 1, "@{}")
+        ctx.report(rules.UNKNOWN_DIRECTIVE, line, 1, len(name) + 1, name=name, names=DIRECTIVE_LIST,
+                   fixes=fixes, **({"hint": hint} if hint else {}))
         return
-    if name in HEADER_ONLY and seen_utterance:
-        ctx.error(line, 1, len(name) + 1, f"'@{name}' must be in the header, before the first utterance", "move it to the top of the file", "header-only")
+    if name in HEADER_ONLY and first_utterance is not None:
+        ctx.report(rules.HEADER_ONLY, line, 1, len(name) + 1, name=name,
+                   related=(Related("the first utterance is here: the header ends before it", ctx.file, *first_utterance),))
         return
     args = split_args(text[m.end():], line, m.end() + 1)
     handler = globals()[f"_do_{name}"]
@@ -89,8 +105,10 @@ def _speaker_and_rest(args: list[Arg]) -> tuple[str, list[Arg]]:
     return "", args
 
 
-def _set_voice(ctx: DirectiveContext, speaker: str, key: str, value) -> None:
+def _set_voice(ctx: DirectiveContext, speaker: str, key: str, value, where: Span) -> None:
     """Set a voice setting for everyone ("") or for one speaker (an override)."""
+    who = f" for speaker '{speaker}'" if speaker else ""
+    ctx.setting(f"{key}:{speaker}", f"'@{'voice' if key == 'name' else key}'{who}", where)
     if speaker:
         ctx.header.speaker_overrides.setdefault(speaker, {})[key] = value
     else:
@@ -99,10 +117,11 @@ def _set_voice(ctx: DirectiveContext, speaker: str, key: str, value) -> None:
 
 def _need_one(ctx, args, line, where, what, example) -> Arg | None:
     if not args:
-        ctx.error(line, where.col, where.length, f"'@{what}' needs a value", f"for example: {example}", "missing-value")
+        ctx.report(rules.MISSING_VALUE, line, where.col, where.length, directive=what, what="a value", example=example)
         return None
     for extra in args[1:]:
-        ctx.error(line, extra.col, extra.length, f"unexpected '{extra.text}' after '@{what}' value", f"for example: {example}", "extra-argument")
+        ctx.report(rules.EXTRA_ARGUMENT, line, extra.col, extra.length, text=extra.text, directive=what, example=example,
+                   fixes=(rules.delete(line, extra.col, extra.length, f"remove '{extra.text}'"),))
     return args[0]
 
 
@@ -110,10 +129,10 @@ def _int_in_range(ctx, arg: Arg, line: int, what: str, lo: int, hi: int) -> int 
     try:
         value = int(arg.text)
     except ValueError:
-        ctx.error(line, arg.col, arg.length, f"{what} must be a whole number, not '{arg.text}'", f"use a value from {lo} to {hi}", "bad-number")
+        ctx.report(rules.BAD_NUMBER, line, arg.col, arg.length, what=what, text=arg.text, lo=lo, hi=hi)
         return None
     if not lo <= value <= hi:
-        ctx.error(line, arg.col, arg.length, f"{what} {value} is out of range", f"use a value from {lo} to {hi}", "out-of-range")
+        ctx.report(rules.OUT_OF_RANGE, line, arg.col, arg.length, what=what, value=value, allowed=f"a value from {lo} to {hi}")
         return None
     return value
 
@@ -123,8 +142,9 @@ def _do_voice(ctx, args, line, where):
     arg = _need_one(ctx, rest, line, where, "voice", "@voice en-us   or   @voice guide: en-gb")
     if arg is None:
         return
-    _set_voice(ctx, speaker, "name", arg.text)
-    ctx.header.voice_where[speaker] = Span(line, arg.col, arg.length)
+    span = Span(line, arg.col, arg.length)
+    _set_voice(ctx, speaker, "name", arg.text, span)
+    ctx.header.voice_where[speaker] = span
 
 
 def _do_rate(ctx, args, line, where):
@@ -133,7 +153,7 @@ def _do_rate(ctx, args, line, where):
     if arg is not None:
         value = _int_in_range(ctx, arg, line, "speaking rate (words per minute)", *RATE_RANGE)
         if value is not None:
-            _set_voice(ctx, speaker, "rate", value)
+            _set_voice(ctx, speaker, "rate", value, Span(line, arg.col, arg.length))
 
 
 def _do_pitch(ctx, args, line, where):
@@ -142,14 +162,15 @@ def _do_pitch(ctx, args, line, where):
     if arg is not None:
         value = _int_in_range(ctx, arg, line, "pitch", *PITCH_RANGE)
         if value is not None:
-            _set_voice(ctx, speaker, "pitch", value)
+            _set_voice(ctx, speaker, "pitch", value, Span(line, arg.col, arg.length))
 
 
 def _do_seed(ctx, args, line, where):
     arg = _need_one(ctx, args, line, where, "seed", "@seed 7")
     if arg is not None:
-        value = _int_in_range(ctx, arg, line, "seed", 0, 2**31 - 1)
+        value = _int_in_range(ctx, arg, line, "seed", 0, SEED_MAX)
         if value is not None:
+            ctx.setting("seed", "'@seed'", Span(line, arg.col, arg.length))
             ctx.header.seed = value
 
 
@@ -161,16 +182,19 @@ def _do_library(ctx, args, line, where):
     if not path.is_absolute():
         path = ctx.base_dir / path
     if not path.is_dir():
-        ctx.error(line, arg.col, arg.length, f"gesture folder '{arg.text}' does not exist", f"looked for {path}; paths are relative to the script's folder", "missing-folder")
+        ctx.report(rules.MISSING_FOLDER, line, arg.col, arg.length, text=arg.text, path=path)
         return
-    ctx.header.library_dirs.append(path)
-    ctx.header.library_where[path] = Span(line, arg.col, arg.length)
+    span = Span(line, arg.col, arg.length)
+    ctx.setting(f"library:{path.resolve()}", f"gesture folder '{arg.text}'", span)
+    if path not in ctx.header.library_dirs:
+        ctx.header.library_dirs.append(path)
+    ctx.header.library_where[path] = span
 
 
 def _do_preset(ctx, args, line, where):
     example = "@preset excited = speed:+2 space:+1.5"
     if not args:
-        ctx.error(line, where.col, where.length, "'@preset' needs a name and style values", f"for example: {example}", "missing-value")
+        ctx.report(rules.MISSING_VALUE, line, where.col, where.length, directive="preset", what="a name and style values", example=example)
         return
     name_arg, rest = args[0], args[1:]
     name = name_arg.text
@@ -184,55 +208,75 @@ def _do_preset(ctx, args, line, where):
         first = rest[0]
         rest = [Arg(first.text[1:], first.col + 1, first.length - 1)] + rest[1:]
     if not NAME_RE.match(name):
-        ctx.error(line, name_arg.col, name_arg.length, f"preset name '{name}' is not valid", "use lower-case letters, digits and '_', starting with a letter", "bad-name")
+        ctx.report(rules.BAD_NAME, line, name_arg.col, name_arg.length, name=name)
+        ctx.header.broken_presets.add(name)
         return
     if name in ctx.reserved:
-        ctx.error(line, name_arg.col, len(name), f"preset name '{name}' is taken by a built-in style name or preset", "pick another name", "reserved-name")
+        ctx.report(rules.RESERVED_NAME, line, name_arg.col, len(name), name=name)
         return
-    if name in ctx.header.presets:
-        ctx.error(line, name_arg.col, len(name), f"preset '{name}' is defined twice", "remove one definition", "duplicate", severity=WARNING)
+    ctx.setting(f"preset:{name}", f"preset '{name}'", Span(line, name_arg.col, len(name)))
     if not rest:
-        ctx.error(line, name_arg.col, name_arg.length, f"preset '{name}' has no style values", f"for example: {example}", "missing-value")
+        ctx.report(rules.MISSING_VALUE, line, name_arg.col, name_arg.length, directive="preset",
+                   what=f"style values after '{name} ='", example=example)
+        ctx.header.broken_presets.add(name)
         return
     values: dict[str, float] = {}
+    seen: dict[str, Arg] = {}
+    broken = False
     for arg in rest:
         item, sep, value_text = arg.text.partition(":")
-        problem = parse_style_value(item, value_text if sep else None)
-        if isinstance(problem, str):
-            hint = STYLE_ITEM_HELP
-            if "unknown style" in problem:
-                h, _ = did_you_mean(item, STYLE_NAMES)
-                hint = h or hint
-            ctx.error(line, arg.col, arg.length, problem, hint, "bad-style")
+        if item in seen:
+            earlier = seen[item]
+            ctx.report(rules.DUPLICATE, line, arg.col, arg.length, what=f"style item '{item}'",
+                       related=(Related("the earlier one, overridden", ctx.file, line, earlier.col, earlier.length),))
+        seen[item] = arg
+        result = parse_style_value(item, value_text if sep else None)
+        if isinstance(result, tuple):
+            rule, fields = result
+            kw = {}
+            if rule is rules.UNKNOWN_STYLE:
+                hint, fixes = rules.did_you_mean(item, STYLE_NAMES, line, arg.col, len(item))
+                kw = {"fixes": fixes, **({"hint": hint} if hint else {})}
+            ctx.report(rule, line, arg.col, arg.length, **fields, **kw)
+            broken = True
             continue
-        values[item] = problem
-    if values:
+        values[item] = result
+    ctx.header.presets.pop(name, None)
+    if broken:  # reported once here; its uses are not errors again
+        ctx.header.broken_presets.add(name)
+    else:
+        ctx.header.broken_presets.discard(name)
         ctx.header.presets[name] = values
 
 
 def _do_audio(ctx, args, line, where):
     if not args:
-        ctx.error(line, where.col, where.length, "'@audio' needs a file", "for example: @audio rec/line1.wav timings=rec/line1.TextGrid", "missing-value")
+        ctx.report(rules.MISSING_VALUE, line, where.col, where.length, directive="audio", what="a file",
+                   example="@audio rec/line1.wav timings=rec/line1.TextGrid")
         return
-    audio_arg, timings = args[0], None
+    audio_arg, timings, timings_where = args[0], None, None
     for arg in args[1:]:
         key, sep, value = arg.text.partition("=")
         if key != "timings" or not sep or not value:
-            hint, sugg = did_you_mean(key, ("timings",))
-            ctx.error(line, arg.col, arg.length, f"unknown '@audio' option '{arg.text}'", hint or "the only option is timings=FILE (a TextGrid or JSON word list)", "unknown-option", suggestions=sugg)
+            hint, fixes = rules.did_you_mean(key, ("timings",), line, arg.col, len(key))
+            ctx.report(rules.UNKNOWN_AUDIO_OPTION, line, arg.col, arg.length, text=arg.text, fixes=fixes,
+                       **({"hint": hint} if hint else {}))
             continue
-        tpath = _resolve_file(ctx, value, line, arg.col + len(key) + 1, len(value), "word timings file")
+        vcol = arg.col + len(key) + 1
+        tpath = _resolve_file(ctx, value, line, vcol, len(value), "word timings file")
         if tpath is not None:
             if tpath.suffix.lower() not in (".textgrid", ".json"):
-                ctx.error(line, arg.col, arg.length, f"word timings must be a .TextGrid or .json file, not '{tpath.suffix}'", None, "bad-format")
+                ctx.report(rules.BAD_FORMAT, line, vcol, len(value), suffix=tpath.suffix)
             else:
-                timings = tpath
+                timings, timings_where = tpath, Span(line, vcol, len(value))
     apath = _resolve_file(ctx, audio_arg.text, line, audio_arg.col, audio_arg.length, "audio file")
     if apath is None:
         return
+    span = Span(line, audio_arg.col, audio_arg.length)
     if ctx.pending_audio is not None:
-        ctx.error(line, 1, 6, "two '@audio' directives for one utterance", "put each '@audio' just before its utterance", "duplicate")
-    ctx.pending_audio = AudioRef(apath, timings, Span(line, audio_arg.col, audio_arg.length))
+        ctx.report(rules.DUPLICATE, line, 1, 6, what="'@audio' for one utterance",
+                   related=(Related("the earlier one, overridden", ctx.file, ctx.pending_audio.where.line, 1, 6),))
+    ctx.pending_audio = AudioRef(apath, timings, span, timings_where)
 
 
 def _resolve_file(ctx, text, line, col, length, what) -> Path | None:
@@ -240,6 +284,6 @@ def _resolve_file(ctx, text, line, col, length, what) -> Path | None:
     if not path.is_absolute():
         path = ctx.base_dir / path
     if not path.is_file():
-        ctx.error(line, col, length, f"{what} '{text}' not found", f"looked for {path}; paths are relative to the script's folder", "missing-file")
+        ctx.report(rules.MISSING_FILE, line, col, length, what=what, text=text, path=path)
         return None
     return path

@@ -6,7 +6,13 @@ Rules (see docs/language.md):
 - ``#`` starts a comment that runs to the end of the line (``\\#`` is a literal ``#``);
 - blank and comment-only lines are ignored; UTF-8, an optional BOM, CRLF or LF line ends;
 - a line starting with ``@`` is a directive;
-- an utterance may start with ``speaker:`` (a name followed by a colon and a space).
+- an utterance may start with ``speaker:``: one word (letters of any alphabet, digits, ``_``
+  and ``-``, not starting with a digit), a colon, then a space or the end of the line.
+
+Lines that look like a speaker but are not one get a warning: two or three words before the
+colon (``mall guide: Hello``, spoken whole) and a colon with no space after it
+(``g:hello``, spoken as text). Escaping the colon (``\\:``) says "this is text" and silences
+both.
 
 Each statement keeps a map from its text offsets back to file line and column so that every
 diagnostic points at the right character.
@@ -18,7 +24,15 @@ import bisect
 import re
 from dataclasses import dataclass, field
 
-SPEAKER_RE = re.compile(r"[ \t]*([A-Za-z_][A-Za-z0-9_\-]*)[ \t]*:(?=[ \t]|$)")
+from core import rules
+from core.diagnostics import Diagnostic, Fix, TextEdit
+
+_NAME = r"[^\W\d][\w\-]*"
+SPEAKER_RE = re.compile(rf"[ \t]*({_NAME})[ \t]*:(?=[ \t]|$)")
+#: Two or three words and a colon at the start of a line: a speaker name with a space?
+_SPACED_SPEAKER_RE = re.compile(rf"({_NAME}(?:[ \t]+[\w\-]+){{1,2}})[ \t]*:(?=[ \t]|$)")
+#: A name, a colon and a word with no space between: a speaker without its space?
+_GLUED_SPEAKER_RE = re.compile(rf"({_NAME}):([^\W\d_][\w\-']*)")
 
 
 @dataclass
@@ -27,7 +41,6 @@ class Statement:
     text: str  # comments removed, continuation lines joined with "\n"
     line: int  # first line (1-based)
     speaker: str | None = None
-    speaker_col: int = 0
     body_offset: int = 0  # where the utterance body starts in ``text``
     # parallel lists: text offset where a piece starts -> (line, col of that offset)
     _starts: list[int] = field(default_factory=list)
@@ -89,10 +102,29 @@ def split_lines(source: str) -> list[str]:
     return source.replace("\r\n", "\n").replace("\r", "\n").split("\n")
 
 
-def split_statements(source: str) -> tuple[list[Statement], list[tuple[int, int, str]]]:
-    """Statements of ``source`` and layout problems as (line, col, message)."""
+def utf16_order(data: bytes) -> str | None:
+    """"little-endian" or "big-endian" when ``data`` looks like UTF-16 text (a UTF-16 byte-order
+    mark, or NUL bytes in most odd or even positions), else None."""
+    if data.startswith(b"\xff\xfe"):
+        return "little-endian"
+    if data.startswith(b"\xfe\xff"):
+        return "big-endian"
+    sample = data[:2000]
+    if len(sample) < 4:
+        return None
+    odd, even = sample[1::2], sample[0::2]
+    if odd.count(0) > 0.6 * len(odd) and even.count(0) < 0.1 * len(even):
+        return "little-endian"
+    if even.count(0) > 0.6 * len(even) and odd.count(0) < 0.1 * len(odd):
+        return "big-endian"
+    return None
+
+
+def split_statements(source: str, file: str = "<string>") -> tuple[list[Statement], list[Diagnostic]]:
+    """Statements of ``source`` and the layout problems (indentation, lines that look like a
+    speaker but are not) as diagnostics in ``file``."""
     statements: list[Statement] = []
-    problems: list[tuple[int, int, str]] = []
+    problems: list[Diagnostic] = []
     current: Statement | None = None
     for number, raw in enumerate(split_lines(source), start=1):
         code = strip_comment(raw)
@@ -102,7 +134,7 @@ def split_statements(source: str) -> tuple[list[Statement], list[tuple[int, int,
         if indented:
             if current is None or current.kind != "utterance":
                 what = "a directive" if current is not None else "nothing"
-                problems.append((number, 1, f"indented line continues {what}: only utterances may continue on indented lines"))
+                problems.append(rules.INDENT.at(file, number, 1, 1, what=what))
                 continue
             stripped = code.lstrip(" \t")
             col = len(code) - len(stripped) + 1
@@ -117,7 +149,32 @@ def split_statements(source: str) -> tuple[list[Statement], list[tuple[int, int,
             m = SPEAKER_RE.match(current.text)
             if m:
                 current.speaker = m.group(1)
-                current.speaker_col = m.start(1) + 1
                 current.body_offset = m.end()
+            else:
+                _speaker_lookalike(current.text, file, number, problems)
         statements.append(current)
     return statements, problems
+
+
+def _speaker_lookalike(text: str, file: str, line: int, problems: list[Diagnostic]) -> None:
+    """Warn when a line that has no speaker starts like one (see the module docstring)."""
+    if ":" not in text:
+        return
+    m = _SPACED_SPEAKER_RE.match(text)
+    if m:
+        name = m.group(1)
+        fixed = re.sub(r"[ \t]+", "_", name)
+        colon = text.index(":", m.end(1))
+        problems.append(rules.SPEAKER_SPACE.at(file, line, 1, len(name), text=name, fixed=fixed, fixes=(
+            Fix(f"make '{fixed}' the speaker", (TextEdit(line, 1, len(name), fixed),)),
+            Fix("speak the colon", (TextEdit(line, colon + 1, 1, "\\:"),)),
+        )))
+        return
+    m = _GLUED_SPEAKER_RE.match(text)
+    if m and not text.startswith(("http:", "https:", "mailto:")):
+        name, rest = m.group(1), m.group(2)
+        colon = m.end(1)
+        problems.append(rules.SPEAKER_COLON.at(file, line, 1, m.end(), name=name, rest=rest, fixes=(
+            Fix(f"make '{name}' the speaker", (TextEdit(line, colon + 2, 0, " "),)),
+            Fix("speak it as written", (TextEdit(line, colon + 1, 1, "\\:"),)),
+        )))

@@ -1,7 +1,13 @@
 """Parse and check a script: source text -> :class:`~dsl.script.Script` plus diagnostics.
 
 This is the static half of the front end (no speech, no timing); it is fast enough to run on
-every keystroke. Timing-dependent checks (overlapping pose controls) live in the compiler.
+every keystroke. Checks that need the outside world (voices, recordings) and timing (pose
+controls that overlap) live in the compiler, which every command and the editor share.
+
+Every problem is reported with a rule of :mod:`core.rules`, and each root cause once: a
+syntax error blanks the bad tag and the body is scanned again; a mismatched closing tag
+closes the span it names (or nothing) without a second error; a preset whose definition
+failed is not reported again where it is used.
 """
 
 from __future__ import annotations
@@ -10,12 +16,13 @@ import re
 from bisect import bisect_right
 from pathlib import Path
 
-from dsl.body import parse_items
-from core.diagnostics import ERROR, WARNING, Diagnostic, did_you_mean, sort_key
+from core import rules
+from core.controls import STYLE_NAMES
+from core.diagnostics import Diagnostic, Fix, Related, TextEdit, sort_key
 from dsl.directives import DirectiveContext, apply_directive
-from dsl.lines import Statement, decode_source, split_statements
+from dsl.lines import Statement, decode_source, split_lines, split_statements, utf16_order
 from dsl.presets import BUILTIN_PRESETS
-from dsl.scan import scan_body
+from dsl.scan import scan_items
 from dsl.script import (
     Header,
     Pause,
@@ -26,8 +33,7 @@ from dsl.script import (
     Utterance,
     WordToken,
 )
-from dsl.styles import STYLE_ITEM_HELP, parse_style_value
-from core.controls import STYLE_NAMES
+from dsl.styles import parse_style_value
 
 #: A spoken word: letters or digits, with inner apostrophes or hyphens ("don't", "left-hand").
 WORD_RE = re.compile(r"[^\W_]+(?:['\u2019\-][^\W_]+)*")
@@ -39,6 +45,11 @@ MAX_PAUSE = 10.0
 MAX_HOLD = 10.0
 _MAX_RECOVERIES = 50
 _new_span = tuple.__new__  # Span(line, col, length) without the NamedTuple call overhead
+_TAG_HINT = "tags look like [pose:point_right x2 flip hold=500ms] or [pause 300ms]; write '\\[' for a literal '['"
+_STYLE_HINT = "style tags look like <speed:-1 space:+0.5> ... </> or <happy>; write '\\<' for a literal '<'"
+#: Characters that hide in a script (see rules BIDI_CONTROL, INVISIBLE_CHARACTER, NUL_CHARACTER).
+_SUSPICIOUS_RE = re.compile("[\x00\u200b\u200e\u200f\u2060\ufeff\u202a-\u202e\u2066-\u2069]+")
+_BIDI = frozenset("\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
 
 
 def parse_duration(text: str) -> float | None:
@@ -51,17 +62,32 @@ def parse_duration(text: str) -> float | None:
 
 
 class _Analyser:
-    def __init__(self, path: str, gesture_names, base_dir: Path) -> None:
+    def __init__(self, path: str, gesture_names, base_dir: Path, skipped_gesture=None) -> None:
         self.file = path
         self._names_source = gesture_names
         self.gesture_names: set[str] | None = None
+        self.skipped_gesture = skipped_gesture  # name -> Related (why its spec was skipped) or None
         self.base_dir = base_dir
         self.diags: list[Diagnostic] = []
 
     # -- diagnostics -------------------------------------------------------------------
-    def report(self, stmt: Statement, offset: int, length: int, message: str, hint=None, code="", severity=ERROR, suggestions=()) -> None:
+    def report(self, stmt: Statement, offset: int, length: int, rule: rules.Rule, **kw) -> None:
         line, col = stmt.position(offset)
-        self.diags.append(Diagnostic(severity, message, self.file, line, col, max(1, length), hint, code, tuple(suggestions)))
+        self.diags.append(rule.at(self.file, line, col, length, **kw))
+
+    def guess(self, stmt: Statement, offset: int, length: int, word: str, choices, fmt: str = "{}") -> dict:
+        """``hint`` and ``fixes`` keywords for a misspelt ``word`` at ``offset`` (no hint when
+        nothing is close, so the rule's default hint stays)."""
+        line, col = stmt.position(offset)
+        hint, fixes = rules.did_you_mean(word, choices, line, col, length, fmt)
+        return {"fixes": fixes, **({"hint": hint} if hint else {})}
+
+    def replace(self, stmt: Statement, offset: int, length: int, text: str, title: str) -> Fix:
+        line, col = stmt.position(offset)
+        return Fix(title, (TextEdit(line, col, length, text),))
+
+    def related(self, where: Span, message: str) -> Related:
+        return Related(message, self.file, where.line, where.col, where.length)
 
     def span(self, stmt: Statement, offset: int, length: int) -> Span:
         line, col = stmt.position(offset)
@@ -69,94 +95,113 @@ class _Analyser:
 
     # -- syntax ------------------------------------------------------------------------
     def parse_body(self, stmt: Statement) -> tuple[list[tuple] | None, str]:
-        """Parse the utterance body; on a syntax error report it, blank the bad tag and retry.
+        """Scan the utterance body; at a syntax error report it, blank the bad part and scan
+        again (:func:`dsl.scan.scan_items` stops exactly where the grammar fails).
 
         Returns the body's items (see :mod:`dsl.scan`), None when it could not be repaired, and
-        the body as parsed (bad tags blanked)."""
+        the body as read (bad parts blanked)."""
         body = stmt.text[stmt.body_offset :]
-        items = scan_body(body)
-        if items is not None:
+        items, stop = scan_items(body)
+        if stop is None:
             return items, body
-        return self._recover(stmt, list(body))
-
-    def _recover(self, stmt: Statement, body: list[str]) -> tuple[list[tuple] | None, str]:
-        from lark.exceptions import UnexpectedInput
-
-        base = stmt.body_offset
+        chars = list(body)
         for _ in range(_MAX_RECOVERIES):
-            try:
-                return parse_items("".join(body)), "".join(body)
-            except UnexpectedInput as exc:
-                lo, hi = self._syntax_error(stmt, "".join(body), exc, base)
-                for i in range(lo, hi):
-                    if body[i] != "\n":
-                        body[i] = " "
-        return None, "".join(body)
+            lo, hi = self._syntax_error(stmt, body, stop)
+            for i in range(lo, hi):
+                if chars[i] != "\n":
+                    chars[i] = " "
+            body = "".join(chars)
+            items, stop = scan_items(body)
+            if stop is None:
+                return items, body
+        return None, body
 
-    def _syntax_error(self, stmt: Statement, body: str, exc, base: int) -> tuple[int, int]:
-        """Report one syntax error; return the body range to blank out before retrying."""
-        from lark.exceptions import UnexpectedToken
-
-        pos = getattr(exc, "pos_in_stream", None)
-        if isinstance(exc, UnexpectedToken) and exc.token is not None and exc.token.type != "$END":
-            pos = exc.token.start_pos
-        if pos is None or pos > len(body):
-            pos = len(body)
-        opener = _open_bracket(body, pos)
-        if opener is None:
-            ch = body[pos] if pos < len(body) else ""
-            if ch in "]>":
-                what = "bracket" if ch == "]" else "angle bracket"
-                self.report(stmt, base + pos, 1, f"unexpected '{ch}' in speech", f"write '\\{ch}' for a literal {what}", "stray-closer")
-            elif ch == "\\":
-                self.report(stmt, base + pos, 1, "a '\\' at the end of a line escapes nothing", "write '\\\\' for a literal backslash", "bad-escape")
+    def _syntax_error(self, stmt: Statement, body: str, pos: int) -> tuple[int, int]:
+        """Report the syntax error at body offset ``pos``; return the range to blank out."""
+        at = stmt.body_offset + pos
+        ch = body[pos]
+        if ch in "[<":
+            closer = "]" if ch == "[" else ">"
+            what = "tag" if ch == "[" else "style tag"
+            close = _find_closer(body, pos, closer)
+            if close is None:
+                self.report(stmt, at, 1, rules.UNCLOSED, char=ch, what=what, closer=closer,
+                            fixes=(self.replace(stmt, at, 1, "\\" + ch, f"escape the '{ch}' to speak it"),))
+                nxt = [j for j in (body.find(c, pos + 1) for c in "[<\n") if j >= 0]
+                return pos, min(nxt) if nxt else len(body)
+            inner = body[pos : close + 1]
+            if ch == "[" and re.match(r"\[\s*pose\s*:\s*\]", inner):
+                self.report(stmt, at, len(inner), rules.MISSING_NAME)
             else:
-                self.report(stmt, base + pos, 1, f"unexpected '{ch}'", None, "syntax")
-            return pos, min(len(body), pos + 1)
-        o, kind = opener
-        closer = "]" if kind == "[" else ">"
-        close = _find_closer(body, o, closer)
-        if close is None:
-            name = "tag" if kind == "[" else "style tag"
-            self.report(stmt, base + o, 1, f"unclosed '{kind}': this {name} has no '{closer}'", f"add '{closer}' to end the tag, or write '\\{kind}' for a literal '{kind}'", "unclosed")
-            nxt = [j for j in (body.find(c, o + 1) for c in "[<\n") if j >= 0]
-            return o, min(nxt) if nxt else len(body)
-        inner = body[o : close + 1]
-        self.report(stmt, base + o, close + 1 - o, _tag_syntax_message(inner, kind, pos - o), _tag_syntax_hint(kind), "bad-tag")
-        return o, close + 1
+                kind = "closing tag" if inner.startswith("</") else what
+                self.report(stmt, at, len(inner), rules.BAD_TAG, what=kind, text=repr(inner),
+                            hint=_TAG_HINT if ch == "[" else _STYLE_HINT)
+            return pos, close + 1
+        if ch in "]>":
+            self.report(stmt, at, 1, rules.STRAY_CLOSER, char=ch, what="bracket" if ch == "]" else "angle bracket",
+                        fixes=(self.replace(stmt, at, 1, "\\" + ch, f"escape the '{ch}' to speak it"),))
+        elif ch == "\\":  # an escape takes any next character: this one ends the body
+            self.report(stmt, at, 1, rules.TRAILING_BACKSLASH,
+                        fixes=(self.replace(stmt, at, 1, "\\\\", "write a literal backslash"),))
+        else:
+            self.report(stmt, at, 1, rules.SYNTAX, char=ch)
+        return pos, pos + 1
 
     # -- statements --------------------------------------------------------------------
     def run(self, source: str) -> tuple[Header, list[Utterance]]:
-        statements, layout = split_statements(source)
-        for line, col, message in layout:
-            self.diags.append(Diagnostic(ERROR, message, self.file, line, col, 1, "indent only the continuation lines of an utterance", "indent"))
+        statements, layout = split_statements(source, self.file)
+        self.diags.extend(layout)
+        # (an ASCII text can only hold NUL of them: two fast scans instead of the regex)
+        if "\x00" in source or (not source.isascii() and _SUSPICIOUS_RE.search(source)):
+            self._suspicious_characters(source)
         header = Header()
         ctx = DirectiveContext(self.file, self.base_dir, header, set(STYLE_NAMES) | set(BUILTIN_PRESETS))
         utterances: list[Utterance] = []
-        seen_utterance = False
+        first_utterance: Span | None = None
         audio_line = 0
         for stmt in statements:
             if stmt.kind == "directive":
                 had = ctx.pending_audio
-                apply_directive(ctx, stmt.text, stmt.line, seen_utterance)
+                apply_directive(ctx, stmt.text, stmt.line, first_utterance)
                 if ctx.pending_audio is not had:
                     audio_line = stmt.line
                 continue
-            if not seen_utterance:  # the header is complete: now the gesture names are known
+            if first_utterance is None:  # the header is complete: now the gesture names are known
                 self._resolve_names(header)
-            seen_utterance = True
+                first_utterance = Span(stmt.line, 1, max(1, len(stmt.text.split("\n", 1)[0])))
             utt = self.utterance(stmt, len(utterances), header)
             utt.voice = header.voice_for(utt.speaker)
             utt.audio, ctx.pending_audio = ctx.pending_audio, None
             utterances.append(utt)
         if ctx.pending_audio is not None:
-            self.diags.append(Diagnostic(ERROR, "'@audio' is not followed by an utterance", self.file, audio_line, 1, 6, "put '@audio' on the line before the utterance it belongs to", "dangling-audio"))
+            self.diags.append(rules.DANGLING_AUDIO.at(self.file, audio_line, 1, 6))
         self.diags.extend(ctx.diagnostics)
         return header, utterances
 
     def _resolve_names(self, header: Header) -> None:
         names = self._names_source(header) if callable(self._names_source) else self._names_source
         self.gesture_names = set(names) if names is not None else None
+
+    def _suspicious_characters(self, source: str) -> None:
+        """Warn about NUL bytes, bidi controls and invisible characters, once per run per line."""
+        for number, text in enumerate(split_lines(source), start=1):
+            for m in _SUSPICIOUS_RE.finditer(text):
+                run = m.group()
+                col = m.start() + 1
+                nul = run.count("\x00")
+                bidi = [c for c in run if c in _BIDI]
+                other = [c for c in run if c != "\x00" and c not in _BIDI]
+                if number == 1 and m.start() == 0 and other and other[0] == "\ufeff":
+                    other = other[1:]  # a byte-order mark at the start of the file is fine
+                if nul:
+                    self.diags.append(rules.NUL_CHARACTER.at(self.file, number, col, len(run), count=nul, s="s" if nul != 1 else "",
+                                                             fixes=(Fix("remove them", (TextEdit(number, col, len(run), run.replace("\x00", "")),)),)))
+                if bidi:
+                    self.diags.append(rules.BIDI_CONTROL.at(self.file, number, col, len(run), chars=_codepoints(bidi),
+                                                            fixes=(Fix("remove it", (TextEdit(number, col, len(run), "".join(c for c in run if c not in _BIDI)),)),)))
+                if other:
+                    self.diags.append(rules.INVISIBLE_CHARACTER.at(self.file, number, col, len(run), chars=_codepoints(other),
+                                                                   fixes=(Fix("remove it", (TextEdit(number, col, len(run), "".join(c for c in run if c == "\x00" or c in _BIDI)),)),)))
 
     def utterance(self, stmt: Statement, index: int, header: Header) -> Utterance:
         items, body = self.parse_body(stmt)
@@ -167,7 +212,8 @@ class _Analyser:
             spoken = shown = [body]
         else:  # tags and escape marks are blanked in the spoken text and left out of the display
             spoken, shown = [], []
-            for item in items:
+            run_start = None  # where the current run of adjacent marks starts in the body
+            for n, item in enumerate(items):
                 kind = item[0]
                 if kind == "text":
                     spoken.append(item[3])
@@ -179,10 +225,18 @@ class _Analyser:
                         shown.append(ch)
                     else:
                         spoken.append("  ")
-                        self.report(stmt, base + item[1], 2, f"unknown escape '\\{ch}'", "escapes are \\[ \\] \\< \\> \\\\ \\# \\:", "bad-escape")
+                        self.report(stmt, base + item[1], 2, rules.BAD_ESCAPE, char=ch,
+                                    fixes=(self.replace(stmt, base + item[1], 2, ch, "remove the backslash"),))
                 else:
                     spoken.append(" " * (item[2] - item[1]))
                     marks.append(item)
+                    run_start = item[1] if run_start is None else run_start
+                    nxt = items[n + 1] if n + 1 < len(items) else None
+                    if nxt is None or nxt[0] in ("text", "escape"):  # the run of marks ends here
+                        if _between_letters(body, run_start, item[2]):
+                            shown.append(" ")  # the speech splits the word here: so does the display
+                            self._mark_in_word(stmt, body, run_start, item[2])
+                        run_start = None
         # line breaks of continuation lines are spaces (an escaped one is already blanked)
         utt.text = text = " " * base + "".join(spoken).replace("\n", " ")
         utt.display = " ".join("".join(shown).split())
@@ -190,6 +244,32 @@ class _Analyser:
             utt.words = self._words(stmt, text)
         self._marks(stmt, utt, marks, header, base)
         return utt
+
+    def _mark_in_word(self, stmt: Statement, body: str, start: int, end: int) -> None:
+        """Warn about marks (body[start:end]) written inside a word, with a fix that moves them."""
+        left = start
+        while left > 0 and (body[left - 1].isalnum() or body[left - 1] in "'\u2019-"):
+            left -= 1
+        right = end
+        while right < len(body) and (body[right].isalnum() or body[right] in "'\u2019-"):
+            right += 1
+        mark = body[start:end]
+        closing = mark.startswith("</")
+        what = "closing tag" if closing else "style tag" if mark.startswith("<") else "pause" if re.match(r"\[\s*pause", mark) else "pose control" if mark.startswith("[") else "tag"
+        first, second = body[left:start], body[end:right]
+        base = stmt.body_offset
+        fixes: tuple = ()
+        (l0, c0), (l1, _) = stmt.position(base + left), stmt.position(base + right)
+        if "\n" not in body[left:right] and l0 == l1:
+            _, cm = stmt.position(base + start)
+            if closing:  # a closing tag moves after the word, anything else before it
+                _, cw = stmt.position(base + right)
+            else:
+                cw = c0
+            fixes = (Fix(f"move the {what} {'after' if closing else 'before'} the word",
+                         (TextEdit(l0, cw, 0, mark), TextEdit(l0, cm, len(mark), ""))),)
+        self.report(stmt, base + start, end - start, rules.MARK_IN_WORD, what=what, word=first + second,
+                    parts=f"'{first}' and '{second}'", fixes=fixes)
 
     def _words(self, stmt: Statement, text: str) -> list[WordToken]:
         """The spoken words of ``text`` (an item never ends inside a word: tags and escapes are
@@ -219,65 +299,75 @@ class _Analyser:
             if kind == "tag":
                 self._tag(stmt, utt, offset, length, payload, starts, base)
             elif kind == "style_open":
-                span = self._style_open(stmt, offset, length, payload, presets, stack, base)
+                span = self._style_open(stmt, offset, length, payload, presets, header.broken_presets, stack, base)
                 if span is not None:
                     utt.styles.append(span)
                 else:  # keep the stack in step so its closing tag is not reported again
                     first = payload[0][0]
-                    span = StyleSpan(first, dict(stack[-1].values) if stack else {}, {}, offset, -1, self.span(stmt, offset, length))
+                    span = StyleSpan(first, dict(stack[-1].values) if stack else {}, offset, -1, self.span(stmt, offset, length))
                 stack.append(span)
             else:  # style_close
-                names = payload
-                if not stack:
-                    self.report(stmt, offset, length, "closing tag with no open style span", "remove it, or open a span before it with <speed:...>", "unmatched-close")
-                    continue
-                top = stack[-1]
-                if names and names[0] != top.name:
-                    opened = [s.name for s in stack]
-                    hint = f"the innermost open span is <{top.name}...> (line {top.where.line}, col {top.where.col}); close it with </{top.name}> or </>"
-                    self.report(stmt, offset, length, f"mismatched closing tag </{names[0]}>", hint, "mismatched-close", suggestions=(f"</{top.name}>",))
-                    if names[0] in opened:  # close up to the named span to resynchronise
-                        while stack and stack[-1].name != names[0]:
-                            stack.pop().end_offset = offset
-                        if stack:
-                            stack.pop().end_offset = offset
-                    continue
-                stack.pop().end_offset = offset
+                self._style_close(stmt, offset, length, payload, stack)
         for span in stack:  # left open: lasts to the end of the utterance
             span.end_offset = len(utt.text)
         self._resolve_styles(stmt, utt)
+
+    def _style_close(self, stmt: Statement, offset: int, length: int, names: list[str], stack: list[StyleSpan]) -> None:
+        text = stmt.text[offset : offset + length]
+        if not stack:
+            self.report(stmt, offset, length, rules.UNMATCHED_CLOSE, text=text,
+                        fixes=(self.replace(stmt, offset, length, "", "remove it"),))
+            return
+        top = stack[-1]
+        if names and names[0] != top.name:
+            self.report(stmt, offset, length, rules.MISMATCHED_CLOSE, text=text, top=top.name,
+                        related=(self.related(top.where, f"the innermost open span, <{top.name}...>, opens here"),),
+                        fixes=(self.replace(stmt, offset, length, f"</{top.name}>", f"close <{top.name}...> here"),
+                               self.replace(stmt, offset, length, "</>", "close the innermost span here")))
+            # Crossed spans (<a><b>..</a>..</b>): close the span it names and keep the inner
+            # ones open, so their own closing tags still match. A name no open span has
+            # closes nothing. Either way the problem is reported once.
+            for i in range(len(stack) - 1, -1, -1):
+                if stack[i].name == names[0]:
+                    stack.pop(i).end_offset = offset
+                    break
+            return
+        stack.pop().end_offset = offset
 
     def _tag(self, stmt, utt: Utterance, offset: int, length: int, payload, starts: list[int], base: int) -> None:
         names, args = payload  # NAMEs as (text, start); args as (key, value|None, start, end)
         kind, kpos = names[0]
         kpos += base
         if kind not in TAG_KINDS:
-            hint, sugg = did_you_mean(kind, TAG_KINDS)
-            self.report(stmt, kpos, len(kind), f"unknown tag '{kind}'", hint or "tags are [pose:NAME ...] and [pause DURATION]; write '\\[' for a literal '['", "unknown-tag", suggestions=sugg)
+            self.report(stmt, kpos, len(kind), rules.UNKNOWN_TAG, kind=kind, **self.guess(stmt, kpos, len(kind), kind, TAG_KINDS))
             return
         if kind == "pause":
             self._pause(stmt, utt, offset, length, names, args, starts, base)
             return
         if len(names) < 2:
-            self.report(stmt, offset, length, "a pose control needs a gesture name: [pose:NAME]", "for example [pose:point_right]; 'sgt library list' shows the names", "missing-name")
+            self.report(stmt, offset, length, rules.MISSING_NAME)
             return
         name, npos = names[1]
         npos += base
         ok = True
         if self.gesture_names is not None and name not in self.gesture_names:
-            hint, sugg = did_you_mean(name, sorted(self.gesture_names))
-            self.report(stmt, npos, len(name), f"unknown gesture '{name}'", hint or "'sgt library list' shows the gestures", "unknown-gesture", suggestions=sugg)
+            why = self.skipped_gesture(name) if self.skipped_gesture else None
+            self.report(stmt, npos, len(name), rules.UNKNOWN_GESTURE, name=name, related=(why,) if why else (),
+                        **self.guess(stmt, npos, len(name), name, sorted(self.gesture_names)))
             ok = False
         speed, flip, hold = 1, False, 0.0
-        seen: dict[str, int] = {}
+        seen: dict[str, tuple[int, int]] = {}
         for key, value, a0, a1 in args:
             apos, alen = base + a0, a1 - a0
             group = "speed" if key in ("x1", "x2", "x3") else key
-            if group in seen:
-                self.report(stmt, apos, alen, f"option '{key}' conflicts with an earlier '{group}' option", "give each option once", "duplicate-option")
-                ok = False
-                continue
-            seen[group] = apos
+            if group in seen and key in POSE_OPTIONS:
+                what = "the speed (x1, x2, x3)" if group == "speed" else f"pose option '{key}'"
+                line, col = stmt.position(seen[group][0])
+                self.report(stmt, apos, alen, rules.DUPLICATE, what=what,
+                            related=(Related("the earlier one, overridden", self.file, line, col, seen[group][1]),),
+                            fixes=(Fix("remove the earlier one", (TextEdit(line, col, seen[group][1], ""),)),)
+                            if line == stmt.position(apos)[0] else ())
+            seen[group] = (apos, alen)
             if key in ("x1", "x2", "x3") and value is None:
                 speed = int(key[1])
             elif key == "flip" and value is None:
@@ -285,22 +375,23 @@ class _Analyser:
             elif key == "hold":
                 seconds = parse_duration(value) if value is not None else None
                 if seconds is None:
-                    self.report(stmt, apos, alen, "hold needs a duration, e.g. hold=500ms or hold=1.5s", None, "bad-duration")
+                    self._bad_duration(stmt, apos, alen, "hold", value)
                     ok = False
                 elif not 0 < seconds <= MAX_HOLD:
-                    self.report(stmt, apos, alen, f"hold={value} is out of range", f"use more than 0 and at most {MAX_HOLD:g}s", "out-of-range")
+                    self.report(stmt, apos, alen, rules.OUT_OF_RANGE, what="hold", value=value,
+                                allowed=f"more than 0 and at most {MAX_HOLD:g}s")
                     ok = False
                 else:
                     hold = seconds
             elif key in ("x1", "x2", "x3", "flip"):
-                self.report(stmt, apos, alen, f"option '{key}' takes no value", f"write just '{key}'", "bad-option")
+                self.report(stmt, apos, alen, rules.OPTION_VALUE, key=key,
+                            fixes=(self.replace(stmt, apos, alen, key, f"write just '{key}'"),))
                 ok = False
             else:
-                hint, sugg = did_you_mean(key, POSE_OPTIONS)
-                self.report(stmt, apos, alen, f"unknown pose option '{key}'", hint or "options are x1, x2, x3 (speed), flip (mirror) and hold=DURATION", "unknown-option", suggestions=sugg)
+                self.report(stmt, apos, alen, rules.UNKNOWN_OPTION, key=key, **self.guess(stmt, apos, len(key), key, POSE_OPTIONS))
                 ok = False
         if not utt.words and not starts:
-            self.report(stmt, offset, length, "pose control on an utterance with no words", "a pose control is anchored to a word; add speech text", "empty-utterance")
+            self.report(stmt, offset, length, rules.EMPTY_UTTERANCE)
             return
         if not ok:
             return
@@ -312,46 +403,68 @@ class _Analyser:
             mark.after_word = len(starts) - 1
         utt.poses.append(mark)
 
+    def _bad_duration(self, stmt, offset: int, length: int, what: str, text: str | None) -> None:
+        """A duration without a unit gets fixes that add one; a missing one says so."""
+        text = text or ""
+        kw: dict = {}
+        if re.fullmatch(r"\d+(?:\.\d*)?|\.\d+", text):
+            start = offset + length - len(text)
+            kw = {"hint": f"add a unit: {text}ms or {text}s",
+                  "fixes": (self.replace(stmt, start, len(text), text + "ms", f"write {text}ms"),
+                            self.replace(stmt, start, len(text), text + "s", f"write {text}s"))}
+        self.report(stmt, offset, length, rules.BAD_DURATION, what=what, given=f", not '{text}'" if text else "", **kw)
+
     def _pause(self, stmt, utt, offset, length, names, args, starts, base) -> None:
         if len(names) > 1 or len(args) != 1 or args[0][1] is not None:
-            self.report(stmt, offset, length, "a pause needs one duration: [pause 300ms] or [pause 1.2s]", None, "bad-pause")
+            self.report(stmt, offset, length, rules.BAD_PAUSE)
             return
         text = args[0][0]
         seconds = parse_duration(text)
         apos = base + args[0][2]
         if seconds is None:
-            hint = "add a unit: ms or s, e.g. [pause 300ms]" if re.fullmatch(r"[\d.]+", text) else "write it like 300ms or 1.2s"
-            self.report(stmt, apos, len(text), f"bad pause duration '{text}'", hint, "bad-duration")
+            self._bad_duration(stmt, apos, len(text), "a pause", text)
             return
         if not 0 < seconds <= MAX_PAUSE:
-            self.report(stmt, apos, len(text), f"pause of {text} is out of range", f"use more than 0 and at most {MAX_PAUSE:g}s", "out-of-range")
+            self.report(stmt, apos, len(text), rules.OUT_OF_RANGE, what="pause", value=text,
+                        allowed=f"more than 0 and at most {MAX_PAUSE:g}s")
             return
         index = bisect_right(starts, offset)
         utt.pauses.append(Pause(seconds, offset, self.span(stmt, offset, length), index))
 
-    def _style_open(self, stmt, offset, length, items, presets, stack, base) -> StyleSpan | None:
+    def _style_open(self, stmt, offset, length, items, presets, broken, stack, base) -> StyleSpan | None:
         values: dict[str, float] = {}
         first_name = None
         ok = True
+        seen: dict[str, tuple[int, int]] = {}
         for name, value, i0, i1 in items:
             ipos, ilen = base + i0, i1 - i0
             first_name = first_name or name
+            if name in seen:
+                line, col = stmt.position(seen[name][0])
+                self.report(stmt, ipos, ilen, rules.DUPLICATE, what=f"style item '{name}'",
+                            related=(Related("the earlier one, overridden", self.file, line, col, seen[name][1]),),
+                            fixes=(Fix("remove the earlier one", (TextEdit(line, col, seen[name][1], ""),)),)
+                            if line == stmt.position(ipos)[0] else ())
+            seen[name] = (ipos, ilen)
             if name in presets:
                 if value is not None:
-                    self.report(stmt, ipos, ilen, f"preset '{name}' takes no value", f"write <{name}>, or combine: <{name} speed:-1>", "bad-style")
+                    self.report(stmt, ipos, ilen, rules.PRESET_VALUE, name=name,
+                                fixes=(self.replace(stmt, ipos, ilen, name, f"write <{name}>"),))
                     ok = False
                     continue
                 values.update(presets[name])
                 continue
+            if name in broken:  # its definition is already reported: its uses are not
+                ok = False
+                continue
             result = parse_style_value(name, value)
-            if isinstance(result, str):
-                hint = STYLE_ITEM_HELP
-                sugg: tuple = ()
-                if name not in STYLE_NAMES:
-                    h, sugg = did_you_mean(name, list(STYLE_NAMES) + sorted(presets))
-                    hint = h or hint
-                    result = f"unknown style or preset '{name}'"
-                self.report(stmt, ipos, ilen, result, hint, "bad-style", suggestions=sugg)
+            if isinstance(result, tuple):
+                rule, fields = result
+                kw: dict = {}
+                if rule is rules.UNKNOWN_STYLE:
+                    fields = {**fields, "what": "style or preset"}
+                    kw = self.guess(stmt, ipos, len(name), name, list(STYLE_NAMES) + sorted(presets))
+                self.report(stmt, ipos, ilen, rule, **fields, **kw)
                 ok = False
                 continue
             values[name] = result
@@ -359,7 +472,7 @@ class _Analyser:
             return None
         inherited = dict(stack[-1].values) if stack else {}
         inherited.update(values)
-        return StyleSpan(first_name or "style", inherited, values, offset, -1, self.span(stmt, offset, length))
+        return StyleSpan(first_name or "style", inherited, offset, -1, self.span(stmt, offset, length))
 
     def _resolve_styles(self, stmt: Statement, utt: Utterance) -> None:
         for span in utt.styles:
@@ -367,76 +480,67 @@ class _Analyser:
             if inside:
                 span.first_word, span.last_word = inside[0], inside[-1]
             else:
-                self.report(stmt, span.offset, span.where.length, "style span holds no words", "put words between the opening and closing tags", "empty-span", severity=WARNING)
+                self.report(stmt, span.offset, span.where.length, rules.EMPTY_SPAN)
 
 
-def _open_bracket(body: str, pos: int) -> tuple[int, str] | None:
-    """The unclosed '[' or '<' (offset, char) that the error at ``pos`` lies in, if any."""
-    found = None
-    i = 0
-    while i < min(pos, len(body)):
-        c = body[i]
-        if c == "\\":
-            i += 2
-            continue
-        if c in "[<":
-            found = (i, c)
-        elif c in "]>":
-            found = None
-        i += 1
-    if found is None and pos < len(body) and body[pos] in "[<":
-        found = (pos, body[pos])
-    return found
+def _between_letters(body: str, start: int, end: int) -> bool:
+    """Whether body[start:end] (a run of marks) has a letter or digit right before and after it."""
+    return 0 < start and end < len(body) and body[start - 1].isalnum() and body[end].isalnum()
+
+
+def _codepoints(chars) -> str:
+    names = {"\u200b": "ZERO WIDTH SPACE", "\u2060": "WORD JOINER", "\ufeff": "BYTE ORDER MARK",
+             "\u200e": "LEFT-TO-RIGHT MARK", "\u200f": "RIGHT-TO-LEFT MARK", "\u202a": "LEFT-TO-RIGHT EMBEDDING",
+             "\u202b": "RIGHT-TO-LEFT EMBEDDING", "\u202c": "POP DIRECTIONAL FORMATTING",
+             "\u202d": "LEFT-TO-RIGHT OVERRIDE", "\u202e": "RIGHT-TO-LEFT OVERRIDE", "\u2066": "LEFT-TO-RIGHT ISOLATE",
+             "\u2067": "RIGHT-TO-LEFT ISOLATE", "\u2068": "FIRST STRONG ISOLATE", "\u2069": "POP DIRECTIONAL ISOLATE"}
+    unique = list(dict.fromkeys(chars))
+    return ", ".join(f"U+{ord(c):04X} ({names.get(c, 'invisible')})" for c in unique)
 
 
 def _find_closer(body: str, start: int, closer: str) -> int | None:
+    """The ``closer`` that ends the tag opened at ``start``, unless another tag or the line
+    ends first."""
     for i in range(start + 1, len(body)):
         c = body[i]
         if c == closer:
             return i
-        if c in "[<\n" and c != closer:
+        if c in "[<\n":
             return None
     return None
 
 
-def _tag_syntax_message(inner: str, kind: str, rel: int) -> str:
-    if kind == "[":
-        if re.match(r"\[\s*pose\s*:\s*\]", inner):
-            return "a pose control needs a gesture name: [pose:NAME]"
-        return f"malformed tag {inner!r}"
-    if inner.startswith("</"):
-        return f"malformed closing tag {inner!r}"
-    if re.match(r"<\s*>", inner):
-        return "empty style tag '<>'"
-    return f"malformed style tag {inner!r}"
-
-
-def _tag_syntax_hint(kind: str) -> str:
-    if kind == "[":
-        return "tags look like [pose:point_right x2 flip hold=500ms] or [pause 300ms]; write '\\[' for a literal '['"
-    return "style tags look like <speed:-1 space:+0.5> ... </> or <happy>; write '\\<' for a literal '<'"
-
-
-def analyse(source: str, path: str = "<string>", gesture_names=None, base_dir: Path | None = None) -> Script:
+def analyse(source: str, path: str = "<string>", gesture_names=None, base_dir: Path | None = None,
+            skipped_gesture=None) -> Script:
     """Parse and statically check ``source``.
 
     ``gesture_names`` is the set of known gestures, a callable ``header -> names`` called once
     the header is read (so ``@library`` folders count), or None to skip gesture-name checks.
+    ``skipped_gesture(name)`` may return a :class:`~core.diagnostics.Related` note saying why a
+    gesture of that name is missing (its spec file was skipped), for the unknown-gesture error.
     """
     base = base_dir if base_dir is not None else (Path(path).parent if path != "<string>" else Path.cwd())
-    a = _Analyser(path, gesture_names, base)
+    a = _Analyser(path, gesture_names, base, skipped_gesture)
     header, utterances = a.run(source)
     diags = sorted(a.diags, key=sort_key)
     return Script(path, source, header, utterances, diags)
 
 
 def read_source(path: Path) -> tuple[str, list[Diagnostic]]:
-    """Read a script file as UTF-8; undecodable bytes become a diagnostic, not an exception."""
+    """Read a script file as UTF-8; undecodable bytes become a diagnostic, not an exception.
+
+    A UTF-16 file is not decoded at all (it would be garbage): the text is empty and the one
+    diagnostic says so. Raises ``OSError`` when the file cannot be read."""
     data = path.read_bytes()
+    order = utf16_order(data)
+    if order is not None:
+        return "", [rules.UTF16.at(str(path), 0, 0, order=order)]
     text, bad = decode_source(data)
     diags = []
     if bad is not None:
-        line = data[:bad].count(b"\n") + 1
-        col = bad - (data.rfind(b"\n", 0, bad) + 1) + 1
-        diags.append(Diagnostic(ERROR, "the file is not valid UTF-8", str(path), line, col, 1, "save the file as UTF-8", "encoding"))
+        body = data[3:] if data.startswith(b"\xef\xbb\xbf") else data
+        line = body[:bad].count(b"\n") + 1
+        start = body.rfind(b"\n", 0, bad) + 1
+        col = len(body[start:bad].decode("utf-8", errors="replace")) + 1  # characters, not bytes
+        diags.append(rules.ENCODING.at(str(path), line, col, 1))
     return text, diags

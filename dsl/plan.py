@@ -1,8 +1,8 @@
 """The compiled plan: per utterance its words, controls and the per-frame control arrays.
 
 ``plan.json`` is deterministic and human-readable (reviewable in a diff); ``--npz`` holds the
-arrays the generator consumes (layout owned by :mod:`core.controls`). Both are written
-atomically.
+arrays the generator consumes (layout owned by :mod:`core.controls`). Both are written by
+:mod:`core.fileio`'s rules (atomically for a regular file; a device or a link is never replaced).
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from core.words import TimedWord
 from core.controls import STYLE_NAMES, Control, ControlArrays
 from core.fileio import atomic_write
+from core.words import TimedWord
 
 PLAN_FORMAT = "sgt-plan"
 PLAN_VERSION = 1
@@ -27,15 +27,15 @@ class ArrayRequests:
     """What the control arrays must hold; they are built on first use (``sgt check`` never needs them)."""
 
     n_frames: int
-    poses: list = field(default_factory=list)  # (start frame, library Gesture, PoseMark)
+    poses: list = field(default_factory=list)  # (start frame, library Gesture, PoseMark, frames played)
     styles: list = field(default_factory=list)  # (start, end, {name: value}), outer spans first
 
     def build(self) -> ControlArrays:
         arrays = ControlArrays.empty(self.n_frames)
         for a, b, values in self.styles:
             arrays.set_style(a, b, values)
-        for start, gesture, mark in self.poses:
-            arrays.set_pose(start, gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).poses)
+        for start, gesture, mark, length in self.poses:  # length < the clip's: its retraction was cut
+            arrays.set_pose(start, gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).poses[:length])
         return arrays
 
 
@@ -98,15 +98,17 @@ class Plan:
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=2, ensure_ascii=False) + "\n"
 
-    def save_json(self, path: Path | str) -> None:
-        atomic_write(Path(path), self.to_json().encode("utf-8"))
+    def save_json(self, path) -> None:
+        """Write :meth:`to_json` to ``path`` (or a binary stream) by :mod:`core.fileio`'s rules."""
+        atomic_write(path, self.to_json().encode("utf-8"))
 
-    def save_npz(self, path: Path | str) -> None:
-        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I`` per utterance I, plus ``plan`` (JSON)."""
+    def save_npz(self, path) -> None:
+        """Arrays ``pose_I``, ``pose_mask_I``, ``style_I``, ``style_mask_I`` per utterance I, plus ``plan`` (JSON);
+        to ``path`` (or a binary stream) by :mod:`core.fileio`'s rules."""
         arrays: dict[str, np.ndarray] = {"plan": np.array(self.to_json())}
         for i, u in enumerate(self.utterances):
             for key, value in u.arrays.as_dict().items():
                 arrays[f"{key}_{i}"] = value
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
-        atomic_write(Path(path), buf.getvalue())
+        atomic_write(path, buf.getvalue())

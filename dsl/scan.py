@@ -2,9 +2,9 @@
 
 The body grammar (dsl/sgt.lark) is regular: text, escapes and flat tags. This module
 recognises exactly what Lark's LALR parser with its contextual lexer accepts and builds the
-same items, about ten times faster. Anything it does not recognise returns None, and the
-caller parses it with Lark, which reports the syntax errors; so errors and recovery never
-depend on this module. tests/test_scan.py checks it against Lark on random bodies.
+same items, about ten times faster, and stops where the grammar would fail, which is where the
+analyser reports a syntax error (:func:`scan_items`). tests/test_scan.py checks it against
+Lark on random bodies, in both directions: it accepts exactly what Lark accepts.
 
 Mirroring the contextual lexer:
 - tokens are matched greedily and never given back (possessive quantifiers, Python 3.11);
@@ -52,7 +52,17 @@ def _pairs(regex: re.Pattern, text: str, lo: int, hi: int) -> list[tuple[str, st
 
 
 def scan_body(body: str) -> list[tuple] | None:
-    """The items of a well-formed ``body``, or None when it is not (Lark decides then)."""
+    """The items of a well-formed ``body``, or None when it is not."""
+    items, stop = scan_items(body)
+    return items if stop is None else None
+
+
+def scan_items(body: str) -> tuple[list[tuple], int | None]:
+    """The items of ``body`` up to the first place where no item can start, and that offset
+    (None when the whole body is well-formed). Since the scanner accepts exactly the grammar's
+    language, the offset is where the grammar fails too: the analyser reports the syntax error
+    there (a ``[`` or ``<`` whose tag is malformed or unclosed, a stray ``]`` or ``>``, a
+    trailing backslash), blanks it and scans again."""
     items: list[tuple] = []
     append = items.append
     pos, n = 0, len(body)
@@ -60,7 +70,7 @@ def scan_body(body: str) -> list[tuple] | None:
     while pos < n:
         m = match(body, pos)
         if m is None:
-            return None
+            return items, pos
         end = m.end()
         group = m.lastgroup
         if group == "text":
@@ -77,4 +87,4 @@ def scan_body(body: str) -> list[tuple] | None:
         else:  # "</NAME>", or "</>" (no group)
             append(("style_close", pos, end, [m.group("close")] if group else []))
         pos = end
-    return items
+    return items, None

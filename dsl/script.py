@@ -48,7 +48,6 @@ class PoseMark:
 class StyleSpan:
     name: str  # the first name in the tag: a style element or a preset
     values: dict[str, float]  # requested values, inner spans already applied
-    own_values: dict[str, float]  # what this tag itself asked for
     offset: int
     end_offset: int  # where it closes (end of utterance when left open)
     where: Span
@@ -68,7 +67,8 @@ class Pause:
 class AudioRef:
     path: Path
     timings: Path | None
-    where: Span
+    where: Span  # the audio file's name in the directive
+    timings_where: Span | None = None  # the value of ``timings=``
 
 
 @dataclass
@@ -107,6 +107,11 @@ class Header:
     library_where: dict[Path, Span] = field(default_factory=dict)
     presets: dict[str, dict[str, float]] = field(default_factory=dict)
     voice_where: dict[str, Span] = field(default_factory=dict)  # speaker ("" = default) -> directive
+    #: Where each setting was last given ("seed", "voice:SPEAKER", "preset:NAME", ...), for
+    #: the duplicate rule's note.
+    settings_where: dict[str, Span] = field(default_factory=dict)
+    #: Presets whose definition has errors: already reported, so their uses are not.
+    broken_presets: set[str] = field(default_factory=set)
 
     def voice_for(self, speaker: str | None) -> Voice:
         over = self.speaker_overrides.get(speaker or "", {})
@@ -121,6 +126,12 @@ class Script:
     utterances: list[Utterance]
     diagnostics: list[Diagnostic]
 
-    @property
-    def has_errors(self) -> bool:
-        return any(d.is_error for d in self.diagnostics)
+    def missing_utterance(self, requested) -> str | None:
+        """Why ``requested`` (utterance numbers, 0-based) cannot all be found here; None when they can."""
+        known = {u.index for u in self.utterances}
+        missing = [n for n in requested or () if n not in known]
+        if not missing:
+            return None
+        n = len(self.utterances)
+        have = f"{n} ({min(known)}..{max(known)})" if known else "none"
+        return f"no utterance {missing[0]}: the script has {have}"

@@ -24,7 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from core.skeleton import FPS, frame_count, mirror_pose
-from library.config import configured_paths
+from library.config import configured_sources
 from library.spec import GestureSpec, LibraryProblem, SpecError, read_spec, sample
 
 __all__ = ["load_library", "Library", "Gesture", "Clip", "LibraryProblem", "BUILTIN_DIR"]
@@ -155,7 +155,7 @@ def _load_file(path: Path):
     try:
         result = read_spec(path)
     except SpecError as exc:
-        result = LibraryProblem(path, exc.field, exc.message)
+        result = LibraryProblem(path, exc.field, exc.message, exc.line, exc.col, exc.length, exc.suggestions)
     _CACHE[path] = (st.st_mtime_ns, st.st_size, result)
     return result
 
@@ -164,23 +164,26 @@ def load_library(extra_dirs: Sequence[Path] = (), *, use_config: bool = True) ->
     """Load built-in gestures, then configured user folders, then ``extra_dirs``."""
     lib = Library()
     folders: list[tuple[str, Path]] = [(BUILTIN, BUILTIN_DIR)]
+    named_by: dict[Path, str] = {}
     if use_config:
-        user, probs = configured_paths()
+        user, probs = configured_sources()
         lib.problems += probs
-        folders += [(str(p), Path(p)) for p in user]
+        folders += [(str(p), Path(p)) for p, _ in user]
+        named_by.update((Path(p), source) for p, source in user)
     folders += [(str(p), Path(p)) for p in extra_dirs]
     lib.folders = folders
     for origin, folder in folders:
+        source = named_by.get(folder, "@library")
         try:
             entries = sorted(os.scandir(folder), key=lambda e: e.name)
         except FileNotFoundError:
-            lib.problems.append(LibraryProblem(folder, "", "gesture folder does not exist"))
+            lib.problems.append(LibraryProblem(folder, "", "does not exist", kind="folder", source=source))
             continue
         except NotADirectoryError:
-            lib.problems.append(LibraryProblem(folder, "", "not a folder"))
+            lib.problems.append(LibraryProblem(folder, "", "is not a folder", kind="folder", source=source))
             continue
         except OSError as exc:
-            lib.problems.append(LibraryProblem(folder, "", f"cannot list folder: {exc}"))
+            lib.problems.append(LibraryProblem(folder, "", f"cannot be listed: {exc.strerror or exc}", kind="folder", source=source))
             continue
         for entry in entries:
             if not entry.name.endswith(".toml") or entry.name.startswith("."):

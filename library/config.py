@@ -19,29 +19,38 @@ import tomllib
 from pathlib import Path
 
 from core.paths import LIBRARY_PATH_VAR, config_files
-from library.spec import LibraryProblem
+from library.spec import LibraryProblem, locate, toml_error
 
 ENV_VAR = LIBRARY_PATH_VAR
+
+
+def _problem(path: Path, text: str, field: str, message: str) -> LibraryProblem:
+    line, col, length = locate(text, field)
+    return LibraryProblem(path, field, message, line, col, length, kind="config")
 
 
 def _paths_from_file(path: Path) -> tuple[list[Path], list[LibraryProblem]]:
     try:
         with open(path, "rb") as fh:
-            data = tomllib.load(fh)
+            raw = fh.read()
     except FileNotFoundError:
         return [], []
     except OSError as exc:
-        return [], [LibraryProblem(path, "file", f"cannot read: {exc}")]
+        return [], [LibraryProblem(path, "file", f"cannot read: {exc.strerror or exc}", kind="config")]
+    text = raw.decode("utf-8", errors="replace")
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        return [], [LibraryProblem(path, "toml", f"TOML syntax error: {exc}")]
+        message, line, col = toml_error(exc)
+        return [], [LibraryProblem(path, "toml", f"TOML syntax error: {message}", line, col, kind="config")]
     section = data.get("library")
     if section is None:
         return [], []
     if not isinstance(section, dict):
-        return [], [LibraryProblem(path, "library", "[library] must be a table")]
+        return [], [_problem(path, text, "library", "[library] must be a table")]
     paths = section.get("paths", [])
     if not isinstance(paths, list) or not all(isinstance(p, str) for p in paths):
-        return [], [LibraryProblem(path, "library.paths", "must be a list of folder names")]
+        return [], [_problem(path, text, "library.paths", "must be a list of folder names")]
     out = []
     for p in paths:
         folder = Path(os.path.expanduser(p))
@@ -51,24 +60,31 @@ def _paths_from_file(path: Path) -> tuple[list[Path], list[LibraryProblem]]:
     return out, []
 
 
-def configured_paths() -> tuple[list[Path], list[LibraryProblem]]:
-    """User gesture folders from the config files and ``SGT_LIBRARY_PATH``, in order."""
-    folders: list[Path] = []
+def configured_sources() -> tuple[list[tuple[Path, str]], list[LibraryProblem]]:
+    """User gesture folders from the config files and ``SGT_LIBRARY_PATH``, in order, each with
+    where it was named (the config file's path, or ``SGT_LIBRARY_PATH``)."""
+    folders: list[tuple[Path, str]] = []
     problems: list[LibraryProblem] = []
     for cfg in config_files():
         found, probs = _paths_from_file(cfg)
-        folders += found
+        folders += [(f, str(cfg)) for f in found]
         problems += probs
     env = os.environ.get(ENV_VAR, "")
     for part in env.split(os.pathsep):
         if part.strip():
-            folders.append(Path(os.path.expanduser(part.strip())))
+            folders.append((Path(os.path.expanduser(part.strip())), ENV_VAR))
     # Keep the first mention of a folder only.
     seen: set[Path] = set()
     unique = []
-    for f in folders:
+    for f, source in folders:
         key = Path(os.path.abspath(f))
         if key not in seen:
             seen.add(key)
-            unique.append(f)
+            unique.append((f, source))
     return unique, problems
+
+
+def configured_paths() -> tuple[list[Path], list[LibraryProblem]]:
+    """User gesture folders from the config files and ``SGT_LIBRARY_PATH``, in order."""
+    found, problems = configured_sources()
+    return [f for f, _ in found], problems

@@ -9,6 +9,7 @@ the round-trip error of the file.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 

@@ -71,17 +71,35 @@ REST_DIRS = np.asarray(REST_POSE, dtype=np.float64).reshape(N_BONES, 3)
 
 @dataclass(frozen=True)
 class LibraryProblem:
-    """A malformed spec file or configuration entry: where, which field, what is wrong."""
+    """A malformed spec file, configuration file or gesture folder: where, which field, what is wrong.
+
+    ``line`` and ``col`` (1-based; 0 for the whole file or folder) and ``length`` locate it in
+    the TOML text; ``suggestions`` are close names for a misspelt key. ``kind`` says what
+    ``path`` is: "spec" (a gesture file), "config" (a configuration file) or "folder" (a
+    gesture folder, named by ``source``: SGT_LIBRARY_PATH, a configuration file, @library)."""
 
     path: Path
     field: str
     message: str
+    line: int = 0
+    col: int = 0
+    length: int = 1
+    suggestions: tuple[str, ...] = ()
+    kind: str = "spec"
+    source: str = ""
 
     def __str__(self) -> str:
+        if self.kind == "folder":
+            return f"gesture folder {self.path}" + (f" (from {self.source})" if self.source else "") + f" {self.message}"
         where = f"{self.path}"
+        if self.line:
+            where += f":{self.line}:{self.col}"
         if self.field:
             where += f": {self.field}"
-        return f"{where}: {self.message}"
+        tail = ""
+        if self.suggestions:
+            tail = " (did you mean " + " or ".join(f"'{s}'" for s in self.suggestions) + "?)"
+        return f"{where}: {self.message}{tail}"
 
 
 @dataclass(frozen=True)
@@ -113,17 +131,73 @@ class GestureSpec:
 
 
 class SpecError(Exception):
-    """Raised internally while validating; carries the field it is about."""
+    """Raised internally while validating; carries the field it is about, close names for a
+    misspelt key, and (once located in the text) its line, column and length."""
 
-    def __init__(self, field: str, message: str):
+    def __init__(self, field: str, message: str, suggestions: tuple[str, ...] = ()):
         super().__init__(message)
         self.field = field
         self.message = message
+        self.suggestions = suggestions
+        self.line = self.col = 0
+        self.length = 1
 
 
-def _did_you_mean(word: str, choices) -> str:
-    close = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
-    return f" (did you mean '{close[0]}'?)" if close else ""
+def _close(word: str, choices) -> tuple[str, ...]:
+    return tuple(difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6))
+
+
+_TOML_AT = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
+_TABLE_RE = re.compile(r"^\s*\[\[\s*([A-Za-z0-9_\-]+)\s*\]\]|^\s*\[\s*([A-Za-z0-9_\-.]+)\s*\]")
+
+
+def toml_error(exc: tomllib.TOMLDecodeError) -> tuple[str, int, int]:
+    """tomllib's message without its "(at line L, column C)" tail, and L and C (0, 0 if absent)."""
+    text = str(exc)
+    m = _TOML_AT.search(text)
+    if m is None:
+        return text, 0, 0
+    return text[: m.start()], int(m.group(1)), int(m.group(2))
+
+
+def locate(text: str, field: str) -> tuple[int, int, int]:
+    """(line, col, length) of ``field`` ("duration", "keyframes[2].time", "keyframes") in a
+    spec's TOML text: the key of that assignment, or the table header when the key is absent;
+    (0, 0, 1) when it cannot be found (the problem is then about the whole file)."""
+    m = re.fullmatch(r"(\w+)(?:\[(\d+)\])?(?:\.(\w+))?", field or "")
+    if m is None:
+        return 0, 0, 1
+    table, index, key = m.group(1), m.group(2), m.group(3)
+    lines = text.splitlines()
+    if index is None and key is None:  # a top-level key, before the first table
+        for n, line in enumerate(lines, start=1):
+            if _TABLE_RE.match(line):
+                break
+            k = re.match(rf"\s*({re.escape(table)})\s*=", line)
+            if k:
+                return n, k.start(1) + 1, len(table)
+        for n, line in enumerate(lines, start=1):  # "keyframes" itself: its first table
+            t = _TABLE_RE.match(line)
+            if t and (t.group(1) or t.group(2)) == table:
+                return n, line.index(table) + 1, len(table)
+        return 0, 0, 1
+    count = -1
+    header = None
+    for n, line in enumerate(lines, start=1):
+        t = _TABLE_RE.match(line)
+        if t:
+            if header is not None:
+                break  # the next table: the key is not in this one
+            if (t.group(1) or t.group(2)) == table:
+                count += 1
+                if count == int(index or 0):
+                    header = (n, line.index(table) + 1, len(table))
+            continue
+        if header is not None and key is not None:
+            k = re.match(rf"\s*({re.escape(key)})\s*=", line)
+            if k:
+                return n, k.start(1) + 1, len(key)
+    return header or (0, 0, 1)
 
 
 def _is_number(x) -> bool:
@@ -135,16 +209,22 @@ def parse_spec_text(text: str, path: Path) -> GestureSpec:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        # tomllib's message ends with "(at line L, column C)".
-        raise SpecError("toml", f"TOML syntax error: {exc}") from None
-    return _validate(data, path)
+        message, line, col = toml_error(exc)
+        err = SpecError("toml", f"TOML syntax error: {message}")
+        err.line, err.col = line, col
+        raise err from None
+    try:
+        return _validate(data, path)
+    except SpecError as exc:
+        exc.line, exc.col, exc.length = locate(text, exc.field)
+        raise
 
 
 def _validate(data: dict, path: Path) -> GestureSpec:
     """A :class:`GestureSpec` from parsed TOML; the first problem raises :class:`SpecError`."""
     for key in data:
         if key not in TOP_LEVEL_KEYS:
-            raise SpecError(key, f"unknown key '{key}'" + _did_you_mean(key, TOP_LEVEL_KEYS))
+            raise SpecError(key, f"unknown key '{key}'", _close(key, TOP_LEVEL_KEYS))
     name = _name(data, path)
     description, tags = _description_and_tags(data)
     duration = _duration(data)
@@ -260,10 +340,8 @@ def _key_bones(where: str, raw: dict, dirs: np.ndarray) -> tuple[dict, np.ndarra
             continue
         if key not in BONE_INDEX:
             if key == "spine":
-                msg = "'spine' is the root joint and has no bone; use 'neck' to lean the torso"
-            else:
-                msg = f"unknown bone '{key}'" + _did_you_mean(key, BONE_NAMES + KEYFRAME_KEYS)
-            raise SpecError(f"{where}.{key}", msg)
+                raise SpecError(f"{where}.{key}", "'spine' is the root joint and has no bone; use 'neck' to lean the torso")
+            raise SpecError(f"{where}.{key}", f"unknown bone '{key}'", _close(key, BONE_NAMES + KEYFRAME_KEYS))
         if value == "rest":
             bones[key] = None
             new_dirs[BONE_INDEX[key]] = REST_DIRS[BONE_INDEX[key]]

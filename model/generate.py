@@ -2,10 +2,15 @@
 
 ::
 
-    from model.generate import generate_clips
+    from model.generate import generate, generate_clips
     clips = generate_clips("examples/mall_guide.sgt", engine="keyframe")
     clips[0].poses      # (T, 27) unit bone directions at 15 fps
     clips[0].positions  # (T, 10, 3) metres
+    clips = generate_clips(source="guide: Hello [pose:wave] there.")   # from text, no file
+    take = generate(compile_text(text).plan)                           # from a compiled plan
+
+:func:`generate` is the one path from a script (a file, its text, or a compiled plan) to
+motion: the ``sgt`` commands and the editor's worker all call it.
 
 Engines share one interface: ``generate(inputs: EngineInputs, *, seed) -> (T, 27)``, where
 :class:`EngineInputs` carries the per-frame controls, the timed words and the speech audio.
@@ -15,16 +20,19 @@ condition) and ``rules`` (the procedural teacher).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 from typing import Callable
 
 from core.controls import ControlArrays
 from core.motion import MotionClip
+from core.seeds import SEED_MAX
 from core.words import TimedWord
 from dsl.compiler import compile_file
+from dsl.plan import Plan
 from model.neural import _model
 from model.weights import WeightsError
 
@@ -56,12 +64,38 @@ class EngineInputs:
 
 
 class GenerateError(Exception):
-    """The script has errors (``diagnostics`` holds them) or the engine cannot run."""
+    """The script has errors (``diagnostics`` holds them, ``source`` the text) or the engine
+    cannot run. ``str()`` is one line: what is wrong, and where for a script error."""
 
     def __init__(self, message: str, diagnostics=(), source: str = "") -> None:
         super().__init__(message)
         self.diagnostics = list(diagnostics)
         self.source = source
+
+
+class NoSuchUtterance(GenerateError):
+    """An utterance number that the script does not have."""
+
+
+@dataclass
+class Take:
+    """What :func:`generate` made: the compiled plan, one clip per planned utterance, the
+    compiler's warnings and the script's text (for showing them)."""
+
+    plan: Plan
+    clips: list[MotionClip]
+    diagnostics: list = field(default_factory=list)
+    source: str = ""
+
+    @property
+    def utterances(self) -> list[int]:
+        """The script's utterance numbers (0-based) of the clips, in order."""
+        return [u.index for u in self.plan.utterances]
+
+    @property
+    def timing(self) -> str | None:
+        """Where the word times came from (``espeak-ng``, ``textgrid``, ``estimate``, ...)."""
+        return self.plan.utterances[0].speech.get("engine") if self.plan.utterances else None
 
 
 def engine_function(name: str, options=None) -> Callable:
@@ -78,11 +112,13 @@ def engine_function(name: str, options=None) -> Callable:
     return fn
 
 
-def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None, progress=None, options=None) -> list:
+def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None = None, progress=None,
+                    options=None) -> list[MotionClip]:
     """One :class:`~core.motion.MotionClip` per planned utterance."""
     fn = engine_function(engine or DEFAULT_ENGINE, options)
-    clips = []
     base_seed = plan.seed if seed is None else seed
+    _check_seed(base_seed)
+    clips = []
     for n, u in enumerate(plan.utterances):
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
@@ -94,11 +130,65 @@ def clips_from_plan(plan, *, engine: str | None = None, seed: int | None = None,
     return clips
 
 
-def generate_clips(script_path, *, engine: str | None = None, utterances=None, seed: int | None = None,
-                   progress=None, timing: str = "speech", options=None) -> list:
-    """Compile ``script_path`` and generate motion; raises :class:`GenerateError` on script errors."""
-    engine_function(engine or DEFAULT_ENGINE, options)  # fail fast on a bad engine or missing weights
-    result = compile_file(Path(script_path), timing=timing, utterances=utterances)
-    if result.plan is None:
-        raise GenerateError(f"{script_path} has errors", result.diagnostics, result.script.source)
-    return clips_from_plan(result.plan, engine=engine, seed=seed, progress=progress, options=options)
+def generate(script: Path | str | Plan | None = None, *, source: str | None = None, engine: str | None = None,
+             utterances=None, seed: int | None = None, timing: str = "speech", options=None, progress=None,
+             speech_progress=None) -> Take:
+    """Compile a script and generate its motion: the one way from a script to motion.
+
+    ``script`` is a script file's path, or a compiled :class:`~dsl.plan.Plan` (generated as it
+    is). ``source`` is the script's text: alone, it is compiled as the script ``<text>`` in the
+    current folder; with a path, it replaces that file's contents (the file need not exist,
+    and relative ``@audio``/``@library`` paths resolve against its folder). No file is
+    written. ``utterances`` picks utterance numbers (0-based; all by default), ``seed``
+    overrides the script's ``@seed``, ``timing`` is "speech" or "estimate".
+    ``speech_progress`` and ``progress`` are called ``(done, total, what)`` while compiling and
+    while generating.
+
+    Raises :class:`GenerateError` (script errors, with their diagnostics; an unknown engine;
+    missing weights) or :class:`NoSuchUtterance`.
+    """
+    engine = engine or DEFAULT_ENGINE
+    engine_function(engine, options)  # fail fast on a bad engine or missing weights
+    if seed is not None:
+        _check_seed(seed)
+    diagnostics: list = []
+    text = ""
+    if isinstance(script, Plan):
+        if source is not None:
+            raise TypeError("generate() takes a plan or a source text, not both")
+        plan = script
+        if utterances is not None:
+            known = {u.index for u in plan.utterances}
+            missing = [n for n in utterances if n not in known]
+            if missing:
+                raise NoSuchUtterance(f"no utterance {missing[0]} in the plan (it has {sorted(known)})")
+            plan = dataclasses.replace(plan, utterances=[u for u in plan.utterances if u.index in utterances])
+    else:
+        if script is None and source is None:
+            raise TypeError("generate() needs a script path, a plan or a source text")
+        path = Path(script) if script is not None else Path("<text>")
+        result = compile_file(path, timing=timing, source=source, utterances=utterances, progress=speech_progress)
+        problem = result.script.missing_utterance(utterances) if result.script.header is not None else None
+        if result.plan is None:
+            raise GenerateError(_errors_message(path, result.diagnostics), result.diagnostics, result.script.source)
+        if problem:
+            raise NoSuchUtterance(problem)
+        plan, diagnostics, text = result.plan, result.diagnostics, result.script.source
+    clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options)
+    return Take(plan, clips, diagnostics, text)
+
+
+def generate_clips(script: Path | str | Plan | None = None, **options) -> list[MotionClip]:
+    """:func:`generate`'s clips, one :class:`~core.motion.MotionClip` per utterance."""
+    return generate(script, **options).clips
+
+
+def _check_seed(seed: int) -> None:
+    if not 0 <= seed <= SEED_MAX:
+        raise GenerateError(f"seed {seed} is out of range: use 0 to {SEED_MAX}")
+
+
+def _errors_message(path: Path, diagnostics) -> str:
+    errors = [d for d in diagnostics if d.is_error]
+    first = f" (line {errors[0].line}: {errors[0].message})" if errors else ""
+    return f"{path.name} has {len(errors)} error{'s' if len(errors) != 1 else ''}{first}"

@@ -11,6 +11,9 @@ Workarounds applied here, all measured on the project's machines:
 * pyrender 0.1.45 uses ``np.infty``, which numpy 2 removed;
 * PyOpenGL 3.1.0 (the version pyrender 0.1.45 pins) lacks ``OSMesaCreateContextAttribs``,
   which pyrender's OSMesa platform imports: it is declared here from ``libOSMesa``;
+* trimesh (imported by pyrender) swallows a ctrl+c that lands during its imports
+  (``except BaseException``): SIGINT is held while the GL stack is imported and delivered
+  after (:mod:`core.interrupts`);
 * under OSMesa, ``OpenGL.contextdata.getContext`` returns a fresh ctypes pointer for the
   same context on every call, so per-context caches never hit and memory grows every
   frame: it is made to return the context's address (a stable int).
@@ -20,6 +23,8 @@ from __future__ import annotations
 
 import os
 import sys
+
+from core.interrupts import interrupts_deferred
 
 PLATFORMS = ("egl", "osmesa")
 INSTALL_HINT = (
@@ -99,12 +104,15 @@ def _patch_osmesa() -> None:
 
 def _try(platform: str, width: int, height: int):
     os.environ["PYOPENGL_PLATFORM"] = platform
-    _patch_numpy()
-    if platform == "osmesa":
-        _patch_osmesa()
-    import pyrender
+    # pyrender imports trimesh, whose imports swallow KeyboardInterrupt (``except
+    # BaseException``): a ctrl+c during them is held and delivered after.
+    with interrupts_deferred():
+        _patch_numpy()
+        if platform == "osmesa":
+            _patch_osmesa()
+        import pyrender
 
-    return pyrender, pyrender.OffscreenRenderer(width, height)
+        return pyrender, pyrender.OffscreenRenderer(width, height)
 
 
 def start(width: int, height: int):

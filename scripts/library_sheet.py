@@ -11,6 +11,7 @@ wrist paths over the whole clip. The right arm is red, the left arm blue, the he
 from __future__ import annotations
 
 import argparse
+import io
 import sys
 from pathlib import Path
 
@@ -18,6 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np  # noqa: E402
 
+from core.fileio import atomic_write  # noqa: E402
 from core.skeleton import BONES, FPS, JOINT_INDEX, positions_from_pose  # noqa: E402
 from library import load_library  # noqa: E402
 
@@ -110,8 +112,9 @@ def draw_sheet(gestures, out: Path, speed: int = 1, flip: bool = False) -> None:
                            width=4 if is_stroke else 1)
             draw.text((ox + 8, oy + CELL_H + 4), f"f{f} t={f / FPS:.2f}s {labels.get(f, '')}",
                       fill=(0, 0, 0))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    img.save(out)
+    buf = io.BytesIO()
+    img.save(buf, format="PNG")
+    atomic_write(out, buf.getvalue())
 
 
 def n_frames(clip) -> int:

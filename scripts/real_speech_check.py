@@ -9,7 +9,7 @@ installs both):
 - ``cards``: pocketsphinx-testdata's "cards" utterances ("ten of clubs", ...; 5 phrases).
 
 Each set's clips are joined into one recording with gaps that alternate between short
-(0.4 s) and long (2.5 s), as a performance with pauses would have them; the gaps are either
+(0.4 s) and long (4 s), as a performance with pauses would have them; the gaps are either
 digital zeros (``zeros``) or the recording's own background noise (``room``: its quietest
 0.1 s, repeated). Word times come from pocketsphinx, aligned clip by clip. The same sentences
 spoken by espeak-ng with the same gaps (``espeak-ng``) are the TTS comparison. For each, the
@@ -97,8 +97,11 @@ def join(parts: list[np.ndarray], words: list[list], rate: int, gap_kind: str):
 
 def speak_set(clips, out: Path, gap_kind: str, tts: bool, rate: int = 16000):
     """(wav path, timed words) of a set: the recordings (aligned) or espeak-ng's take of them."""
+    import io
+
     import soundfile as sf
 
+    from core.fileio import atomic_write
     from dsl.parser import WORD_RE
     from dsl.speech import load_recording, synthesize
 
@@ -110,7 +113,9 @@ def speak_set(clips, out: Path, gap_kind: str, tts: bool, rate: int = 16000):
         words.append([(w.word, w.start, w.end) for w in speech.words])
     y, timed = join(parts, words, rate, gap_kind)
     path = out / f"{clips[0][0].parent.name}_{'tts' if tts else gap_kind}.wav"
-    sf.write(path, y, rate)
+    buf = io.BytesIO()
+    sf.write(buf, y, rate, format="WAV")
+    atomic_write(path, buf.getvalue())
     return path, timed
 
 

@@ -5,7 +5,8 @@ Each subcommand lives in its own module under :mod:`sgt_tui.commands` with two f
 Heavy libraries (torch, librosa, pyrender, textual) are imported inside ``run`` so that
 ``sgt --help`` stays fast.
 
-Exit codes: 0 success, 1 errors in the user's input (diagnostics were printed), 2 usage errors.
+Exit codes: 0 success, 1 problems in the user's input, 2 usage errors, 130 interrupted (the
+rule is spelt out in :mod:`sgt_tui.commands.common`).
 """
 
 from __future__ import annotations
@@ -14,14 +15,22 @@ import argparse
 import importlib
 import sys
 
-from sgt_tui.errors import UsageError
+from core.fileio import OutputError, OutputPathError
+from sgt_tui.errors import InputError, UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
-COMMANDS = ("check", "compile", "say", "library_cmd", "generate", "train", "render", "export", "corpus", "eval", "edit")
+COMMANDS = ("check", "compile", "explain", "say", "voices", "library_cmd", "generate", "train", "render", "export", "corpus",
+            "eval", "edit")
 
 EPILOG = """\
-exit status: 0 when clean, 1 when the input has errors (diagnostics are printed),
-2 for usage errors.
+exit status: 0 when done; 1 for problems in the input (errors in a script, a file
+that cannot be read or written); 2 for usage errors (a bad option or value, a file
+that does not exist, a folder for a file, a name or number that matches nothing);
+130 when interrupted.
+
+'-o -' writes a text or JSON output to standard output. An output that is a symbolic
+link is written through to its target; a device or a FIFO is written in place, never
+replaced; missing parent folders are created.
 
 Run 'sgt COMMAND --help' for the options of one command.
 The script language is documented in docs/language.md."""
@@ -52,21 +61,51 @@ def _version() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "run", None):
-        parser.print_help()
-        return 2
+    """Run one command; returns the exit status. Errors become one line on stderr (the status
+    codes are in :mod:`sgt_tui.commands.common`), never a traceback."""
+    command = "sgt"
     try:
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # argparse printed the usage error (or --help): a status, not an exit
+            return exc.code if isinstance(exc.code, int) else 2
+        if not getattr(args, "run", None):
+            parser.print_help()
+            return 2
+        command = f"sgt {args.command}"
         return int(args.run(args) or 0)
     except UsageError as exc:
-        print(f"sgt {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return _fail(command, exc, 2)
+    except InputError as exc:
+        return 1 if exc.printed else _fail(command, exc, 1)
+    except OutputError as exc:
+        return _fail(command, exc, 2 if isinstance(exc, OutputPathError) else 1)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    except BrokenPipeError:
+    except BrokenPipeError:  # the reader went away (`sgt ... | head`): not an error
+        _silence_stdout()
         return 0
+    except OSError as exc:  # a file that exists but cannot be read
+        where = f"{exc.filename}: " if exc.filename else ""
+        return _fail(command, f"{where}{exc.strerror or exc}", 1)
+
+
+def _fail(command: str, message, code: int) -> int:
+    print(f"{command}: error: {message}", file=sys.stderr)
+    return code
+
+
+def _silence_stdout() -> None:
+    """After a broken pipe, point stdout at /dev/null so the flush at exit stays quiet."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
 
 
 if __name__ == "__main__":

@@ -8,3 +8,12 @@ subcommands import, so their usage errors would escape as tracebacks.
 
 class UsageError(Exception):
     """A problem with how the command was called (exit status 2)."""
+
+
+class InputError(Exception):
+    """A problem in the user's input (exit status 1): ``str()`` is the one-line message, or
+    ``printed`` says the diagnostics were printed already."""
+
+    def __init__(self, message: str, printed: bool = False) -> None:
+        super().__init__(message)
+        self.printed = printed

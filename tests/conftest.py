@@ -17,3 +17,12 @@ GESTURES = ["open_arms", "point_right", "point_left", "wave", "nod", "beat_both"
 @pytest.fixture
 def names():
     return list(GESTURES)
+
+
+@pytest.fixture
+def shared_dir():
+    """A temporary folder another user (nobody, for permission tests run as root) can reach."""
+    from special_files import shared_folder
+
+    with shared_folder() as d:
+        yield d

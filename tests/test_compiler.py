@@ -5,10 +5,10 @@ import json
 import numpy as np
 import pytest
 
-from dsl.compiler import compile_file
-from library import load_library
 from core.controls import STYLE_INDEX
 from core.skeleton import FPS, seconds_to_frame
+from dsl.compiler import compile_file
+from library import load_library
 from sgt_tui import cli
 
 
@@ -93,9 +93,67 @@ def test_pause_lengthens_the_speech_and_is_a_control(tmp_path, lib):
 
 def test_overlapping_poses_warn_with_estimated_timing(tmp_path, lib):
     r = build(tmp_path, "look [pose:point_right] here [pose:point_left] and there now\n", lib)
-    (d,) = [d for d in r.diagnostics if d.code == "overlap"]
+    (d,) = [d for d in r.diagnostics if d.name == "overlap"]
     assert d.severity == "warning" and "point_left" in d.message and "point_right" in d.message
     assert (d.line, d.col) == (1, 30)
+    (other,) = d.related  # the other gesture is a related span, not text in the message
+    assert (other.line, other.col) == (1, 6) and "line 1" not in d.message
+
+
+def _pose_frames(u, lib, index, name):
+    """(natural start frame, stroke frame, clip) of the pose control anchored to word ``index``."""
+    clip = lib.get(name).clip()
+    return seconds_to_frame(u.words[index].start) - clip.stroke_frame, clip.stroke_frame, clip
+
+
+def test_overlap_the_later_gesture_waits_for_the_earlier_stroke(tmp_path, lib):
+    # point_left would start before point_right's stroke is done: it waits until then, and
+    # point_right's retraction is cut there.
+    r = build(tmp_path, "look [pose:point_right] here [pose:point_left] and there now\n", lib)
+    assert r.ok and r.plan is not None  # a warning: same verdict as with any timing
+    u = r.plan.utterances[0]
+    right_start, right_stroke, right_clip = _pose_frames(u, lib, 1, "point_right")
+    left_start, _, left_clip = _pose_frames(u, lib, 2, "point_left")
+    assert left_start < right_start + right_stroke + 1  # the case this test is about
+    right, left = [c for c in u.controls if c.kind == "pose"]
+    keep = right_start + right_stroke + 1
+    assert (right.start_frame, right.end_frame) == (right_start, keep)
+    assert (left.start_frame, left.end_frame) == (keep, keep + len(left_clip.poses))
+    a = u.arrays
+    assert np.allclose(a.pose[right_start:keep], right_clip.poses[: keep - right_start])
+    assert np.allclose(a.pose[keep : keep + len(left_clip.poses)], left_clip.poses)
+    assert a.pose_mask.sum() == (keep - right_start) + len(left_clip.poses)
+    assert u.n_frames >= left.end_frame
+    (d,) = [d for d in r.diagnostics if d.name == "overlap"]
+    assert f"waits {keep - left_start} frames" in d.message
+
+
+def test_a_gesture_that_waits_past_the_end_extends_the_utterance(tmp_path, lib):
+    r = build(tmp_path, "[pose:point_right] [pose:point_left] hi\n", lib)  # both on the only word
+    u = r.plan.utterances[0]
+    right, left = [c for c in u.controls if c.kind == "pose"]
+    clip = lib.get("point_left").clip()
+    assert left.start_frame == right.end_frame and left.end_frame - left.start_frame == len(clip.poses)
+    assert u.n_frames == left.end_frame > seconds_to_frame(u.words[-1].end)  # nothing is cut
+    assert np.allclose(u.arrays.pose[left.start_frame : left.end_frame], clip.poses)
+    assert u.arrays.pose_mask.sum() == (right.end_frame - right.start_frame) + len(clip.poses)
+    assert u.speech["tail"] > 0 and u.duration == u.n_frames / FPS  # the motion runs on after the speech
+
+
+def test_overlap_after_the_stroke_cuts_the_earlier_retraction(tmp_path, lib):
+    r = build(tmp_path, "look [pose:point_right] here and [pose:nod] there now more\n", lib)
+    assert r.ok
+    u = r.plan.utterances[0]
+    right_start, right_stroke, right_clip = _pose_frames(u, lib, 1, "point_right")
+    nod_start, _, nod_clip = _pose_frames(u, lib, 3, "nod")
+    assert right_start + right_stroke < nod_start < right_start + len(right_clip.poses)  # the case
+    right, nod = [c for c in u.controls if c.kind == "pose"]
+    assert (right.start_frame, right.end_frame) == (right_start, nod_start)  # cut where nod starts
+    assert (nod.start_frame, nod.end_frame) == (nod_start, nod_start + len(nod_clip.poses))  # on its word
+    assert np.allclose(u.arrays.pose[right_start:nod_start], right_clip.poses[: nod_start - right_start])
+    assert np.allclose(u.arrays.pose[nod_start : nod.end_frame], nod_clip.poses)
+    (d,) = [d for d in r.diagnostics if d.name == "overlap"]
+    assert "cut after its stroke" in d.message
 
 
 def test_plan_json_is_deterministic_and_complete(tmp_path, lib):
@@ -142,8 +200,10 @@ def test_cli_compile_writes_plan_and_exit_codes(tmp_path, capsys):
     assert cli.main(["compile", str(bad), "--estimate", "-o", str(tmp_path / "x.json")]) == 1
     assert not (tmp_path / "x.json").exists()
     err = capsys.readouterr().err
-    assert "b.sgt:1:13: error: unknown gesture 'wav'" in err and "did you mean 'wave'" in err
-    assert cli.main(["compile", str(tmp_path / "missing.sgt")]) == 2
+    assert "b.sgt:1:13: error: [SGT201] unknown gesture 'wav'" in err and "did you mean 'wave'" in err
+    # a script that cannot be read is a problem with the input (exit 1), as in `sgt check`
+    assert cli.main(["compile", str(tmp_path / "missing.sgt")]) == 1
+    assert "missing.sgt: error: [SGT601] cannot read the script: no such file or directory" in capsys.readouterr().err
 
 
 def test_cli_check_many_files_and_json(tmp_path, capsys):
@@ -179,12 +239,15 @@ def test_real_speech_timing_is_increasing_and_inside_the_audio(tmp_path, lib):
     assert u.speech["engine"] == "espeak-ng" and u.speech["voice"] == "en-us"
 
 
-def test_real_speech_overlap_is_an_error(tmp_path, lib):
+def test_real_speech_overlap_is_a_warning_resolved_as_with_estimated_timing(tmp_path, lib):
+    # issue 13: check (estimated timing) and compile (real timing) must give the same verdict
     path = tmp_path / "s.sgt"
     path.write_text("look [pose:point_right] here [pose:point_left] and there now\n")
     r = compile_file(path, timing="speech", library=lib, cache_dir=tmp_path / "cache")
-    (d,) = [d for d in r.diagnostics if d.code == "overlap"]
-    assert d.is_error and r.plan is None
+    (d,) = [d for d in r.diagnostics if d.name == "overlap"]
+    assert d.severity == "warning" and r.ok and r.plan is not None
+    poses = sorted((c.start_frame, c.end_frame) for c in r.plan.utterances[0].controls if c.kind == "pose")
+    assert all(a[1] <= b[0] for a, b in zip(poses, poses[1:]))  # resolved: nothing overlaps
 
 
 def test_unknown_voice_points_at_the_directive(tmp_path, lib):

@@ -4,6 +4,7 @@ incremental analysis, actions' edits, timeline, playback and the braille figure.
 from __future__ import annotations
 
 import random
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -208,7 +209,7 @@ def test_incremental_analysis_equals_the_whole_file_analysis():
         full = compile_file(path, timing="estimate", source=text)
         if any(d.is_error for d in full.diagnostics):
             static = load_script(path, source=text)[2]
-            assert _key(d for d in mine if d.code != "overlap") == _key(static), text
+            assert _key(d for d in mine if d.name != "overlap") == _key(static), text
         else:
             assert _key(mine) == _key(full.diagnostics), text
 
@@ -332,8 +333,8 @@ def test_player_loops_and_clamps():
 
 
 def test_braille_figure_follows_the_hand():
-    from library import load_library
     from core.skeleton import REST_POSE, positions_from_pose
+    from library import load_library
     from renders.terminal import stick_figure
 
     def top_dot_row(lines):
@@ -364,3 +365,186 @@ def test_core_packages_never_import_textual():
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["False", "False"]
+
+
+# -- the editor reads tags with the language's scanner ------------------------------------------------------
+
+def test_editor_tokens_are_the_language_scanners_items():
+    from dsl.lines import split_statements
+    from dsl.scan import scan_body
+    from sgt_tui.editor.tokens import line_tokens
+
+    checked = 0
+    for path in EXAMPLES:
+        for stmt in split_statements(path.read_text())[0]:
+            if stmt.kind != "utterance" or "\n" in stmt.text:
+                continue
+            line = path.read_text().split("\n")[stmt.line - 1]
+            items = scan_body(stmt.text[stmt.body_offset:])
+            if items is None:
+                continue
+            tok = line_tokens(line)
+            shift = stmt.body_offset
+            assert [(k, s + shift, e + shift) for k, s, e, _ in items] == [(k, s, e) for k, s, e, _ in tok.items]
+            checked += 1
+    assert checked > 10
+    # malformed: the scanner resumes after what it cannot read; the tags around it are still found
+    line = "guide: hi [pose:wave x2 <speed:-1>so [pose:nod] </speed> # [pose:not_here]"
+    tok = line_tokens(line)
+    assert tok.bad == (line.index("[pose:wave"),)
+    assert [line[s:e] for _, s, e, _ in tok.tags] == ["<speed:-1>", "[pose:nod]", "</speed>"]
+    assert [line[a:b] for a, b in tok.poses()] == ["[pose:nod]"]
+    assert tok.tag_at(line.index("nod")) == (line.index("[pose:nod]"), line.index("[pose:nod]") + 10)
+
+
+def test_highlighting_follows_the_scanner_on_malformed_lines():
+    got = _classes("guide: a [pose:wave x9 <happy>b</happy>")
+    assert got["["] == "tag" and got["<"] == "tag" and got["happy"] == "name" and got["</"] == "tag"
+    assert "pose" not in got  # not a tag: its bracket is never closed
+    assert _classes("guide: \\<no tag\\>")["\\<"] == "escape"
+
+
+# -- edits that must give back the text they changed ----------------------------------------------------------
+
+def test_pose_moved_right_then_left_gives_back_the_text():
+    texts = [
+        "guide: Look [pose:wave] <speed:-1>over there</speed> now.",
+        "guide: Look <happy>at</happy> [pose:wave x2] the <speed:+1>shelf</speed>.",
+        "guide: [pose:nod] Hello <calm>there\n    my</calm> friend",
+        "guide: Hello there [pose:wave]",
+    ]
+    for text in texts:
+        for first, back in ((1, -1), (-1, 1)):
+            d = Document(text)
+            row = next(r for r, line in enumerate(d.lines) if "[pose" in line)
+            cursor = (row, d.lines[row].index("[pose") + 2)
+            try:
+                act = move_pose(d, cursor, first, Analyser("t.sgt").run(d.text).utterance_at(1).word_spans())
+            except EditRefused:
+                continue
+            apply(d, act)
+            assert not re.search(r"<[^/>]*>\[pose", d.text), d.text  # never moved into a style span
+            apply(d, move_pose(d, act.cursor, back, Analyser("t.sgt").run(d.text).utterance_at(1).word_spans()))
+            assert d.text == text
+
+
+def test_typing_over_a_selection_is_one_undo_step_with_what_follows():
+    d = Document("guide: hello world")
+    d.replace((0, 7), (0, 12), "h")  # typed over the selected "hello"
+    for i, c in enumerate("ey"):
+        d.insert((0, 8 + i), c)
+    assert d.text == "guide: hey world"
+    d.undo()
+    assert d.text == "guide: hello world" and not d.can_undo
+
+
+def test_a_fix_is_applied_as_text_edits_and_follows_its_chunk():
+    from core.diagnostics import Diagnostic, Fix, Related, TextEdit
+    from sgt_tui.editor.analysis import _moved
+    from sgt_tui.editor.edits import apply_fix
+
+    fix = Fix("replace with 'wave'", (TextEdit(2, 15, 5, "wave"),))
+    d = Diagnostic("error", "unknown gesture 'wavee'", "t.sgt", 2, 15, 5, fixes=(fix,),
+                   related=(Related("opened here", "t.sgt", 1, 3),))
+    moved = _moved(d, 3, 1)  # the chunk starts at canonical line 1: every place in it moves
+    assert moved.fixes[0].edits[0].line == 5 and moved.related[0].line == 4 and moved.line == 5
+    doc = Document("guide: hi\nguide: look at [pose:wavee] now\n")
+    with pytest.raises(EditRefused):
+        apply_fix(doc, Fix("x", (TextEdit(2, 30, 5, "wave"),)))  # the place is not there any more
+    fixed = Fix("replace with 'wave'", (TextEdit(2, 22, 5, "wave"),))
+    act = apply_fix(doc, fixed)
+    apply(doc, act)
+    assert doc.lines[1] == "guide: look at [pose:wave] now" and act.cursor == (1, 25)
+    both = Fix("two", (TextEdit(1, 8, 2, "hello"), TextEdit(1, 1, 5, "robot")))  # later edit first
+    apply(doc, apply_fix(doc, both))
+    assert doc.lines[0] == "robot: hello"
+
+
+# -- timeline labels and overlaps ------------------------------------------------------------------------------
+
+def test_timeline_labels_are_cut_at_a_boundary_with_an_ellipsis():
+    from sgt_tui.editor.timeline import fit_label
+
+    assert fit_label("speed:+0.5", 10) == "speed:+0.5"
+    for width in range(1, 10):
+        cut = fit_label("speed:+0.5", width)
+        assert len(cut) <= width and cut.endswith("…")
+        assert not re.search(r"[+-]\d?…|:\d|:…", cut), cut  # never a number cut in two, never "speed:-"
+    assert fit_label("helpful speed:+0.5 space:+1", 20) == "helpful speed:+0.5…"
+    a = Analyser("t.sgt").run("guide: hello <speed:+0.5>a</speed> world and more words here\n")
+    rows, _ = layout(from_plan(a.utterances[0].plan), 40)
+    style = next(r.text for r in rows if r.lane == "style")
+    assert "speed:+0" not in style or "speed:+0.5" in style
+    assert "…" in style or "speed:+0.5" in style
+
+
+def test_overlapping_pose_spans_are_marked_when_their_rows_do_not_fit():
+    """Plans never hold overlapping pose controls (the compiler resolves them), but a motion
+    file from elsewhere may, and style spans nest: the layout marks what it cannot show."""
+    from sgt_tui.editor.timeline import Span, TimelineData
+
+    data = TimelineData([], [Span("pose", "wave", 0, 30, "wave"), Span("pose", "point_right", 12, 45, "point_right")], 60)
+    rows, _ = layout(data, 74, max_lanes=2)
+    assert sum(r.text.count("[") for r in rows if r.lane in ("pose", "")) == 2  # room: a row each
+    rows, _ = layout(data, 74, max_lanes=1)
+    pose = [r for r in rows if r.lane.startswith("pose")]
+    assert len(pose) == 1 and pose[0].lane == "pose+"
+    hidden = max((s for s in data.spans if s.kind == "pose"), key=lambda s: (s.start, s.end))
+    marks = [(a, c) for a, b, c in pose[0].marks if c == "overlap"]
+    assert marks and pose[0].text[marks[0][0]] == "+" and "[wave" in pose[0].text  # the shown label intact
+    start = 6 + hidden.start * 68 // data.n_frames
+    assert start - 1 <= marks[0][0] <= start + len("[wave")  # where it starts, or just after that label
+
+
+# -- files that are not scripts, save as ------------------------------------------------------------------------
+
+def test_non_regular_files_are_refused_before_they_are_opened(tmp_path):
+    import os
+
+    from sgt_tui.editor.files import NotAFile
+
+    with pytest.raises(NotAFile, match="character device"):
+        ScriptFile.open("/dev/null")
+    fifo = tmp_path / "pipe.sgt"
+    os.mkfifo(fifo)
+    with pytest.raises(NotAFile, match="FIFO"):  # without blocking on the open
+        ScriptFile.open(fifo)
+    with pytest.raises(NotAFile, match="folder"):
+        ScriptFile.open(tmp_path)
+    real = tmp_path / "real.sgt"
+    real.write_text("guide: hi\n")
+    link = tmp_path / "link.sgt"
+    link.symlink_to(real)
+    assert ScriptFile.open(link).document.text == "guide: hi\n"
+    (tmp_path / "dangling.sgt").symlink_to(tmp_path / "gone.sgt")
+    with pytest.raises(FileError, match="symlink"):
+        ScriptFile.open(tmp_path / "dangling.sgt")
+
+
+def test_save_as_moves_the_script_and_asks_before_replacing(tmp_path):
+    from sgt_tui.editor.files import NotAFile, TargetExists
+
+    f = ScriptFile.open(tmp_path / "a.sgt")
+    f.document.insert((0, 0), "guide: hi\n")
+    other = tmp_path / "b.sgt"
+    other.write_text("theirs\n")
+    with pytest.raises(TargetExists):
+        f.save_as(other)
+    assert other.read_text() == "theirs\n" and f.path == tmp_path / "a.sgt"
+    with pytest.raises(NotAFile):
+        f.save_as(tmp_path)
+    with pytest.raises(FileError, match="does not exist"):
+        f.save_as(tmp_path / "no" / "c.sgt")
+    f.save_as(other, overwrite=True)
+    assert other.read_text() == "guide: hi\n" and f.path == other and not f.document.modified
+    assert not (tmp_path / "a.sgt").exists()
+
+
+def test_goto_names_a_line_or_an_utterance():
+    from sgt_tui.editor.analysis import goto_line
+
+    a = Analyser("t.sgt").run(SCRIPT)
+    assert goto_line("3", a, 4) == 3 and goto_line("u2", a, 4) == 3 and goto_line(" U1 ", a, 4) == 2
+    for bad in ("u3", "9", "0", "x", "u"):
+        with pytest.raises(ValueError):
+            goto_line(bad, a, 4)

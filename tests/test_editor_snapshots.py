@@ -66,3 +66,28 @@ def test_style_dialog(app, snap_compare):
 
 def test_problems_list(app, snap_compare):
     assert snap_compare(app, terminal_size=(80, 24), press=["f2"])
+
+
+def test_unsaved_changes_dialog_shows_its_keys(app, snap_compare):
+    assert snap_compare(app, terminal_size=(80, 24), press=["x", "ctrl+q"])
+
+
+def test_library_filtered(app, snap_compare):
+    async def run_before(pilot) -> None:
+        await pilot.press("f3", "p", "o", "i", "n", "t")
+        await pilot.pause(0.1)
+        preview = pilot.app.screen.query_one("#library-preview")
+        preview.play(False)
+        preview.action_seek(6)
+        await pilot.pause(0.1)
+
+    assert snap_compare(app, terminal_size=(80, 24), run_before=run_before)
+
+
+def test_overlapping_poses_at_80x24(tmp_path, monkeypatch, snap_compare):
+    monkeypatch.setenv("SGT_EDITOR_CACHE", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    Path("overlap.sgt").write_text("guide: [pose:wave] [pose:point_right] look over <speed:+0.5>there</speed> "
+                                   "at the big shelf\n")
+    app = EditorApp(ScriptFile.open("overlap.sgt"), engine="rules", cursor_blink=False)
+    assert snap_compare(app, terminal_size=(80, 24))

@@ -51,6 +51,15 @@ class Tmux:
             time.sleep(0.1)
         raise AssertionError(f"{text!r} never appeared; the screen shows:\n{self.screen()}")
 
+    def wait_gone(self, text: str, timeout: float = 10.0) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            shown = self.screen()
+            if text not in shown:
+                return shown
+            time.sleep(0.05)
+        raise AssertionError(f"{text!r} is still on the screen:\n{self.screen()}")
+
     def keys(self, *keys: str, literal: bool = False) -> None:
         self("send-keys", "-t", "t", *(["-l"] if literal else []), *keys)
         time.sleep(0.15)
@@ -79,7 +88,7 @@ def test_type_save_and_quit_in_tmux(tmux, tmp_path):
     tmux.keys("Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left", "Left")
     tmux.keys("M-Right")  # alt+right: the pose control moves to the next word
     tmux.keys("F3")
-    tmux.wait_for("Motion library")
+    tmux.wait_for("Library ·")
     tmux.keys("Escape")
     tmux.keys("C-s")
     tmux.wait_for("lobby.sgt │ ok")  # no [+]: saved
@@ -109,3 +118,58 @@ def test_a_dropped_terminal_keeps_the_unsaved_work(tmux, tmp_path):
     assert found, "no recovery file"
     assert json.loads(found[0].read_text())["text"] == "guide: not saved yet\nguide: saved\n"
     assert script.read_text() == "guide: saved\n"
+
+
+def _exit_code(tmux, tmp_path) -> str:
+    deadline = time.monotonic() + 20
+    while not (tmp_path / "exit").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return (tmp_path / "exit").read_text().strip()
+
+
+def test_panels_close_with_q_or_f3_and_dialogs_show_their_keys_in_tmux(tmux, tmp_path):
+    script = tmp_path / "lobby.sgt"
+    script.write_text("guide: hello [pose:wavee] there\n")
+    tmux.start(script)
+    tmux.wait_for("engine rules")
+    tmux.keys("F2")
+    tmux.wait_for("Problems (1)")
+    tmux.keys("q")  # no escape: tmux's escape-time does not apply
+    tmux.wait_gone("Problems (1)")
+    tmux.keys("F3")
+    tmux.wait_for("Library ·")
+    tmux.keys("F3")
+    tmux.wait_gone("Library ·")
+    tmux.keys("x", literal=True)
+    tmux.keys("C-q")
+    shown = tmux.wait_for("Unsaved changes")
+    for label in ("[s] save and quit", "[q] quit without saving", "[c] cancel"):
+        assert label in shown, shown
+    tmux.keys("q")
+    assert _exit_code(tmux, tmp_path) == "EXIT=0"
+    assert script.read_text() == "guide: hello [pose:wavee] there\n"
+
+
+def test_ctrl_home_ctrl_end_and_home_on_a_wrapped_line_in_tmux(tmux, tmp_path):
+    script = tmp_path / "nav.sgt"
+    long = "guide: " + " ".join(["words"] * 30)
+    script.write_text(f"guide: first\n{long}\nguide: last")
+    tmux.start(script)
+    tmux.wait_for("utterance 1")
+    tmux.keys("C-End")
+    tmux.keys("Z", literal=True)
+    tmux.wait_for("lastZ")
+    tmux.keys("C-Home")
+    tmux.keys("A", literal=True)
+    tmux.wait_for("Aguide: first")
+    tmux.keys("Down")
+    tmux.wait_for("utterance 2")
+    tmux.keys("End")
+    tmux.keys("Home")  # the line wraps over several rows: home goes to its start
+    tmux.keys("H", literal=True)
+    tmux.wait_for("Hguide: words")
+    tmux.keys("C-s")
+    tmux.wait_for("saved ")
+    assert script.read_text() == f"Aguide: first\nH{long}\nguide: lastZ"
+    tmux.keys("C-q")
+    assert _exit_code(tmux, tmp_path) == "EXIT=0"

@@ -141,7 +141,7 @@ def test_cli_export_errors(tmp_path, motion_file, capsys):
     from sgt_tui.cli import main
 
     path, _, _ = motion_file
-    assert main(["export", str(tmp_path / "nope.json"), "-o", str(tmp_path / "x.bvh")]) == 2
+    assert main(["export", str(tmp_path / "nope.json"), "-o", str(tmp_path / "x.bvh")]) == 1  # a missing input: the input's problem
     assert "no such file" in capsys.readouterr().err
     assert main(["export", str(path), "-o", str(tmp_path / "x.fbx")]) == 2
     assert "unknown export type" in capsys.readouterr().err

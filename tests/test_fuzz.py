@@ -2,17 +2,22 @@
 
 Hypothesis feeds random text built from the language's own pieces, and mutations (deleted,
 duplicated, swapped and inserted characters) of the shipped examples, through the whole
-static front end and the compiler with estimated timing.
+static front end, the compiler with estimated timing, and the `sgt check` and
+`sgt compile --estimate` commands (exit status 0 or 1, JSON diagnostics, a plan only when clean).
 """
 
+import contextlib
+import io
+import json
 from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from dsl.compiler import compile_file
 from core.diagnostics import Diagnostic
+from dsl.compiler import compile_file
 from dsl.parser import analyse
+from sgt_tui import cli
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = [p.read_text(encoding="utf-8") for p in sorted((ROOT / "examples").glob("*.sgt"))]
@@ -62,6 +67,26 @@ def _only_diagnostics(text: str, tmp: Path) -> None:
             assert u.arrays.pose.shape == (u.n_frames, 27)
             for c in u.controls:
                 assert 0 <= c.start_frame <= c.end_frame <= u.n_frames
+            poses = sorted((c.start_frame, c.end_frame) for c in u.controls if c.kind == "pose")
+            assert all(a[1] <= b[0] for a, b in zip(poses, poses[1:]))  # overlaps are resolved
+    _commands(path, tmp, result)
+
+
+def _commands(path: Path, tmp: Path, result) -> None:
+    """`sgt compile --estimate` and `sgt check`: diagnostics and an exit status, never a traceback."""
+    plan = tmp / "plan.json"
+    plan.unlink(missing_ok=True)
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = cli.main(["compile", str(path), "--estimate", "--format", "json", "-o", str(plan)])
+        check = cli.main(["check", str(path)])
+    assert code == check == (0 if result.ok else 1), err.getvalue()
+    data, _ = json.JSONDecoder().raw_decode(out.getvalue())
+    assert data["errors"] == sum(d.is_error for d in result.diagnostics)
+    assert plan.exists() == (code == 0)
+    if code == 0:
+        assert len(json.loads(plan.read_text(encoding="utf-8"))["utterances"]) == len(result.plan.utterances)
+    assert "Traceback" not in err.getvalue()
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -84,3 +109,4 @@ def test_arbitrary_bytes_only_give_diagnostics(raw, tmp_path):
     path.write_bytes(raw)
     result = compile_file(path, timing="estimate")
     assert all(isinstance(d, Diagnostic) for d in result.diagnostics)
+    _commands(path, tmp_path, result)

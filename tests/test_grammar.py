@@ -136,3 +136,78 @@ def test_empty_and_comment_only_files():
     assert analyse("", "t.sgt").utterances == []
     s = analyse("# nothing\n\n   \n", "t.sgt")
     assert s.utterances == [] and not s.diagnostics
+
+
+# -- speakers, words and marks (issue 13: decided, documented in docs/language.md) --------------
+
+
+def _names(s):
+    return [(d.name, d.line, d.col) for d in s.diagnostics]
+
+
+def test_a_speaker_is_one_word_of_any_alphabet():
+    s = analyse("José: hola\nΣωκράτης: γεια\n_bot-2: hi\n", "t.sgt")
+    assert [u.speaker for u in s.utterances] == ["José", "Σωκράτης", "_bot-2"]
+    assert [w.text for w in s.utterances[0].words] == ["hola"] and not s.diagnostics
+
+
+def test_lines_that_look_like_a_speaker_are_spoken_with_a_warning():
+    s = analyse("mall guide: Hello\ng:hello\nmall guide\\: Hello\ng\\:hello\nhttps://example.com now\n", "t.sgt")
+    assert _names(s) == [("speaker-space", 1, 1), ("speaker-colon", 2, 1)]
+    first, second, escaped, escaped2, _url = s.utterances
+    assert first.speaker is None and [w.text for w in first.words] == ["mall", "guide", "Hello"]
+    assert second.speaker is None and [w.text for w in second.words] == ["g", "hello"]
+    assert escaped.speaker is None and escaped2.speaker is None  # an escaped colon: text, no warning
+    fix = s.diagnostics[0].fixes[0]
+    assert fix.edits[0].text == "mall_guide" and analyse("mall_guide: Hello\n").utterances[0].speaker == "mall_guide"
+
+
+def test_a_tag_inside_a_word_splits_it_in_speech_and_display_alike():
+    s = analyse("guide: Lo[pose:nod]ok here\n", "t.sgt", gesture_names=NAMES)
+    (u,) = s.utterances
+    assert [w.text for w in u.words] == ["Lo", "ok", "here"]
+    assert u.display == "Lo ok here"  # the plan shows what is spoken
+    (d,) = s.diagnostics
+    assert (d.name, d.severity, d.col) == ("mark-in-word", "warning", 10) and "'Lo' and 'ok'" in d.message
+    (fix,) = d.fixes  # move the pose control before the word
+    assert [(e.col, e.length, e.text) for e in fix.edits] == [(8, 0, "[pose:nod]"), (10, 10, "")]
+    assert analyse("guide: [pose:nod]Look here\n", "t.sgt", gesture_names=NAMES).utterances[0].display == "Look here"
+    glued = analyse("a Lo[pose:nod][pause 1s]ok b\n", "t.sgt", gesture_names=NAMES)
+    assert _names(glued) == [("mark-in-word", 1, 5)]  # a run of marks: one warning
+
+
+def test_duplicates_warn_and_the_last_one_wins():
+    s = analyse("@seed 1\n@seed 2\n@rate 100\n@rate 200\n@voice bot: en-us\n@voice bot: en-gb\n"
+                "@preset p = speed:1\n@preset p = space:2\n"
+                "bot: <speed:1 speed:-2>a</> [pose:wave x2 x3 flip flip hold=1s hold=2s] b\n", "t.sgt", gesture_names=NAMES)
+    assert all(d.name == "duplicate" and d.severity == "warning" for d in s.diagnostics)
+    assert len(s.diagnostics) == 8  # seed, rate, voice, preset, speed item, x2/x3, flip, hold
+    assert s.header.seed == 2 and s.header.voice.rate == 200 and s.header.presets == {"p": {"space": 2.0}}
+    (u,) = s.utterances
+    assert u.voice.name == "en-gb"
+    assert u.styles[0].values == {"speed": -2.0}
+    (p,) = u.poses
+    assert (p.speed, p.flip, p.hold) == (3, True, 2.0)
+    seed = s.diagnostics[0]
+    assert (seed.line, seed.related[0].line) == (2, 1)  # the note points at the earlier one
+
+
+def test_a_mismatched_closing_tag_is_one_error():
+    s = analyse("a <speed:1><space:1>x</speed> y </space> z\n", "t.sgt")
+    assert _names(s) == [("mismatched-close", 1, 22)]
+    _speed, space = s.utterances[0].styles
+    assert [w.text for w in s.utterances[0].words][space.first_word : space.last_word + 1] == ["x", "y"]
+    s = analyse("a <speed:1>x</space> y </speed> z\n", "t.sgt")
+    assert _names(s) == [("mismatched-close", 1, 13)]  # closes nothing: </speed> still matches
+
+
+def test_a_broken_preset_is_reported_once_not_at_its_uses():
+    s = analyse("@preset Loud = speed:2\n@preset soft = sped:-1\n@preset quiet\n"
+                "a <Loud>b</Loud> <soft>c</soft> <quiet>d</quiet> <nope>e</nope>\n", "t.sgt")
+    assert _names(s) == [("bad-name", 1, 9), ("unknown-style", 2, 16), ("missing-value", 3, 9), ("unknown-style", 4, 51)]
+
+
+def test_syntax_errors_are_found_by_the_scanner_at_the_grammar_s_failure_point():
+    s = analyse("a [pose:wave b <speed:1> c\nx [pose:wave, x2] y <> z </sp eed> w\n", "t.sgt", gesture_names=NAMES)
+    assert _names(s) == [("unclosed", 1, 3), ("bad-tag", 2, 3), ("bad-tag", 2, 21), ("bad-tag", 2, 26)]
+    assert [w.text for w in s.utterances[1].words] == ["x", "y", "z", "w"]

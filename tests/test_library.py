@@ -281,7 +281,13 @@ BAD_CASES = {
                    "keyframes[1].time", "not after"),
     "two strokes": ('name = "{n}"\nduration = 1\n[[keyframes]]\ntime = 0\nstroke = true\n'
                     '[[keyframes]]\ntime = 1\nstroke = true\n', "keyframes[1].stroke", "second stroke"),
-    "toml syntax": ('name = "{n}"\nduration = \n', "toml", "line 2"),
+    "toml syntax": ('name = "{n}"\nduration = \n', "toml", "Invalid value"),
+}
+#: Where each problem is in its TOML text (line, col; 0 when a missing key is about the file).
+BAD_PLACES = {
+    "missing name": (0, 0), "missing duration": (0, 0), "bad name": (1, 1), "name vs file": (1, 1),
+    "unknown bone": (5, 1), "two numbers": (5, 1), "zero vector": (5, 1), "time outside": (4, 1),
+    "time order": (6, 1), "two strokes": (8, 1), "toml syntax": (2, 12),
 }
 
 
@@ -298,8 +304,11 @@ def test_malformed_spec_is_reported(tmp_path, case):
     prob = lib.problems[0]
     assert isinstance(prob, LibraryProblem)
     assert prob.path == path and prob.field == field
-    assert words in prob.message
+    assert words in str(prob)
     assert str(path) in str(prob) and field in str(prob)
+    assert (prob.line, prob.col) == BAD_PLACES[case]
+    if case == "unknown bone":  # the did-you-mean is data, not only text
+        assert prob.suggestions == ("right_elbow",) and "right_elbw'" in prob.message
 
 
 def test_keyframe_bones_default_to_previous(tmp_path):

@@ -77,10 +77,11 @@ def test_show(capsys):
     assert len(doc["keyframes"]) == len(g.keyframes)
 
 
-def test_show_unknown(capsys):
+def test_show_unknown_is_a_usage_error(capsys):
+    """A name that matches nothing is a usage error (2), like `--utterance 50`."""
     code, out, err = _run(capsys, "library", "show", "point_rigth")
-    assert code == 1
-    assert "point_right" in err
+    assert code == 2
+    assert "point_right" in err and "Traceback" not in err
 
 
 def test_no_subcommand_is_usage_error(capsys):
@@ -146,20 +147,24 @@ def test_add_refuses_overwrite_and_bad_ranges(tmp_path, capsys):
     args = ["library", "add", "span", "--from", str(path), "--to", str(tmp_path / "lib")]
     assert _run(capsys, *args, "--frames", "0:10")[0] == 0
     code, _, err = _run(capsys, *args, "--frames", "0:12")
-    assert code == 1 and "--force" in err
+    assert code == 2 and "--force" in err
     assert _run(capsys, *args, "--frames", "0:12", "--force")[0] == 0
     assert len(load_library([tmp_path / "lib"], use_config=False).get("span").clip().poses) == 12
     code, _, err = _run(capsys, *args, "--frames", "10:5000", "--force")
-    assert code == 1 and str(len(poses)) in err
+    assert code == 2 and str(len(poses)) in err
     code, _, err = _run(capsys, *args, "--frames", "7:7", "--force")
-    assert code == 1 and "at least 2" in err
+    assert code == 2 and "at least 2" in err
     code, _, err = _run(capsys, *args, "--frames", "abc", "--force")
     assert code == 2 and "A:B" in err
     code, _, err = _run(capsys, *args, "--frames", "0:5", "--utterance", "7", "--force")
-    assert code == 1 and "utterance 7" in err
+    assert code == 2 and "utterance 7" in err
     code, _, err = _run(capsys, "library", "add", "x", "--from", str(tmp_path / "none.json"),
                         "--frames", "0:5")
-    assert code == 1 and "no such file" in err
+    assert code == 1 and "no such file" in err  # a missing input: the input's problem
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    code, _, err = _run(capsys, "library", "add", "x", "--from", str(bad), "--frames", "0:5", "--to", str(tmp_path / "lib"))
+    assert code == 1 and "bad.json" in err  # a file that exists but is not a motion file: the input's problem
 
 
 def test_add_default_folder(tmp_path, capsys, monkeypatch):
@@ -181,3 +186,25 @@ def test_python_m_usage_error_is_a_message_not_a_traceback(tmp_path, module):
                        capture_output=True, text=True)
     assert r.returncode == 2, r.stderr
     assert "Traceback" not in r.stderr and "sgt export: error:" in r.stderr
+
+
+def test_add_keeps_any_text_in_tags_and_description(tmp_path, capsys):
+    """Control characters, quotes and backslashes are escaped in the spec (they made invalid TOML)."""
+    path, _ = _motion(tmp_path)
+    odd = 'a\x08b "q" back\\slash del\x7f tab\t'
+    code, _, err = _run(capsys, "library", "add", "odd", "--from", str(path), "--frames", "0:8",
+                        "--to", str(tmp_path / "lib"), "--tags", odd + ",x", "--description", odd)
+    assert code == 0, err
+    lib = load_library([tmp_path / "lib"], use_config=False)
+    assert lib.problems == []
+    g = lib.get("odd")
+    assert g.tags == [odd.strip(), "x"] and g.description == odd
+
+
+def test_add_refuses_text_that_is_not_utf8(tmp_path, capsys):
+    """Bytes that are not UTF-8 on the command line (kept by Python as lone surrogates)."""
+    path, _ = _motion(tmp_path)
+    code, _, err = _run(capsys, "library", "add", "odd", "--from", str(path), "--frames", "0:8",
+                        "--to", str(tmp_path / "lib"), "--tags", "caf\udce9")
+    assert code == 2 and "--tags must be UTF-8" in err
+    assert not (tmp_path / "lib" / "odd.toml").exists()

@@ -253,7 +253,7 @@ def test_cli_render_bad_inputs(tmp_path, motion_file, capsys):
     from sgt_tui.cli import main
 
     out = str(tmp_path / "o.gif")
-    assert main(["render", str(tmp_path / "missing.json"), "-o", out]) == 2
+    assert main(["render", str(tmp_path / "missing.json"), "-o", out]) == 1  # a missing input: the input's problem
     assert "no such file" in capsys.readouterr().err
     txt = tmp_path / "notes.txt"
     txt.write_text("hello")

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from lark.exceptions import UnexpectedInput
 
-from dsl.body import _lark
-from dsl.scan import scan_body
+from dsl.body import lark_parser
+from dsl.scan import scan_body, scan_items
 
 PIECES = [
     "[", "]", "<", ">", "</", "</>", "\\", "#", ":", "=", " ", "\t", "\n", "\r", "\x0b", "\xa0", "pose", "pause",
@@ -26,7 +26,7 @@ body_text = st.lists(st.one_of(st.sampled_from(PIECES), st.text(max_size=4)), ma
 
 def _lark_items(body):
     try:
-        return _lark().parse(body)
+        return lark_parser().parse(body)
     except UnexpectedInput:
         return None
 
@@ -55,3 +55,18 @@ def test_scanner_agrees_with_lark(body):
 def test_what_lark_accepts_the_scanner_accepts(body):
     if _lark_items(body) is not None:
         assert scan_body(body) is not None, body
+
+
+@settings(max_examples=1000, deadline=None)
+@given(body=body_text)
+def test_the_scanner_stops_where_the_grammar_fails(body):
+    # The analyser reports syntax errors where scan_items stops: the prefix before it is
+    # well-formed (Lark gives the same items) and the body, cut just after, is not.
+    items, stop = scan_items(body)
+    if stop is None:
+        assert _lark_items(body) == items
+        return
+    assert body[stop] in "[]<>\\#"  # '#' only here: the line splitter strips comments before
+    assert body[stop] != "\\" or stop == len(body) - 1  # an escape fails only at the very end
+    assert _lark_items(body[:stop]) == items
+    assert _lark_items(body) is None

@@ -69,15 +69,6 @@ def voiced_end_in(mask: np.ndarray, hop: int, lo: int, hi: int) -> int:
     return max(lo, min(hi, (f_lo + int(idx[-1]) + 1) * hop))
 
 
-def voiced_start_in(mask: np.ndarray, hop: int, lo: int, hi: int) -> int:
-    """Start (sample) of the first voiced frame in [lo, hi); ``hi`` if none is voiced."""
-    f_lo, f_hi = lo // hop, min(len(mask), -(-hi // hop))
-    idx = np.flatnonzero(mask[f_lo:f_hi])
-    if len(idx) == 0:
-        return hi
-    return min(hi, max(lo, (f_lo + int(idx[0])) * hop))
-
-
 def quiet_cut(samples: np.ndarray, sample_rate: int, lo: int, hi: int) -> int:
     """A sample index in [lo, hi] where inserting silence is least audible.
 

@@ -55,9 +55,10 @@ def read_audio(path: Path) -> tuple[np.ndarray, int]:
     try:
         data, sr = sf.read(str(path), dtype="float32", always_2d=True)
     except Exception as e:  # soundfile raises LibsndfileError/RuntimeError/OSError/TypeError
-        raise SpeechError(f"cannot read the audio file {str(path)!r}: {e}") from None
+        reason = re.sub(r"^Error opening .*?: ", "", str(e)).rstrip(".")  # the file is named by the caller
+        raise SpeechError(f"cannot read the audio file {str(path)!r}: {e}", kind="audio", file=path, reason=reason) from None
     if data.shape[0] == 0:
-        raise SpeechError(f"the audio file {str(path)!r} is empty")
+        raise SpeechError(f"the audio file {str(path)!r} is empty", kind="audio", file=path, reason="the file holds no samples")
     mono = data.mean(axis=1) if data.shape[1] > 1 else data[:, 0]
     return np.ascontiguousarray(mono, dtype=np.float32), int(sr)
 
@@ -207,8 +208,20 @@ def _validate(items) -> list[tuple[str, float, float]]:
 
 
 def read_timings(path: Path) -> tuple[list[tuple[str, float, float]], str]:
-    """(timed words, source) from a TextGrid or JSON file, chosen by suffix or content."""
+    """(timed words, source) from a TextGrid or JSON file, chosen by suffix or content.
+
+    Raises :class:`SpeechError` of kind "timings" naming the file."""
     p = Path(path)
+    try:
+        return _read_timings(p)
+    except SpeechError as e:
+        reason = e.message.removeprefix(f"{p}: ")
+        raise SpeechError(e.message, e.word_index, e.time, kind="timings", file=p, reason=reason) from None
+    except (ValueError, OverflowError) as e:  # a number no interval can have (inf, nan)
+        raise SpeechError(f"{p}: {e}", kind="timings", file=p, reason=str(e)) from None
+
+
+def _read_timings(p: Path) -> tuple[list[tuple[str, float, float]], str]:
     suffix = p.suffix.lower()
     if suffix == ".json":
         return parse_json_timings(p), "json"
@@ -231,19 +244,44 @@ def match_words(text: str, spans, timed, source_name: str) -> list[tuple[float, 
         if normalise_word(text[s:e]) != normalise_word(label):
             raise SpeechError(
                 f"{source_name}: word {i + 1} does not match the script: expected {text[s:e]!r}, "
-                f"found {label!r} at {a:.2f} s", word_index=i, time=a)
+                f"found {label!r} at {a:.2f} s", word_index=i, time=a, kind="mismatch", file=source_name)
     if len(timed) != len(spans):
         if len(timed) > len(spans):
             label, a, _ = timed[len(spans)]
             raise SpeechError(
                 f"{source_name} has {len(timed)} words but the script has {len(spans)}; the first extra "
-                f"word is {label!r} at {a:.2f} s", word_index=len(spans), time=a)
+                f"word is {label!r} at {a:.2f} s", word_index=len(spans), time=a, kind="mismatch", file=source_name)
         s, e = spans[len(timed)]
         last = timed[-1][2] if timed else None
         raise SpeechError(
             f"{source_name} has {len(timed)} words but the script has {len(spans)}; no timing for "
-            f"{text[s:e]!r} (word {len(timed) + 1})", word_index=len(timed), time=last)
+            f"{text[s:e]!r} (word {len(timed) + 1})", word_index=len(timed), time=last, kind="mismatch", file=source_name)
     return [(a, b) for _, a, b in timed]
+
+
+def check_timings(text: str, spans, timings_path: Path, duration: float) -> tuple[list[tuple[float, float]], str]:
+    """Read a timings file and check it against the transcript and the recording's length:
+    ((start, end) per span, source). Raises :class:`SpeechError` ("timings" or "mismatch")."""
+    timed, source = read_timings(Path(timings_path))
+    times = match_words(text, spans, timed, str(timings_path))
+    for i, (a, _b) in enumerate(times):
+        if a > duration + END_TOLERANCE:
+            raise SpeechError(f"{timings_path}: word {i + 1} ({timed[i][0]!r}) starts at {a:.2f} s, after the "
+                              f"end of the audio ({duration:.2f} s) - is it the right recording?",
+                              word_index=i, time=a, kind="mismatch", file=timings_path)
+    return times, source
+
+
+def check_recording(audio_path: Path, text: str, word_spans, timings_path: Path | None = None) -> None:
+    """Everything :func:`load_recording` checks before it times the words: the audio can be read
+    and is not empty, and the timings file (if any) is well-formed and fits the transcript and
+    the recording. ``sgt check`` runs this, so it accepts exactly the recordings that
+    ``sgt compile`` accepts (only the automatic alignment, without a timings file, is left to
+    the compiler). Raises :class:`SpeechError`."""
+    spans = check_spans(text, word_spans)
+    samples, sr = read_audio(Path(audio_path))
+    if timings_path is not None:
+        check_timings(text, spans, Path(timings_path), len(samples) / sr)
 
 
 # -- public entry point ---------------------------------------------------------------------
@@ -271,13 +309,7 @@ def load_recording(audio_path: Path, text: str, word_spans: list[tuple[int, int]
     cdir = Path(cache_dir) if cache_dir is not None else cache.default_cache_dir()
 
     if timings_path is not None:
-        timed, source = read_timings(Path(timings_path))
-        times = match_words(text, spans, timed, str(timings_path))
-        for i, (a, b) in enumerate(times):
-            if a > duration + END_TOLERANCE:
-                raise SpeechError(f"{timings_path}: word {i + 1} ({timed[i][0]!r}) starts at {a:.2f} s, after the "
-                                  f"end of the audio ({duration:.2f} s) - is it the right recording?",
-                                  word_index=i, time=a)
+        times, source = check_timings(text, spans, Path(timings_path), duration)
     else:
         source = "pocketsphinx"
         times = _cached_alignment(audio_path, text, spans, samples, sr, cdir)

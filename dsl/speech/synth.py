@@ -35,10 +35,9 @@ from typing import Sequence
 import numpy as np
 
 from core.fileio import atomic_write
-
-from . import _espeak, audio, cache
 from core.words import TimedWord
 
+from . import _espeak, audio, cache
 from .types import Speech, SpeechError
 
 #: Silence kept before the first voiced sample, seconds.
@@ -131,12 +130,46 @@ def list_voices() -> list[str]:
         return list(_voice_names)
 
 
-def _resolve_voice(eng, voice: str) -> str:
-    """An espeak voice name for ``voice`` or SpeechError with suggestions."""
-    import difflib
+def voice_table() -> list[tuple[str, str]]:
+    """(name, description) of every voice :func:`list_voices` gives, e.g. ("en-us", "English
+    (America)"), sorted by name: what ``sgt voices`` prints."""
+    names = set(list_voices())
+    with _espeak._LOCK:
+        voices = _espeak.engine().voices()
+    table: dict[str, str] = {}
+    for v in voices:
+        if v.languages and v.languages[0].lower() in names:
+            table.setdefault(v.languages[0].lower(), v.name)
+    return sorted(table.items())
 
+
+_checked_voices: dict[str, str | SpeechError] = {}
+
+
+def check_voice(voice: str) -> str:
+    """The espeak-ng voice ``voice`` resolves to, as :func:`synthesize` resolves it; raises
+    :class:`SpeechError` (kind "voice" for an unknown name, "engine" when espeak-ng cannot be
+    loaded). ``sgt check`` calls this, so it accepts exactly the voices ``sgt compile`` does.
+    Results are kept for the process."""
+    hit = _checked_voices.get(voice)
+    if hit is None:
+        try:
+            with _espeak._LOCK:
+                hit = _resolve_voice(_espeak.engine(), voice)
+        except _espeak.EngineError as e:
+            hit = SpeechError(e.message)
+        except SpeechError as e:
+            hit = e
+        _checked_voices[voice] = hit
+    if isinstance(hit, SpeechError):
+        raise hit
+    return hit
+
+
+def _resolve_voice(eng, voice: str) -> str:
+    """An espeak voice name for ``voice`` or SpeechError (kind "voice")."""
     if not isinstance(voice, str) or not voice.strip():
-        raise SpeechError("the voice name is empty")
+        raise SpeechError("the voice name is empty", kind="voice", reason="")
     base, plus, variant = voice.strip().partition("+")
     key = base.lower()
     chosen = None
@@ -154,12 +187,13 @@ def _resolve_voice(eng, voice: str) -> str:
         if eng.set_voice(candidate):
             return candidate
     if chosen is None or plus:
-        names = list_voices()
-        close = difflib.get_close_matches(key, names, n=3, cutoff=0.5)
-        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else "; see `list_voices()`"
-        what = f"voice variant {voice!r}" if chosen is not None else f"voice {voice!r}"
-        raise SpeechError(f"unknown {what}{hint}")
-    raise SpeechError(f"espeak-ng could not load the voice {voice!r}")
+        import difflib
+
+        close = difflib.get_close_matches(key, list_voices(), n=3, cutoff=0.5)
+        what = "voice variant" if chosen is not None else "voice"
+        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        raise SpeechError(f"unknown {what} {voice!r}{hint} ('sgt voices' lists the voices)", kind="voice", reason=what)
+    raise SpeechError(f"espeak-ng could not load the voice {voice!r}", kind="voice", reason="voice")
 
 
 # -- timing ---------------------------------------------------------------------------------

@@ -192,7 +192,7 @@ class JobBar(Horizontal):
     """The running job: what, a progress bar, and how to cancel it."""
 
     def compose(self):
-        yield Label("", id="job-label")
+        yield Label("", id="job-label", markup=False)
         yield ProgressBar(total=1000, show_eta=False, id="job-progress")
         yield Label(" ^t cancel", id="job-hint")
 
@@ -203,8 +203,14 @@ class JobBar(Horizontal):
 
 
 class StatusLine(Static):
-    pass
+    """File, problems, utterance, engine (plain text: file names may hold brackets)."""
+
+    def __init__(self, text: str = "", **kw) -> None:
+        super().__init__(text, markup=False, **kw)
 
 
 class MessageLine(Static):
-    pass
+    """The problem under the cursor, else the last message (plain text: it quotes ``[pose:...]``)."""
+
+    def __init__(self, text: str = "", **kw) -> None:
+        super().__init__(text, markup=False, **kw)

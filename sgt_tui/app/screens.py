@@ -1,23 +1,30 @@
-"""Dialogs over the editor: problems list, motion library, style, and choices.
+"""Dialogs over the editor: problems list, motion library, style, choices, go to, save as.
 
 Each returns its answer with ``dismiss``; the application does the edit through the editing
-model, so every action is one undo step.
+model, so every action is one undo step. Text that comes from the user or the script (file
+names, messages quoting ``[pose:...]``, the ``[s]`` of a choice) is shown as it is, never read
+as Textual markup. Read-only panels (problems, keys) also close with ``q``: tmux's default
+escape-time makes ``esc`` take 0.6 s there.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 from rich.style import Style
 from rich.text import Text
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
+from textual.content import Content
 from textual.screen import ModalScreen
 from textual.widget import Widget
-from textual.widgets import Button, OptionList, Static
+from textual.widgets import Button, Input, OptionList, Static
 from textual.widgets.option_list import Option
 
-from dsl.presets import BUILTIN_PRESETS
 from core.controls import STYLE_LIMIT, STYLE_NAMES
+from core.diagnostics import Diagnostic, Fix
 from core.skeleton import positions_from_pose
+from dsl.presets import BUILTIN_PRESETS
 from sgt_tui.app.panels import PreviewPanel
 from sgt_tui.editor.edits import pose_tag
 from sgt_tui.editor.player import Player
@@ -35,11 +42,11 @@ class ChoiceScreen(ModalScreen[str]):
 
     def compose(self):
         with Vertical(id="dialog"):
-            yield Static(self.title_text, id="dialog-title")
-            yield Static(self.message, id="dialog-message")
+            yield Static(self.title_text, id="dialog-title", markup=False)
+            yield Static(self.message, id="dialog-message", markup=False)
             with Horizontal(id="dialog-buttons"):
                 for key, label in self.choices:
-                    yield Button(f"[{key}] {label}", id=f"choice-{key}", compact=True)
+                    yield Button(Content(f"[{key}] {label}"), id=f"choice-{key}", compact=True)
 
     def answer(self, key: str) -> None:
         if not self.answered:  # keys typed quickly may arrive after the first answer
@@ -59,49 +66,99 @@ class ChoiceScreen(ModalScreen[str]):
         self.answer(event.button.id.removeprefix("choice-"))
 
 
+@dataclass(frozen=True)
+class Picked:
+    """The problems list's answer: go to ``diagnostic``, and apply ``fix`` when one was chosen."""
+
+    diagnostic: Diagnostic
+    fix: Fix | None = None
+
+
+def problem_prompt(d: Diagnostic) -> Content:
+    """One problem: mark, place, message; under it the did-you-mean and the fixes with their keys."""
+    mark = SEVERITY_MARK.get(d.severity, "?")
+    where = f"{d.line}:{d.col}" if d.line else ""
+    lines = [f"{mark} {where:>7} {d.severity}: {d.message}"]
+    if d.hint:
+        lines.append(f"          {d.hint}")
+    for i, fix in enumerate(d.fixes[:9]):
+        lines.append(f"          {'f' if i == 0 else i + 1}: {fix.title}")
+    return Content("\n".join(lines))
+
+
 class ProblemsScreen(ModalScreen):
-    """Every problem of the script; enter jumps to it."""
+    """Every problem of the script; enter jumps to it, ``f`` (or 2-9) applies its suggested fix."""
 
-    BINDINGS = [Binding("escape", "dismiss(None)", "close")]
+    BINDINGS = [Binding("escape,q,f2", "dismiss(None)", "close"), Binding("f", "fix(0)", "fix")]
+    BINDINGS += [Binding(str(n), f"fix({n - 1})", show=False) for n in range(2, 10)]
 
-    def __init__(self, diagnostics: list) -> None:
+    def __init__(self, diagnostics: list[Diagnostic]) -> None:
         super().__init__()
         self.diagnostics = diagnostics
 
     def compose(self):
         with Vertical(id="dialog"):
             n = len(self.diagnostics)
-            yield Static(f"Problems ({n}) · enter: go to · esc: close", id="dialog-title")
-            options = []
-            for i, d in enumerate(self.diagnostics):
-                mark = SEVERITY_MARK.get(d.severity, "?")
-                where = f"{d.line}:{d.col}" if d.line else d.file
-                options.append(Option(f"{mark} {where:>7} {d.severity}: {d.message}", id=str(i)))
+            yield Static(f"Problems ({n}) · enter: go to · f: apply the fix · q: close", id="dialog-title",
+                         markup=False)
+            options = [Option(problem_prompt(d), id=str(i)) for i, d in enumerate(self.diagnostics)]
             if not options:
                 options.append(Option("no problems", id="none", disabled=True))
             yield OptionList(*options, id="problem-list")
+            yield Static("", id="problem-note", markup=False)
+
+    def current(self) -> Diagnostic | None:
+        option_list = self.query_one(OptionList)
+        i = option_list.highlighted
+        if i is None or not self.diagnostics:
+            return None
+        return self.diagnostics[int(option_list.get_option_at_index(i).id)]
 
     def on_option_list_option_selected(self, event: OptionList.OptionSelected) -> None:
         if event.option.id and event.option.id.isdigit():
-            self.dismiss(self.diagnostics[int(event.option.id)])
+            self.dismiss(Picked(self.diagnostics[int(event.option.id)]))
+
+    def action_fix(self, n: int) -> None:
+        d = self.current()
+        if d is None:
+            return
+        if n >= len(d.fixes):
+            self.query_one("#problem-note", Static).update(
+                "this problem has no suggested fix" if not d.fixes else f"it has {len(d.fixes)} fixes: f or 2-{len(d.fixes)}")
+            return
+        self.dismiss(Picked(d, d.fixes[n]))
+
+
+class FilterInput(Input):
+    """The library's filter: it takes what names and tags are made of; 1/2/3 and space stay the
+    dialog's keys (speed, play/pause)."""
+
+    def check_consume_key(self, key: str, character: str | None = None) -> bool:
+        return character not in ("1", "2", "3", " ") and super().check_consume_key(key, character)
 
 
 class LibraryScreen(ModalScreen):
-    """The motion library with a looping preview; returns the ``[pose:...]`` text to insert."""
+    """The motion library with a looping preview; returns the ``[pose:...]`` text to insert.
 
+    Typing filters the list (by name and tag); the other keys are not letters."""
+
+    KEYS_HELP = "type to filter · 1/2/3 speed · ^f flip · enter insert · f3 close"
     BINDINGS = [
-        Binding("escape", "dismiss(None)", "close"),
-        Binding("1", "speed(1)", "x1"),
-        Binding("2", "speed(2)", "x2"),
-        Binding("3", "speed(3)", "x3"),
-        Binding("f", "flip", "flip"),
-        Binding("space", "toggle", "play/pause", show=False),
+        Binding("escape,f3", "dismiss(None)", "close"),
+        Binding("up", "move(-1)", "previous", show=False, priority=True),
+        Binding("down", "move(1)", "next", show=False, priority=True),
+        Binding("1", "speed(1)", "x1", priority=True),
+        Binding("2", "speed(2)", "x2", priority=True),
+        Binding("3", "speed(3)", "x3", priority=True),
+        Binding("ctrl+f", "flip", "flip", priority=True),
+        Binding("space", "toggle", "play/pause", show=False, priority=True),
     ]
 
     def __init__(self, library) -> None:
         super().__init__()
         self.library = library
         self.names = library.names()
+        self.shown: list[str] = list(self.names)
         self.speed = 1
         self.flip = False
         self.current: str | None = self.names[0] if self.names else None
@@ -109,16 +166,46 @@ class LibraryScreen(ModalScreen):
 
     def compose(self):
         with Vertical(id="library-dialog"):
-            yield Static("Motion library · 1/2/3 speed · f flip · enter insert · esc close", id="dialog-title")
+            yield Static("Library · " + self.KEYS_HELP, id="dialog-title", markup=False)
+            yield FilterInput(placeholder="filter: type part of a name or tag", id="gesture-filter", compact=True)
             with Horizontal():
-                yield OptionList(*[Option(f"{g.name:<14}{g.duration:>4.1f}s", id=g.name) for g in self.library],
-                                 id="gesture-list")
+                yield OptionList(*self._options(), id="gesture-list")
                 with Vertical(id="library-right"):
                     yield PreviewPanel(self.player, id="library-preview")
-                    yield Static("", id="gesture-info")
+                    yield Static("", id="gesture-info", markup=False)
+
+    def _options(self) -> list[Option]:
+        return [Option(f"{g.name:<14}{g.duration:>4.1f}s", id=g.name) for g in self.library if g.name in self.shown]
 
     def on_mount(self) -> None:
+        box = self.query_one(Input)
+        box.cursor_blink = self.app.cursor_blink
+        box.focus()
         self._load()
+
+    def on_input_changed(self, event: Input.Changed) -> None:
+        words = event.value.lower().split()
+        self.shown = [g.name for g in self.library
+                      if all(w in g.name.lower() or any(w in t.lower() for t in g.tags) for w in words)]
+        option_list = self.query_one(OptionList)
+        option_list.clear_options()
+        option_list.add_options(self._options())
+        if self.shown:
+            option_list.highlighted = 0
+        self.current = self.shown[0] if self.shown else None
+        self._load()
+
+    def on_input_submitted(self, event: Input.Submitted) -> None:
+        event.stop()
+        if self.current is not None:
+            self.dismiss(self.tag())
+
+    def action_move(self, step: int) -> None:
+        option_list = self.query_one(OptionList)
+        if step < 0:
+            option_list.action_cursor_up()
+        else:
+            option_list.action_cursor_down()
 
     def on_option_list_option_highlighted(self, event: OptionList.OptionHighlighted) -> None:
         self.current = event.option.id
@@ -137,8 +224,9 @@ class LibraryScreen(ModalScreen):
         g = self.library.get(self.current) if self.current else None
         if g is None:
             self.player.load(None, "")
-            info.update("no gestures")
+            info.update("no gesture matches the filter" if self.names else "no gestures")
             preview.sync_timer()
+            preview.refresh()
             return
         clip = g.clip(speed=self.speed, flip=self.flip)
         self.player.load(positions_from_pose(clip.poses), f"{g.name} x{self.speed}" + (" flip" if self.flip else ""),
@@ -227,7 +315,7 @@ class StyleScreen(ModalScreen):
     def compose(self):
         with Vertical(id="dialog"):
             shown = self.selected if len(self.selected) <= 60 else self.selected[:57] + "..."
-            yield Static(f"Style for: {shown}", id="dialog-title")
+            yield Static(f"Style for: {shown}", id="dialog-title", markup=False)
             for name in STYLE_NAMES:
                 yield StyleSlider(name, id=f"slider-{name}")
             with Horizontal(id="preset-buttons"):
@@ -263,9 +351,35 @@ class KeysScreen(ModalScreen):
 
     def compose(self):
         with Vertical(id="dialog"):
-            yield Static("Keys · esc closes · ctrl+p: command palette", id="dialog-title")
+            yield Static("Keys · q or esc closes · ctrl+p: command palette", id="dialog-title", markup=False)
             width = max(len(k) for k, _, _ in self.rows)
             lines = [f"{k:<{width}}  {title}: {help_}" for k, title, help_ in self.rows]
             lines += ["", "preview/timeline (tab to focus): space play, ←→ frame, shift+←→ second",
-                      "text: shift+arrows select, f6 line, f7 all, ctrl+x/c/v cut/copy/paste"]
-            yield OptionList(*[Option(t, disabled=False) for t in lines], id="keys-list")
+                      "text: shift+arrows select, f6 line, f7 all, ctrl+x/c/v cut/copy/paste,",
+                      "      home/end line start/end, ctrl+home/ctrl+end start/end of the script"]
+            yield OptionList(*[Option(Content(t)) for t in lines], id="keys-list")
+
+
+class AskScreen(ModalScreen):
+    """A question answered by typing a line (go to, save as); returns the text, or None (esc)."""
+
+    BINDINGS = [Binding("escape", "dismiss(None)", "cancel")]
+
+    def __init__(self, title: str, message: str, value: str = "", placeholder: str = "") -> None:
+        super().__init__()
+        self.title_text, self.message, self.value, self.placeholder = title, message, value, placeholder
+
+    def compose(self):
+        with Vertical(id="dialog"):
+            yield Static(self.title_text, id="dialog-title", markup=False)
+            yield Static(self.message, id="dialog-message", markup=False)
+            yield Input(self.value, placeholder=self.placeholder, id="ask-input", select_on_focus=False)
+
+    def on_mount(self) -> None:
+        box = self.query_one(Input)
+        box.cursor_blink = self.app.cursor_blink
+        box.focus()
+
+    def on_input_submitted(self, event: Input.Submitted) -> None:
+        event.stop()
+        self.dismiss(event.value.strip() or None)

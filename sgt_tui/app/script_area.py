@@ -6,12 +6,27 @@ before it is shown, so the document and the view never disagree and undo/redo (w
 document owns) cover typed and action-made changes alike. Meaning never rests on colour
 alone: errors are underlined and bold, warnings underlined, and the gutter shows ``E`` or
 ``W`` after the line number.
+
+Customised through TextArea's public API only (this class is the one place that does it):
+
+- :meth:`get_line`, the documented hook for styling a line: syntax classes
+  (:mod:`sgt_tui.editor.highlight`) and the diagnostics' underlines;
+- :meth:`render_line` (the Line API): the ``E``/``W`` mark in the gutter;
+- :meth:`edit`: every change goes to the document first; ``history`` records nothing;
+- ``get_cursor_line_start_location`` / ``get_cursor_line_end_location``: home and end go to
+  the start and end of the script line, also on a line wrapped over several rows;
+- ``notify_style_update`` drops the rendered lines when the diagnostics change;
+- a theme (``register_theme``) whose cursor line sets only the background, so the syntax
+  colours (applied in :meth:`get_line`, before the text area's own styles) show on it too.
 """
 
 from __future__ import annotations
 
-from rich.style import Style
 from rich.segment import Segment
+from rich.style import Style
+from rich.text import Text
+from textual.binding import Binding
+from textual.geometry import Offset
 from textual.strip import Strip
 from textual.widgets import TextArea
 from textual.widgets.text_area import Edit, EditHistory, TextAreaTheme
@@ -28,10 +43,9 @@ SYNTAX = {
     "name": Style(color="yellow"),
     "value": Style(color="bright_blue"),
     "escape": Style(color="magenta"),
-    "sgt-error": Style(color="bright_red", bold=True, underline=True),
-    "sgt-warning": Style(color="yellow", underline=True),
 }
-THEME = TextAreaTheme(name="sgt", syntax_styles=SYNTAX)
+PROBLEM = {ERROR: Style(color="bright_red", bold=True, underline=True)}
+OTHER_PROBLEM = Style(color="yellow", underline=True)
 MARKS = {"error": ("E", Style(color="bright_red", bold=True)), "warning": ("W", Style(color="yellow", bold=True)),
          "note": ("i", Style(color="cyan"))}
 
@@ -43,22 +57,18 @@ class _NoHistory(EditHistory):
         return None
 
 
-class _Highlights(dict):
-    """Highlights computed per line when a line is drawn (only visible lines cost anything)."""
-
-    def __init__(self, area: "ScriptArea") -> None:
-        super().__init__()
-        self.area = area
-
-    def __bool__(self) -> bool:
-        return True
-
-    def __getitem__(self, row: int):
-        return self.area.line_highlights(row)
-
-
 class ScriptArea(TextArea):
     """A TextArea bound to a :class:`Document` (the document is the source of truth)."""
+
+    # Priority: a moving key takes effect before the next typed character is inserted (a
+    # non-priority binding runs only once the key has bubbled up to the app, and a character
+    # typed right after it can get there first on a busy machine).
+    BINDINGS = [
+        Binding("ctrl+home", "cursor_to('start')", "start of the script", show=False, priority=True),
+        Binding("ctrl+end", "cursor_to('end')", "end of the script", show=False, priority=True),
+        Binding("home", "cursor_line_start", "line start", show=False, priority=True),
+        Binding("end", "cursor_line_end", "line end", show=False, priority=True),
+    ]
 
     def __init__(self, document: Document, **kw) -> None:
         super().__init__(document.text, soft_wrap=True, show_line_numbers=True, tab_behavior="focus",
@@ -66,54 +76,62 @@ class ScriptArea(TextArea):
         self.core = document
         self.history = _NoHistory(max_checkpoints=1, checkpoint_timer=2.0, checkpoint_max_characters=100)
         self._mirroring = False
-        self._highlights = _Highlights(self)
         self.diagnostics: dict[int, list] = {}  # 0-based row -> diagnostics
 
     def on_mount(self) -> None:
-        self.register_theme(THEME)
+        line = self.get_component_rich_style("text-area--cursor-line")
+        self.register_theme(TextAreaTheme("sgt", cursor_line_style=Style(bgcolor=line.bgcolor)))
         self.theme = "sgt"
 
     # -- highlighting ---------------------------------------------------------------------
-    def _build_highlight_map(self) -> None:
-        self._line_cache.clear()
-
-    def line_highlights(self, row: int) -> list[tuple[int, int | None, str]]:
-        try:
-            line = self.document.get_line(row)
-        except IndexError:
-            return []
-        out = [(a, b, c) for a, b, c in line_spans(line)]
-        for d in self.diagnostics.get(row, ()):
+    def get_line(self, line_index: int) -> Text:
+        text = super().get_line(line_index)
+        line = text.plain
+        for a, b, cls in line_spans(line):
+            text.stylize(SYNTAX[cls], a, b)
+        for d in self.diagnostics.get(line_index, ()):
             a = max(0, min(d.col - 1, max(0, len(line) - 1)))
             b = max(a + 1, min(len(line), d.col - 1 + max(1, d.length)))
-            out.append((a, b, "sgt-error" if d.severity == ERROR else "sgt-warning"))
-        if not line.isascii():
-            offsets = [0]
-            for ch in line:
-                offsets.append(offsets[-1] + len(ch.encode("utf-8")))
-            out = [(offsets[min(a, len(line))], offsets[min(b, len(line))], c) for a, b, c in out]
-        return out
+            text.stylize(PROBLEM.get(d.severity, OTHER_PROBLEM), a, b)
+        return text
 
     def set_diagnostics(self, by_row: dict[int, list]) -> None:
         self.diagnostics = by_row
-        self._line_cache.clear()
+        self.notify_style_update()  # the rendered lines are cached: draw them again
         self.refresh()
 
-    def _render_line(self, y: int) -> Strip:
-        strip = super()._render_line(y)
+    def render_line(self, y: int) -> Strip:
+        strip = super().render_line(y)
         if not self.show_line_numbers or not self.diagnostics:
             return strip
-        try:
-            row, section = self.wrapped_document._offset_to_line_info[y + self.scroll_offset.y]
-        except (IndexError, TypeError):
+        wrapped = self.wrapped_document
+        at = y + self.scroll_offset.y
+        if at >= wrapped.height:
             return strip
+        row, _ = wrapped.offset_to_location(Offset(0, at))
         found = self.diagnostics.get(row)
-        if not found or section:
+        if not found or wrapped.location_to_offset((row, 0)).y != at:  # none, or a wrapped line's later rows
             return strip
         worst = min(found, key=lambda d: {"error": 0, "warning": 1}.get(d.severity, 2)).severity
         char, style = MARKS.get(worst, MARKS["note"])
-        at = self.gutter_width - 2
-        return Strip.join([strip.crop(0, at), Strip([Segment(char, style)], 1), strip.crop(at + 1, strip.cell_length)])
+        x = self.gutter_width - 2
+        return Strip.join([strip.crop(0, x), Strip([Segment(char, style)], 1), strip.crop(x + 1, strip.cell_length)])
+
+    # -- moving around --------------------------------------------------------------------
+    def get_cursor_line_start_location(self, smart_home: bool = False) -> tuple[int, int]:
+        """Home: the script line's first non-blank character (then its start), wrapped or not."""
+        row, col = self.cursor_location
+        line = self.document.get_line(row)
+        first = len(line) - len(line.lstrip())
+        return (row, first) if smart_home and (col == 0 or col > first) else (row, 0)
+
+    def get_cursor_line_end_location(self) -> tuple[int, int]:
+        """End: the end of the script line, wrapped or not."""
+        row, _ = self.cursor_location
+        return (row, len(self.document.get_line(row)))
+
+    def action_cursor_to(self, where: str) -> None:
+        self.move_cursor((0, 0) if where == "start" else self.document.end)
 
     # -- every change goes through the document --------------------------------------------
     def edit(self, edit: Edit):

@@ -17,44 +17,60 @@ pose_I (T x 27), pose_mask_I (T), style_I (T x 3), style_mask_I (T x 3)."""
 
 
 def register(sub) -> None:
+    from sgt_tui.commands.common import utterance_number
+
     p = sub.add_parser("compile", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
-    p.add_argument("-o", "--output", metavar="PLAN", help="write the plan JSON here (default: stdout)")
-    p.add_argument("--npz", metavar="FILE", help="also write the control arrays as .npz")
-    p.add_argument("--utterance", type=int, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
+    p.add_argument("-o", "--output", metavar="PLAN", help="write the plan JSON here (default, or '-': standard output)")
+    p.add_argument("--npz", metavar="FILE", help="also write the control arrays as .npz ('-': standard output, not a terminal)")
+    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
     p.add_argument("--estimate", action="store_true", help="estimate word times from the text instead of synthesizing speech")
     p.add_argument("--format", choices=("text", "json"), default="text", help="diagnostics format (default text, on stderr)")
+    p.add_argument("--max-errors", type=int, metavar="N", default=None,
+                   help="show at most N problems per file and count the rest (text default 50, JSON all; 0: all)")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
+    from pathlib import Path
+
     from dsl.compiler import compile_file
+    from sgt_tui.commands.check import DEFAULT_MAX
+    from sgt_tui.commands.common import (
+        STDOUT,
+        check_utterances,
+        exit_code,
+        max_per_file,
+        one_stdout,
+        output_file,
+        print_diagnostics,
+        shown,
+    )
     from sgt_tui.errors import UsageError
-    from sgt_tui.commands.common import existing_file, exit_code, print_diagnostics
     from sgt_tui.progress import ProgressBar
 
-    path = existing_file(args.file)
+    if args.max_errors is not None and args.max_errors < 0:
+        raise UsageError("--max-errors must be 0 (show all) or more")
+    path = Path(args.file)  # a missing or unreadable script is a diagnostic (exit 1), as in sgt check
+    one_stdout(**{"-o" if args.output else "the plan (no -o)": args.output or STDOUT, "--npz": args.npz})
+    plan_out = output_file(args.output or STDOUT, "-o")
+    npz_out = output_file(args.npz, "--npz", binary=True) if args.npz else None
     result = compile_file(path, timing="estimate" if args.estimate else "speech", progress=ProgressBar("speech"), utterances=args.utterance)
     diags = result.diagnostics
-    if args.utterance and result.plan is not None:
-        known = {u.index for u in result.script.utterances}
-        missing = [n for n in args.utterance if n not in known]
-        if missing:
-            raise UsageError(f"no utterance {missing[0]}: the script has {len(known)} (0..{len(known) - 1})")
-    print_diagnostics(diags, {str(path): result.script.source}, args.format)
+    if result.plan is not None:
+        check_utterances(result.script, args.utterance)
+    print_diagnostics(diags, {str(path): result.script.source}, args.format,
+                      max_per_file=max_per_file(args.max_errors, args.format, DEFAULT_MAX))
     if result.plan is None:
         return exit_code(diags) or 1
     plan = result.plan
-    if args.output and args.output != "-":
-        plan.save_json(args.output)
-    else:
-        sys.stdout.write(plan.to_json())
-    if args.npz:
-        plan.save_npz(args.npz)
-    if args.output and args.output != "-":
+    plan.save_json(plan_out)
+    if npz_out is not None:
+        plan.save_npz(npz_out)
+    if args.output and args.output != STDOUT:
         frames = sum(u.n_frames for u in plan.utterances)
         seconds = sum(u.duration for u in plan.utterances)
         n_ctl = sum(len(u.controls) for u in plan.utterances)
-        extra = f" and {args.npz}" if args.npz else ""
+        extra = f" and {shown(npz_out)}" if npz_out is not None else ""
         print(f"wrote {args.output}{extra}: {len(plan.utterances)} utterances, {seconds:.1f}s, {frames} frames, {n_ctl} controls", file=sys.stderr)
     return exit_code(diags)

@@ -14,12 +14,14 @@ run resumes, keeping finished shards. Needs: apt-get install fortunes fortunes-m
 
 
 def register(sub) -> None:
+    from sgt_tui.commands.common import positive_float, positive_int, seed
+
     p = sub.add_parser("corpus", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("-o", "--out", metavar="DIR", default="data/corpus", help="output folder (default: data/corpus)")
-    p.add_argument("--hours", type=float, default=2.0, help="at least this many hours of motion (default: 2)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    p.add_argument("--jobs", type=int, default=1, metavar="N", help="worker processes (default: 1)")
-    p.add_argument("--clips-per-shard", type=int, default=None, metavar="N", help=argparse.SUPPRESS)
+    p.add_argument("--hours", type=positive_float, default=2.0, help="at least this many hours of motion (default: 2)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed (default: 0)")
+    p.add_argument("--jobs", type=positive_int, default=1, metavar="N", help="worker processes (default: 1)")
+    p.add_argument("--clips-per-shard", type=positive_int, default=None, metavar="N", help=argparse.SUPPRESS)
     p.set_defaults(run=run)
 
 
@@ -27,13 +29,11 @@ def run(args) -> int:
     import sys
     import time
 
-    from sgt_tui.errors import UsageError
+    from sgt_tui.commands.common import output_folder
+    from sgt_tui.errors import InputError
     from sgt_tui.progress import ProgressBar
 
-    if args.hours <= 0:
-        raise UsageError("--hours must be positive")
-    if args.jobs < 1:
-        raise UsageError("--jobs must be at least 1")
+    output_folder(args.out)
     from model.training.corpus import CorpusError, build_corpus
 
     started = time.monotonic()
@@ -42,8 +42,7 @@ def run(args) -> int:
                          clips_per_shard=args.clips_per_shard, progress=ProgressBar("corpus"),
                          log=lambda s: print(s, file=sys.stderr))
     except CorpusError as exc:
-        print(f"sgt corpus: error: {exc}", file=sys.stderr)
-        return 1
+        raise InputError(str(exc)) from None
     counts = ", ".join(f"{k} {v}" for k, v in m["split_counts"].items())
     print(f"{args.out}: {len(m['clips'])} clips ({counts}), {m['total_hours']:.2f} h of motion, "
           f"built in {time.monotonic() - started:.0f} s")

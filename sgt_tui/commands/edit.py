@@ -15,29 +15,28 @@ in the background, one undo history, atomic saves and crash recovery.
 A file that does not exist opens empty and is created on the first save. Press F1 in
 the editor for every key, ctrl+p for the command palette. See docs/editor.md."""
 
-ENGINES = ("neural", "keyframe", "rules")
-
 
 def register(sub) -> None:
+    from sgt_tui.commands.common import ENGINE_CHOICES
+
     p = sub.add_parser("edit", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt); created on the first save if missing")
-    p.add_argument("--engine", choices=ENGINES, default=None,
+    p.add_argument("--engine", choices=ENGINE_CHOICES, default=None,
                    help="generation engine (default neural when its weights exist, else rules)")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     import signal
-
     from pathlib import Path
 
+    from sgt_tui.editor.files import FileError, NotAFile, ScriptFile
     from sgt_tui.errors import UsageError
-    from sgt_tui.editor.files import FileError, ScriptFile
 
-    if Path(args.file).is_dir():
-        raise UsageError(f"{args.file} is a folder, not a script file")
     try:
         script = ScriptFile.open(args.file)
+    except NotAFile as exc:  # a folder, a device, a FIFO: the wrong kind of path on the command line
+        raise UsageError(str(exc)) from None
     except FileError as exc:
         print(f"sgt edit: error: {exc}", file=sys.stderr)
         return 1
@@ -56,7 +55,7 @@ def run(args) -> int:
 
     def hang_up(signum, frame):  # the terminal went away (a dropped SSH connection): keep the work
         try:
-            app.write_recovery()
+            app.recovery.write()
         finally:
             import os
 

@@ -18,16 +18,17 @@ docs/metrics.md."""
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import SMOOTHING_CHOICES
+    from sgt_tui.commands.common import SMOOTHING_CHOICES, positive_int, seed
 
     p = sub.add_parser("eval", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
     p.add_argument("--split", default="test", choices=("test", "val", "train"))
     p.add_argument("--weights", help="generator weights (default: the shipped ones)")
     p.add_argument("--extractor", default="default", help="FGD feature extractor weights (default: the shipped ones)")
-    p.add_argument("-o", "--output", metavar="JSON", help="also write the rows as JSON")
-    p.add_argument("--limit", type=int, help="only the first N clips (quick look)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("-o", "--output", metavar="JSON",
+                   help="also write the rows as JSON ('-': standard output, the tables then go to stderr)")
+    p.add_argument("--limit", type=positive_int, help="only the first N clips (quick look)")
+    p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--no-style", action="store_true", help="skip the requested-versus-achieved style table")
     p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0],
                    help="the neural engine's post-filter for the model rows (default one_euro, as sgt generate)")
@@ -39,6 +40,16 @@ def run(args) -> int:
     import sys
     from pathlib import Path
 
+    from core.fileio import atomic_write_text
+    from sgt_tui.commands.common import existing_file, is_stdout, output_file, shown
+    from sgt_tui.errors import InputError
+
+    if not Path(args.corpus).exists():
+        raise InputError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
+    weights = str(existing_file(args.weights)) if args.weights else None
+    extractor = args.extractor if args.extractor == "default" else str(existing_file(args.extractor))
+    out = output_file(args.output) if args.output else None
+
     from model.training.corpus import CorpusError
     from model.training.evaluate import evaluate_corpus, format_style_following
     from model.training.fgd import ExtractorError
@@ -47,23 +58,21 @@ def run(args) -> int:
     from sgt_tui.progress import ProgressBar
 
     try:
-        result = evaluate_corpus(args.corpus, split=args.split, weights=args.weights, extractor=args.extractor,
+        result = evaluate_corpus(args.corpus, split=args.split, weights=weights, extractor=extractor,
                                  seed=args.seed, progress=ProgressBar("eval"), limit=args.limit,
                                  smoothing=args.smoothing, with_style=not args.no_style)
-    except (WeightsError, ExtractorError) as exc:
-        print(f"sgt eval: error: {exc}", file=sys.stderr)
-        return 1
-    except (CorpusError, FileNotFoundError) as exc:
-        print(f"sgt eval: error: {exc}\n  make a corpus with: sgt corpus -o {args.corpus}", file=sys.stderr)
-        return 1
+    except (WeightsError, ExtractorError, CorpusError) as exc:
+        raise InputError(str(exc)) from None
+    except (FileNotFoundError, ValueError) as exc:
+        raise InputError(f"{exc}\n  make a corpus with: sgt corpus -o {args.corpus}") from None
     rows, style = (result, None) if args.no_style else result
-    print(format_table(rows))
+    table = sys.stderr if out is not None and is_stdout(out) else sys.stdout
+    print(format_table(rows), file=table)
     if style is not None:
-        print(format_style_following(style))
-    if args.output:
-        from core.fileio import atomic_write_text
-
+        print(format_style_following(style), file=table)
+    if out is not None:
         clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()} for r in rows]
-        atomic_write_text(Path(args.output), json.dumps({"conditions": clean, "style_following": style}, indent=2) + "\n")
-        print(f"wrote {args.output}", file=sys.stderr)
+        atomic_write_text(out, json.dumps({"conditions": clean, "style_following": style}, indent=2) + "\n")
+        if not is_stdout(out):
+            print(f"wrote {shown(out)}", file=sys.stderr)
     return 0

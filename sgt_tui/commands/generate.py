@@ -11,7 +11,8 @@ Generate upper-body motion for every utterance of a script: automatic gestures f
 the speech where you wrote nothing, your [pose:...] gestures where you wrote them, and
 the requested style where you wrote <speed:...> and friends.
 
-Output (.json or .npz, chosen by the extension): fps, joint names, and per utterance
+Output (.json or .npz, chosen by the extension or --format; '-o -' writes JSON to
+standard output): fps, joint names, and per utterance
 its words, controls, joint positions (T x 10 x 3, metres, y-up) and the 27-number poses.
 See docs/formats.md."""
 
@@ -19,14 +20,16 @@ ENGINE_HELP = "neural (default: the trained generator), keyframe (splines throug
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import SMOOTHING_CHOICES
+    from sgt_tui.commands.common import ENGINE_CHOICES, SMOOTHING_CHOICES, add_seed_option, utterance_number
 
     p = sub.add_parser("generate", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
-    p.add_argument("-o", "--output", metavar="OUT", required=True, help="motion file to write (.json or .npz)")
-    p.add_argument("--engine", default=None, help=ENGINE_HELP)
-    p.add_argument("--utterance", type=int, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
-    p.add_argument("--seed", type=int, help="random seed (default: the script's @seed); another seed, another take")
+    p.add_argument("-o", "--output", metavar="OUT", required=True,
+                   help="motion file to write (.json or .npz; '-': JSON on standard output)")
+    p.add_argument("--format", choices=("json", "npz"), help="output format (default: from OUT's extension)")
+    p.add_argument("--engine", choices=ENGINE_CHOICES, default=None, help=ENGINE_HELP)
+    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
+    add_seed_option(p, "random seed (default: the script's @seed); another seed, another take")
     p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0], help="post-filter of the neural engine (default one_euro)")
     p.add_argument("--no-blend", action="store_true", help="neural engine: do not force exact pose following")
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
@@ -34,37 +37,19 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from pathlib import Path
-
-    from core.motion import MotionFileError, save_motion
+    from core.motion import save_motion
     from core.skeleton import FPS
-    from model.generate import GenerateError, generate_clips
     from model.neural import Options
-    from sgt_tui.commands.common import existing_file, print_diagnostics
-    from sgt_tui.errors import UsageError
-    from sgt_tui.progress import ProgressBar
+    from sgt_tui.commands.clips import generate_script
+    from sgt_tui.commands.common import existing_file, output_file, output_format, shown
 
     path = existing_file(args.file)
-    out = Path(args.output)
-    if out.suffix.lower() not in (".json", ".npz"):
-        raise UsageError(f"output must end in .json or .npz, not '{out.suffix or out.name}'")
-    options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=args.weights)
-    try:
-        clips = generate_clips(path, engine=args.engine, utterances=args.utterance, seed=args.seed,
-                               progress=ProgressBar("generate"), options=options)
-    except GenerateError as exc:
-        if exc.diagnostics:
-            print_diagnostics(exc.diagnostics, {str(path): exc.source})
-        else:
-            print(f"sgt generate: error: {exc}", file=sys.stderr)
-        return 1
-    if args.utterance and not clips:
-        raise UsageError(f"no utterance {args.utterance[0]} in {path}")
-    try:
-        save_motion(out, clips)
-    except (MotionFileError, OSError) as exc:
-        print(f"sgt generate: error: cannot write {out}: {exc}", file=sys.stderr)
-        return 1
-    frames = sum(len(c.poses) for c in clips)
-    print(f"wrote {out}: {len(clips)} utterances, {frames} frames ({frames / FPS:.1f}s)", file=sys.stderr)
+    fmt = output_format(args.output, args.format, ("json", "npz"))
+    out = output_file(args.output, binary=fmt == "npz")
+    weights = str(existing_file(args.weights)) if args.weights else None
+    options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=weights)
+    take = generate_script(path, engine=args.engine, utterances=args.utterance, seed=args.seed, options=options)
+    save_motion(out, take.clips, format=fmt)
+    frames = sum(len(c.poses) for c in take.clips)
+    print(f"wrote {shown(out)}: {len(take.clips)} utterances, {frames} frames ({frames / FPS:.1f}s)", file=sys.stderr)
     return 0

@@ -99,20 +99,16 @@ def _list(args) -> int:
 
 def _show(args) -> int:
     import json
-    import sys
     from pathlib import Path
 
     from library import load_library
+    from sgt_tui.errors import UsageError
 
     lib = load_library([Path(d) for d in args.dir])
     g = lib.get(args.name)
-    if g is None:
+    if g is None:  # a name that matches nothing: a usage error, as `--utterance 50` is
         hint = lib.suggest(args.name)
-        msg = f"sgt library: no gesture named '{args.name}'"
-        if hint:
-            msg += f"; did you mean '{hint}'?"
-        print(msg, file=sys.stderr)
-        return 1
+        raise UsageError(f"no gesture named '{args.name}'" + (f"; did you mean '{hint}'?" if hint else ""))
     clip = g.clip(speed=args.speed, flip=args.flip)
     if args.json:
         print(json.dumps({
@@ -160,8 +156,8 @@ def _parse_span(text: str, n: int) -> tuple[int, int]:
     except ValueError:
         raise UsageError(f"--frames must look like A:B (two frame numbers), got '{text}'") from None
     if a < 0 or b > n or b - a < 2:
-        raise ValueError(
-            f"frames {a}:{b} are not a span of at least 2 frames inside 0:{n} "
+        raise UsageError(
+            f"--frames {a}:{b} is not a span of at least 2 frames inside 0:{n} "
             f"(the utterance has {n} frames; B is exclusive)"
         )
     return a, b
@@ -169,48 +165,38 @@ def _parse_span(text: str, n: int) -> tuple[int, int]:
 
 def _add(args) -> int:
     import re
-    import sys
     from pathlib import Path
 
-    from library.extract import spec_text_from_poses
+    from core.fileio import atomic_write_text
     from core.motion import MotionFileError, load_motion
+    from library.extract import spec_text_from_poses
+    from sgt_tui.commands.common import existing_file, output_folder, text
+    from sgt_tui.errors import InputError, UsageError
 
     if not re.fullmatch(r"[a-z][a-z0-9_]*", args.name):
-        print(f"sgt library add: name '{args.name}' must be lower-case letters, digits and "
-              "'_', starting with a letter", file=sys.stderr)
-        return 1
-    try:
-        clips = load_motion(args.source)
-    except MotionFileError as exc:
-        print(f"sgt library add: {exc}", file=sys.stderr)
-        return 1
-    if not 0 <= args.utterance < len(clips):
-        print(f"sgt library add: utterance {args.utterance} does not exist "
-              f"({args.source} has {len(clips)}: 0..{len(clips) - 1})", file=sys.stderr)
-        return 1
-    poses = clips[args.utterance].poses
-    try:
-        a, b = _parse_span(args.frames, len(poses))
-    except ValueError as exc:
-        print(f"sgt library add: {exc}", file=sys.stderr)
-        return 1
-    if args.stroke is not None and not a <= args.stroke < b:
-        print(f"sgt library add: --stroke {args.stroke} is outside the span {a}:{b}",
-              file=sys.stderr)
-        return 1
-    folder = Path(args.to) if args.to else _default_folder()
+        raise UsageError(f"name '{args.name}' must be lower-case letters, digits and '_', starting with a letter")
+    source = existing_file(args.source)
+    folder = output_folder(args.to or str(_default_folder()), "--to")
     target = folder / f"{args.name}.toml"
     if target.exists() and not args.force:
-        print(f"sgt library add: {target} exists; use --force to overwrite", file=sys.stderr)
-        return 1
-    tags = [t.strip() for t in args.tags.split(",") if t.strip()]
-    description = args.description or f"Recorded from {Path(args.source).name}, frames {a}:{b}."
+        raise UsageError(f"{target} exists; use --force to overwrite")
+    try:
+        clips = load_motion(source)
+    except MotionFileError as exc:
+        raise InputError(str(exc)) from None
+    if not 0 <= args.utterance < len(clips):
+        raise UsageError(f"utterance {args.utterance} does not exist ({args.source} has {len(clips)}: 0..{len(clips) - 1})")
+    poses = clips[args.utterance].poses
+    a, b = _parse_span(args.frames, len(poses))
+    if args.stroke is not None and not a <= args.stroke < b:
+        raise UsageError(f"--stroke {args.stroke} is outside the span {a}:{b}")
+    tags = [t.strip() for t in text(args.tags, "--tags").split(",") if t.strip()]
+    shown = Path(args.source).name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    description = text(args.description, "--description") or f"Recorded from {shown}, frames {a}:{b}."
     stroke = None if args.stroke is None else args.stroke - a
-    text, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
+    spec, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
                                      stroke=stroke)
-    from core.fileio import atomic_write_text
-
-    atomic_write_text(target, text)
+    atomic_write_text(target, spec)
     print(f"wrote {target} ({b - a} frames; max error {err:.1f} degrees on re-load)")
     return 0
 

@@ -12,37 +12,38 @@ Results are cached by content, so running it again is instant."""
 
 
 def register(sub) -> None:
+    from sgt_tui.commands.common import utterance_number
+
     p = sub.add_parser("say", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
-    p.add_argument("-o", "--out-dir", metavar="DIR", help="folder for the WAV files (default: ./STEM_speech)")
-    p.add_argument("--utterance", type=int, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
+    p.add_argument("-o", "--out-dir", metavar="DIR", help="folder for the WAV files (default: ./STEM_speech; created if missing)")
+    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
     p.add_argument("--json", action="store_true", help="print the words as JSON instead of a table")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     import json
-    import shutil
     from pathlib import Path
 
+    from core.fileio import atomic_write
     from dsl.compiler import compile_file
-    from sgt_tui.commands.common import existing_file, exit_code, print_diagnostics
+    from sgt_tui.commands.common import check_utterances, existing_file, exit_code, output_folder, print_diagnostics
     from sgt_tui.progress import ProgressBar
 
     path = existing_file(args.file)
+    out_dir = output_folder(args.out_dir or f"{path.stem}_speech")
     result = compile_file(path, timing="speech", progress=ProgressBar("speech"), utterances=args.utterance)
+    if result.plan is not None:
+        check_utterances(result.script, args.utterance)
     print_diagnostics(result.diagnostics, {str(path): result.script.source})
     if result.plan is None:
         return exit_code(result.diagnostics) or 1
-    out_dir = Path(args.out_dir) if args.out_dir else Path(f"{path.stem}_speech")
-    out_dir.mkdir(parents=True, exist_ok=True)
     report = []
     for u in result.plan.utterances:
         wav = out_dir / f"{path.stem}_{u.index:03d}.wav"
         if u.audio_path is not None and Path(u.audio_path).resolve() != wav.resolve():
-            tmp = wav.with_name(f".{wav.name}.tmp")
-            shutil.copyfile(u.audio_path, tmp)
-            tmp.replace(wav)
+            atomic_write(wav, Path(u.audio_path).read_bytes())
         # the plan's words are on the motion timeline (after the lead-in); the table is the audio's
         lead = u.lead_in
         speech_end = u.duration - u.speech.get("tail", 0.0) - lead

@@ -20,6 +20,7 @@ OUT/generator.pt to model/weights/generator.pt to ship it."""
 
 def register(sub) -> None:
     from model.training.train_config import TrainConfig
+    from sgt_tui.commands.common import non_negative_float, non_negative_int, positive_float, positive_int, seed, share
 
     p = sub.add_parser("train", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     src = p.add_mutually_exclusive_group()
@@ -29,35 +30,36 @@ def register(sub) -> None:
                           "timings, in the GENEA/Trinity layout (Motion/, Audio/, Transcripts/) or one flat folder; "
                           "the last tenth of the takes (at least one) is the validation split")
     p.add_argument("-o", "--out", default="runs/default", help="output folder (default runs/default)")
-    p.add_argument("--epochs", type=int, default=TrainConfig.epochs, help=f"epochs (default {TrainConfig.epochs})")
-    p.add_argument("--steps", type=int, default=TrainConfig.steps_per_epoch, help=f"steps per epoch (default {TrainConfig.steps_per_epoch})")
-    p.add_argument("--batch", type=int, default=TrainConfig.batch, help=f"windows per step (default {TrainConfig.batch})")
-    p.add_argument("--threads", type=int, default=TrainConfig.threads, help=f"CPU threads (default {TrainConfig.threads})")
-    p.add_argument("--minutes", type=float, help="stop after this much time (at the end of an epoch)")
+    p.add_argument("--epochs", type=positive_int, default=TrainConfig.epochs, help=f"epochs (default {TrainConfig.epochs})")
+    p.add_argument("--steps", type=positive_int, default=TrainConfig.steps_per_epoch, help=f"steps per epoch (default {TrainConfig.steps_per_epoch})")
+    p.add_argument("--batch", type=positive_int, default=TrainConfig.batch, help=f"windows per step (default {TrainConfig.batch})")
+    p.add_argument("--threads", type=positive_int, default=TrainConfig.threads, help=f"CPU threads (default {TrainConfig.threads})")
+    p.add_argument("--minutes", type=positive_float, help="stop after this much time (at the end of an epoch)")
     p.add_argument("--no-gan", action="store_true", help="switch the adversarial term off")
-    p.add_argument("--ctrl-weight", type=float, default=TrainConfig.ctrl,
+    p.add_argument("--ctrl-weight", type=non_negative_float, default=TrainConfig.ctrl,
                    help=f"weight of the L1 term on pose-controlled frames, 0 = off (default {TrainConfig.ctrl:g})")
-    p.add_argument("--style-weight", type=float, default=TrainConfig.gamma,
+    p.add_argument("--style-weight", type=non_negative_float, default=TrainConfig.gamma,
                    help=f"weight of the style-consistency term (Eq. 7 gamma; default {TrainConfig.gamma:g})")
-    p.add_argument("--vel-weight", type=float, default=TrainConfig.vel,
+    p.add_argument("--vel-weight", type=non_negative_float, default=TrainConfig.vel,
                    help=f"weight of the L1 velocity term, 0 = off (default {TrainConfig.vel:g})")
-    p.add_argument("--kl", type=float, default=TrainConfig.kl,
+    p.add_argument("--kl", type=non_negative_float, default=TrainConfig.kl,
                    help="KL weight of the conditional-VAE noise: a training-only encoder reads each reference window "
                         f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
-    p.add_argument("--p-prior", type=float, default=TrainConfig.p_prior,
+    p.add_argument("--p-prior", type=share, default=TrainConfig.p_prior,
                    help="with --kl: share of uncontrolled training windows whose noise comes from the prior (windows with "
                         f"controls always get the prior's; default {TrainConfig.p_prior:g})")
-    p.add_argument("--restyle", type=float, default=TrainConfig.p_restyle, metavar="P",
+    p.add_argument("--restyle", type=share, default=TrainConfig.p_restyle, metavar="P",
                    help="share of speech windows trained on a style request other than their own, with the style "
                         f"and adversarial terms only, so style controls reach the whole range (default {TrainConfig.p_restyle:g})")
-    p.add_argument("--window", type=int, default=TrainConfig.window, help=f"training window in frames (default {TrainConfig.window})")
+    p.add_argument("--window", type=positive_int, default=TrainConfig.window,
+                   help=f"training window in frames (default {TrainConfig.window})")
     p.add_argument("--device", choices=("auto", "cpu"), default=TrainConfig.device,
                    help="auto: CUDA when present, else the CPU (default auto)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--fresh", action="store_true", help="ignore an existing checkpoint")
-    p.add_argument("--hidden", type=int, default=128, help="network width")
+    p.add_argument("--hidden", type=positive_int, default=128, help="network width")
     p.add_argument("--no-gru", action="store_true", help="convolutions only (faster, see docs/model.md)")
-    p.add_argument("--smooth", type=int, default=5, metavar="TAPS",
+    p.add_argument("--smooth", type=non_negative_int, default=5, metavar="TAPS",
                    help="taps of the in-network low-pass on free frames, 0 = off (default 5, see docs/model.md)")
     p.set_defaults(run=run)
 
@@ -65,6 +67,15 @@ def register(sub) -> None:
 def run(args) -> int:
     import sys
     from pathlib import Path
+
+    from sgt_tui.commands.common import existing_folder, output_folder
+    from sgt_tui.errors import InputError
+
+    if args.data:
+        existing_folder(args.data, "--data")
+    elif not Path(args.corpus).exists():
+        raise InputError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
+    output_folder(args.out)
 
     from model.training.train import TrainConfig, train
     from sgt_tui.progress import ProgressBar
@@ -81,10 +92,8 @@ def run(args) -> int:
         try:
             train_clips = load_corpus(corpus, "train")
             val_clips = load_corpus(corpus, "val")
-        except (CorpusError, FileNotFoundError, ValueError) as exc:
-            print(f"sgt train: error: cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}",
-                  file=sys.stderr)
-            return 1
+        except (CorpusError, OSError, ValueError) as exc:
+            raise InputError(f"cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}") from None
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
                       threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight,

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import re
 from bisect import bisect_right
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -103,18 +102,21 @@ class _Chunk:
     extra: list[Diagnostic] = field(default_factory=list)  # not about this script (library specs)
 
 
-_LINE_REF = re.compile(r"\(line (\d+), col ")
-
-
-def _moved(d: Diagnostic, shift: int) -> Diagnostic:
-    """A chunk's diagnostic at its real line (and the lines its message refers to)."""
+def _moved(d: Diagnostic, shift: int, start: int) -> Diagnostic:
+    """A chunk's diagnostic at its real line. Its span, and the related spans and fix edits in
+    the chunk (canonical lines from ``start`` on), move by ``shift`` lines; places above the
+    chunk are the header's (and the stand-in's line is the first utterance's), already real,
+    and places in other files (a library spec) stay."""
     if not shift:
         return d
 
-    def fix(text):
-        return _LINE_REF.sub(lambda m: f"(line {int(m.group(1)) + shift}, col ", text) if text else text
+    def move(line: int) -> int:
+        return line + shift if line >= start else line
 
-    return dataclasses.replace(d, line=d.line + shift, message=fix(d.message), hint=fix(d.hint))
+    related = tuple(dataclasses.replace(r, line=move(r.line)) if r.file == d.file and r.line else r for r in d.related)
+    fixes = tuple(dataclasses.replace(f, edits=tuple(dataclasses.replace(e, line=move(e.line)) for e in f.edits))
+                  for f in d.fixes)
+    return dataclasses.replace(d, line=d.line + shift, related=related, fixes=fixes)
 
 
 def _digest(*parts: str) -> str:
@@ -133,6 +135,8 @@ class Analyser:
         self._chunks: dict[tuple, _Chunk] = {}
         self._headers: dict[str, object] = {}
         self.chunks_analysed = 0  # how many chunks the last run had to analyse (for tests)
+        # Two runs may overlap (one on a worker thread, one for an action): each reads the
+        # caches and replaces them whole at its end, so neither sees a half-updated cache.
 
     def run(self, text: str) -> Analysis:
         lines = text.split("\n")
@@ -147,14 +151,15 @@ class Analyser:
         header_key = _digest(*(s.text for s in statements if s.kind == "directive" and s.line <= prefix_end))
 
         used: dict[tuple, _Chunk] = {}
-        self.chunks_analysed = 0
+        cached = self._chunks
+        analysed = [0]
 
         def chunk(kind: str, body: list[str]) -> _Chunk:
             key = (kind, prefix_text if kind != "first" else "", "\n".join(body), lib_key)
-            hit = self._chunks.get(key) or used.get(key)
+            hit = cached.get(key) or used.get(key)
             if hit is None:
                 hit = self._analyse(kind, prefix, body, lib)
-                self.chunks_analysed += 1
+                analysed[0] += 1
             used[key] = hit
             return hit
 
@@ -179,7 +184,7 @@ class Analyser:
                 c = chunk("first" if k == 0 else "next", body)
                 real_start = 1 if k == 0 else prev_end + 1
                 shift = real_start - c.canonical_start
-                moved = [_moved(d, shift) for d in c.diagnostics]
+                moved = [_moved(d, shift, c.canonical_start) for d in c.diagnostics]
                 diags += moved
                 if k == 0:
                     diags += c.extra
@@ -195,8 +200,8 @@ class Analyser:
             if any(s.line > prev_end for s in statements):
                 c = chunk("tail", tail)
                 shift = prev_end + 1 - c.canonical_start
-                diags += [_moved(d, shift) for d in c.diagnostics]
-        self._chunks = used
+                diags += [_moved(d, shift, c.canonical_start) for d in c.diagnostics]
+        self._chunks, self.chunks_analysed = used, analysed[0]
         diags.sort(key=sort_key)
         by_line: dict[int, list[Diagnostic]] = {}
         for d in diags:
@@ -226,3 +231,21 @@ class Analyser:
         if result.plan is not None and utt is not None:
             plan = next((u for u in result.plan.utterances if u.index == utt.index), None)
         return _Chunk(own, utt, plan, script.header, start, extra)
+
+
+def goto_line(answer: str, analysis: Analysis, line_count: int) -> int:
+    """The 1-based line that ``answer`` names: ``12`` is line 12, ``u3`` the first line of
+    utterance 3 (counting from 1, as the status line). Raises ValueError with what is wrong."""
+    text = answer.strip().lower()
+    utterance = text.startswith("u")
+    number = text[1:].strip() if utterance else text
+    if not number.isdigit() or int(number) < 1:
+        raise ValueError(f"'{answer}' is not a line number (12) or an utterance (u3)")
+    n = int(number)
+    if utterance:
+        if n > len(analysis.utterances):
+            raise ValueError(f"there is no utterance {n}: the script has {len(analysis.utterances)}")
+        return analysis.utterances[n - 1].line
+    if n > line_count:
+        raise ValueError(f"there is no line {n}: the script has {line_count} lines")
+    return n

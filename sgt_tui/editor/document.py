@@ -46,6 +46,13 @@ class Change:
         dele = not self.new_text and len(self.old_text) == 1 and self.old_text != "\n"
         return ins or dele
 
+    @property
+    def starts_typing(self) -> bool:
+        """A key press: one character typed or deleted, or typed over a selection (which
+        replaces it); the characters typed next join its undo step."""
+        over = bool(self.old_text) and len(self.new_text) == 1 and self.new_text != "\n"
+        return self.is_typing or over
+
 
 @dataclass(frozen=True)
 class Replacement:
@@ -190,8 +197,8 @@ class Document:
             last.cursor_after = change.new_end
             last.last_time = now
             return
-        step = Step("typing" if change.is_typing else label, [change], cursor, change.new_end,
-                    typing=change.is_typing, last_time=now)
+        typing = change.starts_typing
+        step = Step("typing" if typing else label, [change], cursor, change.new_end, typing=typing, last_time=now)
         self._push(step)
 
     def _push(self, step: Step) -> None:

@@ -18,13 +18,13 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from dsl.lines import strip_comment, split_statements
-from dsl.presets import BUILTIN_PRESETS
 from core.controls import STYLE_LIMIT, STYLE_NAMES
+from core.diagnostics import Fix
+from dsl.lines import split_statements, strip_comment
 from sgt_tui.editor.document import Document, Location, Replacement
+from sgt_tui.editor.tokens import line_tokens, spoken_pieces
 
 _WORD_CHAR = re.compile(r"[^\W_]|['\u2019\-]")
-_POSE_INNER = re.compile(r"\[\s*pose\s*:", re.ASCII)
 
 
 class EditRefused(Exception):
@@ -71,10 +71,6 @@ def style_tags(values: dict[str, float] | None = None, preset: str | None = None
     return "<" + " ".join(items) + ">", f"</{first}>"
 
 
-def preset_values(name: str, user_presets: dict | None = None) -> dict[str, float]:
-    return dict({**BUILTIN_PRESETS, **(user_presets or {})}.get(name, {}))
-
-
 # -- where things are -----------------------------------------------------------------------
 
 def _statement_at(doc: Document, row: int):
@@ -86,31 +82,9 @@ def _statement_at(doc: Document, row: int):
     return None
 
 
-def _body_start(doc: Document, stmt) -> Location:
-    row = stmt.line - 1
-    return (row, stmt.body_offset)
-
-
 def _in_tag(line: str, col: int) -> tuple[int, int] | None:
-    """(start, end) columns of the ``[...]`` or ``<...>`` tag containing ``col``, if any."""
-    i = 0
-    code = strip_comment(line)
-    while i < len(code):
-        c = code[i]
-        if c == "\\":
-            i += 2
-            continue
-        if c in "[<":
-            closer = "]" if c == "[" else ">"
-            j = code.find(closer, i + 1)
-            if j < 0:
-                return None
-            if i < col <= j:
-                return (i, j + 1)
-            i = j + 1
-            continue
-        i += 1
-    return None
+    """(start, end) columns of the ``[...]`` or ``<...>`` tag a cursor at ``col`` is inside, if any."""
+    return line_tokens(line).tag_at(col)
 
 
 def _word_bounds(line: str, col: int) -> tuple[int, int] | None:
@@ -126,30 +100,12 @@ def _word_bounds(line: str, col: int) -> tuple[int, int] | None:
 
 def pose_tokens(doc: Document, first_row: int, last_row: int) -> list[tuple[Location, Location]]:
     """Start and end of every ``[pose:...]`` token on rows first_row..last_row."""
-    found = []
-    for row in range(first_row, last_row + 1):
-        code = strip_comment(doc.lines[row])
-        i = 0
-        while i < len(code):
-            c = code[i]
-            if c == "\\":
-                i += 2
-                continue
-            if c == "[":
-                j = code.find("]", i + 1)
-                if j < 0:
-                    break
-                if _POSE_INNER.match(code, i):
-                    found.append(((row, i), (row, j + 1)))
-                i = j + 1
-                continue
-            i += 1
-    return found
+    return [((row, a), (row, b)) for row in range(first_row, last_row + 1) for a, b in line_tokens(doc.lines[row]).poses()]
 
 
 def _has_word(text: str) -> bool:
-    """Whether ``text`` holds a spoken word outside tags."""
-    return bool(re.search(r"[^\W_]", re.sub(r"\[[^\]]*\]|<[^>]*>|\\.", " ", text)))
+    """Whether ``text`` (a piece of utterance bodies) holds a spoken word outside tags."""
+    return any(re.search(r"[^\W_]", piece) for line in text.split("\n") for piece in spoken_pieces(line))
 
 
 # -- actions --------------------------------------------------------------------------------
@@ -243,7 +199,9 @@ def move_pose(doc: Document, cursor: Location, step: int, words: list[tuple[int,
     """Move the pose token at (or nearest before) the cursor to the previous (-1) or next (+1) word.
 
     ``words`` are the (row, start col, end col) of the utterance's spoken words, in order
-    (from :meth:`sgt_tui.editor.analysis.UtteranceInfo.word_spans`)."""
+    (from :meth:`sgt_tui.editor.analysis.UtteranceInfo.word_spans`). The tag goes into the gap
+    before its new word, right after the first run of spaces in that gap (so before a ``<style>``
+    that opens on the word, never inside it); moving it back therefore restores the text exactly."""
     row, col = doc.clamp(cursor)
     stmt = _statement_at(doc, row)
     if stmt is None:
@@ -266,38 +224,59 @@ def move_pose(doc: Document, cursor: Location, step: int, words: list[tuple[int,
     tag = doc.get_range(t0, t1)
     text = doc.text
     a, b = doc.offset(t0), doc.offset(t1)
-    # remove the token with one neighbouring space
+    # the text without the token and one neighbouring space
     if b < len(text) and text[b] == " ":
         b += 1
     elif a > 0 and text[a - 1] == " ":
         a -= 1
+    removed = text[:a] + text[b:]
+
+    def moved(loc: Location) -> int:
+        off = doc.offset(loc)
+        return off - (b - a) if off >= b else off
+
     if target < len(words):
         wr, wc, _ = words[target]
-        ins = doc.offset((wr, wc))
-        insert = tag + " "
-        tag_at = ins
+        word_at = moved((wr, wc))
+        if target:
+            pr, _, pe = words[target - 1]
+            gap_start = moved((pr, pe))
+        else:
+            gap_start = moved((stmt.line - 1, stmt.body_offset))
+        gap = removed[gap_start:word_at]
+        space = re.search(r"\s+", gap)
+        ins = gap_start + space.end() if space else word_at
+        insert, tag_at = tag + " ", ins
     else:
-        wr, _, we = words[-1]
-        ins = doc.offset((wr, we))
-        insert = " " + tag
-        tag_at = ins + 1
-    lo, hi = min(a, ins), max(b, ins)
-    # rebuild the region: the token removed, the tag inserted at its new place
-    parts = []
-    for i in range(lo, hi + 1):
-        if i == ins:
-            parts.append(insert)
-        if a <= i < b or i == hi:
-            continue
-        parts.append(text[i])
-    new_region = "".join(parts)
-    new_tag_at = tag_at - (b - a if tag_at > a else 0)
-    new_cursor_off = new_tag_at
-    start_loc, end_loc = doc.location(lo), doc.location(hi)
-    # the cursor location after the replacement, computed on the new text
-    new_text = text[:lo] + new_region + text[hi:]
-    crow = new_text.count("\n", 0, new_cursor_off)
-    ccol = new_cursor_off - (new_text.rfind("\n", 0, new_cursor_off) + 1)
+        ins = moved((words[-1][0], words[-1][2]))
+        insert, tag_at = " " + tag, ins + 1
+    new_text = removed[:ins] + insert + removed[ins:]
+    lo = 0  # the smallest region that changed: one replacement, one undo step
+    while lo < min(len(text), len(new_text)) and text[lo] == new_text[lo]:
+        lo += 1
+    hi_old, hi_new = len(text), len(new_text)
+    while hi_old > lo and hi_new > lo and text[hi_old - 1] == new_text[hi_new - 1]:
+        hi_old, hi_new = hi_old - 1, hi_new - 1
+    crow = new_text.count("\n", 0, tag_at)
+    ccol = tag_at - (new_text.rfind("\n", 0, tag_at) + 1)
     where = "previous word" if step < 0 else ("next word" if target < len(words) else "end of the utterance")
-    return Action("move pose control", [Replacement(start_loc, end_loc, new_region)], cursor=(crow, ccol + 1),
-                  message=f"moved {tag} to the {where}")
+    return Action("move pose control", [Replacement(doc.location(lo), doc.location(hi_old), new_text[lo:hi_new])],
+                  cursor=(crow, ccol + 1), message=f"moved {tag} to the {where}")
+
+
+def apply_fix(doc: Document, fix: Fix) -> Action:
+    """The edits of a diagnostic's suggested fix (1-based line and column, as the diagnostic's).
+
+    Edits are made from the last to the first, so that none moves another. Raises EditRefused
+    when the text no longer has the place the fix was made for."""
+    reps = []
+    for e in sorted(fix.edits, key=lambda e: (e.line, e.col), reverse=True):
+        row, col = e.line - 1, e.col - 1
+        if not (0 <= row < len(doc.lines)) or not (0 <= col and col + e.length <= len(doc.lines[row])):
+            raise EditRefused(f"cannot apply '{fix.title}': the text changed since it was suggested")
+        reps.append(Replacement((row, col), (row, col + e.length), e.text))
+    if not reps:
+        raise EditRefused(f"'{fix.title}' changes nothing")
+    first = min(fix.edits, key=lambda e: (e.line, e.col))
+    end = (first.line - 1, first.col - 1 + len(first.text)) if "\n" not in first.text else None
+    return Action("quick fix", reps, cursor=end, message=f"fixed: {fix.title}")

@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import hashlib
 import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
-from dsl.lines import decode_source
 from core.fileio import atomic_write
+from dsl.lines import decode_source
 from sgt_tui.editor.document import Document
 
 BOM = b"\xef\xbb\xbf"
@@ -25,8 +26,35 @@ class FileError(Exception):
     """A script that cannot be opened or saved; the message is for the user."""
 
 
+class NotAFile(FileError):
+    """The path names a folder, a device, a FIFO or a socket: nothing the editor can open."""
+
+
 class ChangedOnDisk(FileError):
     """The file on disk is no longer what this editor read or saved."""
+
+
+class TargetExists(FileError):
+    """"Save as" would replace another file; the caller asks before overwriting it."""
+
+
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))
+
+
+def check_regular(path: Path) -> bool:
+    """True when ``path`` is a regular file (through symlinks), False when it does not exist;
+    raises :class:`NotAFile` for anything else, without opening it (a FIFO would block)."""
+    try:
+        mode = path.stat().st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    except OSError as exc:
+        raise FileError(f"cannot open {path}: {exc.strerror or exc}") from None
+    if stat.S_ISREG(mode):
+        return True
+    what = next((name for test, name in _KINDS if test(mode)), "not a regular file")
+    raise NotAFile(f"{path} is {what}, not a script file; give the path of a .sgt file")
 
 
 @dataclass(frozen=True)
@@ -49,7 +77,7 @@ def disk_state(path: Path, previous: DiskState | None = None) -> DiskState:
     """The file's state now; reuses ``previous``'s digest when mtime and size are unchanged."""
     try:
         st = path.stat()
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):
         return MISSING
     if previous is not None and previous.mtime_ns == st.st_mtime_ns and previous.size == st.st_size:
         return previous
@@ -98,11 +126,12 @@ class ScriptFile:
     def open(cls, path: Path | str) -> "ScriptFile":
         """Read ``path``; a missing file gives a new empty document. Raises FileError."""
         path = Path(path)
-        if path.is_dir():
-            raise FileError(f"{path} is a folder, not a script file")
-        if not path.exists():
-            if path.parent != Path("") and not path.parent.exists():
-                raise FileError(f"cannot create {path}: the folder {path.parent} does not exist")
+        if not check_regular(path):
+            if path.is_symlink():
+                raise FileError(f"{path} is a symlink to {os.readlink(path)}, which does not exist")
+            if path.parent != Path("") and not path.parent.is_dir():
+                what = "is not a folder" if path.parent.exists() else "does not exist"
+                raise FileError(f"cannot create {path}: {path.parent} {what}")
             return cls(path, Document(""))
         try:
             data = path.read_bytes()
@@ -155,6 +184,25 @@ class ScriptFile:
         self.document.mark_saved(text)
         self.document.break_typing()
         self.disk = disk_state(self.path)
+
+    def save_as(self, path: Path | str, *, overwrite: bool = False) -> None:
+        """Save to another path, which becomes this script's path (for a save that failed: a
+        read-only folder, a full disk). Raises :class:`TargetExists` when a file is there
+        (unless ``overwrite``), :class:`NotAFile` for a folder or device, FileError when it
+        cannot be written."""
+        path = Path(path).expanduser()
+        if check_regular(path) and not overwrite and path.resolve() != self.path.resolve():
+            raise TargetExists(f"{path} already exists")
+        if not path.parent.is_dir():
+            what = "is not a folder" if path.parent.exists() else "does not exist"
+            raise FileError(f"cannot save as {path}: {path.parent} {what}")
+        old = self.path, self.disk
+        self.path, self.disk = path, disk_state(path)
+        try:
+            self.save(force=True)
+        except FileError:
+            self.path, self.disk = old
+            raise
 
 
 def display_name(path: Path) -> str:

@@ -1,16 +1,19 @@
 """Long work (generation, GIF rendering) in a worker subprocess, with progress and cancel.
 
 :class:`JobRunner` keeps one :mod:`sgt_tui.editor.worker` process and feeds it one job at a
-time from a queue. Events from the worker (progress, done, error) reach ``on_event`` from a
-reader thread; the editor turns them into interface messages. Cancelling the running job kills
-the worker's whole process group at once (so a busy model stops using the CPU); the next job
-starts a fresh worker. Models stay loaded between jobs that are not cancelled.
+time from a queue. A job carries a typed :class:`~sgt_tui.editor.protocol.JobRequest` and, when
+done, a :class:`~sgt_tui.editor.protocol.JobResult`. Events from the worker (progress, done,
+error) reach ``on_event`` from a reader thread; the editor turns them into interface messages.
+Cancelling the running job kills the worker's whole process group at once (so a busy model stops
+using the CPU); the next job starts a fresh worker. Models stay loaded between jobs that are not
+cancelled. :func:`newest` says which job ``ctrl+t`` means: the one the user asked for last.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import itertools
-import json
 import os
 import signal
 import subprocess
@@ -18,9 +21,12 @@ import sys
 import threading
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
+
+from core.diagnostics import Diagnostic
+from sgt_tui.editor.protocol import PHASES, Done, Failed, JobRequest, JobResult, Progress, decode_event, encode_request
 
 QUEUED, RUNNING, DONE, FAILED, CANCELLED = "queued", "running", "done", "failed", "cancelled"
 MAX_LOG = 1 << 20  # the worker's log starts afresh past this size (bytes)
@@ -29,24 +35,28 @@ MAX_LOG = 1 << 20  # the worker's log starts afresh past this size (bytes)
 @dataclass
 class Job:
     id: str
-    op: str  # "generate" or "render"
     label: str
-    request: dict
+    request: JobRequest
+    keys: tuple[str, ...] = ()  # the editor's key of each utterance of the script (index -> key)
     state: str = QUEUED
     phase: str = ""
     done: int = 0
     total: int = 0
     what: str = ""
-    result: dict | None = None
+    result: JobResult | None = None
     message: str = ""
-    diagnostics: list = field(default_factory=list)
+    diagnostics: tuple[Diagnostic, ...] = ()
     started: float = 0.0
     finished: float = 0.0
 
     @property
+    def op(self) -> str:
+        return self.request.op
+
+    @property
     def fraction(self) -> float:
         """Progress 0..1 over the phases (speech, motion, render)."""
-        phases = ["speech", "motion"] + (["render"] if self.op == "render" else [])
+        phases = PHASES if self.op == "render" else PHASES[:2]
         if self.state == DONE:
             return 1.0
         if self.phase not in phases:
@@ -58,6 +68,47 @@ class Job:
     @property
     def finished_state(self) -> bool:
         return self.state in (DONE, FAILED, CANCELLED)
+
+
+class JobRefused(Exception):
+    """The job cannot start (no utterances, errors in the script); the message says why."""
+
+
+@dataclass(frozen=True)
+class JobPlan:
+    request: JobRequest
+    label: str  # "generate utterance 2 (rules)", "gif script (neural)"
+    keys: tuple[str, ...]  # the key of each utterance (the result's indices map to them)
+
+
+def plan_job(op: str, analysis, row: int, *, path: Path, source: str, engine: str, weights: str | None = None,
+             whole: bool = False, gif_size: tuple[int, int] = (320, 320), cache: Path) -> JobPlan:
+    """The request for generating (``op`` "generate") or rendering ("render") the utterance on
+    0-based ``row``, or the whole script; raises :class:`JobRefused`.
+
+    Motion goes to ``cache`` (one file per script and utterance); a GIF goes next to the script:
+    ``lobby.gif`` for the script, ``lobby.u2.gif`` for utterance 2, counting from 1 as the
+    status line does."""
+    if not analysis.utterances:
+        raise JobRefused("nothing to generate: the script has no utterances")
+    info = analysis.utterance_at(row + 1)
+    bad = [u for u in analysis.utterances if u.errors] if whole else ([info] if info.errors else [])
+    if bad:
+        raise JobRefused(f"utterance {bad[0].index + 1} has errors: fix them first (F2 lists problems)")
+    what = "script" if whole else f"utterance {info.index + 1}"
+    take = _take_name(path, "all" if whole else info.key)
+    request = JobRequest(op, str(path), source, engine=engine, weights=weights,
+                         utterances=None if whole else (info.index,), out=str(cache / f"{take}-{engine}.npz"))
+    if op == "render":
+        gif = path.with_name(f"{path.stem}.gif" if whole else f"{path.stem}.u{info.index + 1}.gif")
+        request = dataclasses.replace(request, gif=str(gif), size=tuple(gif_size))
+    label = f"{'gif' if op == 'render' else 'generate'} {what} ({engine})"
+    return JobPlan(request, label, tuple(u.key for u in analysis.utterances))
+
+
+def _take_name(script: Path, what: str) -> str:
+    """A cache file name for generated motion: one per script and utterance text (or 'all')."""
+    return hashlib.sha1(f"{script.resolve()}|{what}".encode("utf-8")).hexdigest()[:20]
 
 
 class JobRunner:
@@ -78,8 +129,11 @@ class JobRunner:
         self.closed = False
 
     # -- public ---------------------------------------------------------------------------
-    def submit(self, op: str, label: str, **request) -> Job:
-        job = Job(str(next(self._ids)), op, label, dict(request, op=op))
+    def submit_plan(self, plan: JobPlan) -> Job:
+        return self.submit(plan.request, plan.label, plan.keys)
+
+    def submit(self, request: JobRequest, label: str, keys: tuple[str, ...] = ()) -> Job:
+        job = Job(str(next(self._ids)), label, request, tuple(keys))
         with self._lock:
             self.queue.append(job)
         self.on_event(job)
@@ -87,11 +141,11 @@ class JobRunner:
         return job
 
     def cancel(self, job: Job | None = None) -> Job | None:
-        """Cancel ``job`` (default: the running one, else the last queued). Returns it."""
+        """Cancel ``job`` (default: the job asked for last that has not finished: the last queued, else the running one). Returns it, or None when nothing was left to cancel."""
         proc = None
         with self._lock:
             if job is None:
-                job = self.current or (self.queue[-1] if self.queue else None)
+                job = self.queue[-1] if self.queue else self.current
             if job is None or job.finished_state:
                 return None
             if job in self.queue:
@@ -179,7 +233,7 @@ class JobRunner:
             job.started = time.monotonic()
             try:
                 proc = self._ensure_worker()
-                proc.stdin.write(json.dumps(dict(job.request, id=job.id), ensure_ascii=False) + "\n")
+                proc.stdin.write(encode_request(job.id, job.request) + "\n")
                 proc.stdin.flush()
             except OSError as exc:
                 self.current = None
@@ -188,26 +242,23 @@ class JobRunner:
 
     def _read(self, proc: subprocess.Popen) -> None:
         for line in proc.stdout:
-            try:
-                event = json.loads(line)
-            except ValueError:
+            event = decode_event(line)
+            if event is None:
                 continue
             with self._lock:
                 job = self.current
-                if job is None or event.get("id") != job.id or job is self._cancelling:
+                if job is None or event.id != job.id or job is self._cancelling:
                     continue
-                kind = event.get("event")
-                if kind == "progress":
-                    job.phase = event.get("phase", "")
-                    job.done, job.total, job.what = event.get("done", 0), event.get("total", 0), event.get("what", "")
+                if isinstance(event, Progress):
+                    job.phase, job.done, job.total, job.what = event.phase, event.done, event.total, event.what
                 else:
                     self.current = None
-                    if kind == "done":
-                        job.result = event.get("result") or {}
+                    if isinstance(event, Done):
+                        job.result = event.result
                         self._finish(job, DONE)
-                    else:
-                        job.diagnostics = event.get("diagnostics") or []
-                        self._finish(job, FAILED, event.get("message") or "the job failed")
+                    elif isinstance(event, Failed):
+                        job.diagnostics = event.diagnostics
+                        self._finish(job, FAILED, event.message)
             self.on_event(job)
             if job.finished_state:
                 self._next()

@@ -8,8 +8,13 @@ Rows, each starting with its lane name so nothing depends on colour::
     style       <helpful speed:+0.5 space:+1~~~~~~~>
 
 Pose-control spans are ``[name ...]`` filled with ``=``, style spans ``<name ...>`` filled
-with ``~``, pauses ``‥pause‥`` in the words row. Overlapping spans go to extra rows. The
-playhead column is reported separately so the view can draw it (reverse video) on every row.
+with ``~``, pauses ``‥pause‥`` in the words row. A label too long for its span is cut where
+one of its items ends (or before a value's colon) and ends with ``…``: ``<speed…~>``, never
+``speed:+0`` for +0.5. Overlapping spans go to extra rows; when there is no room for them (at
+80x24 there is one row a kind) each hidden span is marked ``+`` where it starts (just after a
+shown span's label when it starts on one), in the last row of its kind, and that row's name ends
+with ``+`` (``pose+``). The playhead column is reported
+separately so the view can draw it (reverse video) on every row.
 Data comes from an estimated plan (:class:`dsl.plan.UtterancePlan`) or from a generated
 motion clip (:class:`core.motion.MotionClip`, which carries the real speech timing).
 """
@@ -98,12 +103,25 @@ def _put(buf: list[str], col: int, text: str) -> None:
             buf[col + i] = ch
 
 
+def fit_label(label: str, width: int) -> str:
+    """``label`` in at most ``width`` cells: whole, or cut where an item ends (at a space, or
+    before the colon of ``name:value``) followed by ``…``; a lone first name is shortened."""
+    if len(label) <= width:
+        return label
+    if width <= 1:
+        return "…"[:width]
+    cuts = [i for i, c in enumerate(label) if c in " :" and 0 < i <= width - 1]
+    if cuts:
+        return label[: cuts[-1]].rstrip() + "…"
+    return label[: width - 1] + "…"
+
+
 def _span_text(label: str, width: int, kind: str) -> str:
     open_, close, fill = {"pose": ("[", "]", "="), "style": ("<", ">", "~")}.get(kind, ("‥", "‥", "‥"))
     if width <= 1:
         return open_[:width]
     inner = width - 2
-    text = label[:inner]
+    text = fit_label(label, inner)
     return open_ + text + fill * (inner - len(text)) + close
 
 
@@ -155,7 +173,8 @@ def layout(data: TimelineData | None, width: int, playhead: int | None = None, m
                     break
             else:
                 lanes.append([sp])
-        for li, lane in enumerate(lanes[:max_lanes] or [[]]):
+        shown, hidden = lanes[:max_lanes] or [[]], [sp for lane in lanes[max_lanes:] for sp in lane]
+        for li, lane in enumerate(shown):
             buf = [" "] * w
             lm = []
             for sp in lane:
@@ -163,7 +182,16 @@ def layout(data: TimelineData | None, width: int, playhead: int | None = None, m
                 b = max(a + 1, min(w, int(round(sp.end * w / n))))
                 _put(buf, a, _span_text(sp.label, b - a, kind))
                 lm.append((a, b, kind))
-            rows.append(Row(kind if li == 0 else "", "".join(buf), lm))
+            name = kind if li == 0 else ""
+            if hidden and li == len(shown) - 1:  # no room for their rows: a marker where each starts
+                for sp in hidden:
+                    a = col(sp.start)
+                    while a + 1 < w and buf[a] not in "=~ ":  # not over a shown span's label
+                        a += 1
+                    _put(buf, a, "+")
+                    lm.append((a, a + 1, "overlap"))
+                name = (name or kind) + "+"
+            rows.append(Row(name, "".join(buf), lm))
     if lane_w:
         for r in rows:
             r.text = f"{r.lane:<{lane_w - 1}.{lane_w - 1}} " + r.text

@@ -1,51 +1,49 @@
 """The editor's worker process: generation and GIF rendering away from the interface.
 
-Run as ``python -m sgt_tui.editor.worker``. It reads one JSON request per line on stdin and
-answers with JSON events on stdout, one per line, until stdin closes. It stays alive between
-requests, so the generator's weights and the libraries stay loaded ("warm"); cancelling a job
-kills the process (:mod:`sgt_tui.editor.jobs` starts a new one for the next job).
-
-Requests::
-
-    {"id": "3", "op": "generate", "path": "lobby.sgt", "source": "<the editor's text>",
-     "engine": "rules", "utterances": [2] | null, "seed": null, "timing": "speech",
-     "out": "/cache/take.npz"}
-    {"id": "4", "op": "render", ...the same..., "gif": "lobby.gif", "size": [320, 320]}
-    {"id": "5", "op": "ping"}
-
-Events: ``{"id", "event": "progress", "done", "total", "what", "phase"}``, then one of
-``{"id", "event": "done", "result": {...}}`` or ``{"id", "event": "error", "message",
-"diagnostics": [...]}``. The script text comes from the editor (unsaved edits included); file
-names in it (``@library``, ``@audio``) resolve against ``path``'s folder as usual.
+Run as ``python -m sgt_tui.editor.worker``. It reads one request per line on stdin and answers
+with events on stdout, one per line, until stdin closes; both are JSON objects written and read
+through the typed classes of :mod:`sgt_tui.editor.protocol` (:class:`~sgt_tui.editor.protocol.JobRequest`
+in; :class:`~sgt_tui.editor.protocol.Progress`, then :class:`~sgt_tui.editor.protocol.Done` with a
+:class:`~sgt_tui.editor.protocol.JobResult` or :class:`~sgt_tui.editor.protocol.Failed` with the
+message and diagnostics, out). It stays alive between requests, so the generator's weights and
+the libraries stay loaded ("warm"); cancelling a job kills the process
+(:mod:`sgt_tui.editor.jobs` starts a new one for the next job). The script text comes from the
+editor (unsaved edits included); file names in it (``@library``, ``@audio``) resolve against
+the request's ``path`` folder as usual.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import sys
-from pathlib import Path
 
 from core.motion import save_motion
-from dsl.compiler import compile_file
-from model.generate import DEFAULT_ENGINE, GenerateError, clips_from_plan, engine_function
+from model.generate import GenerateError, generate
 from model.neural import Options
 from renders.animate import render_gif
 from renders.clips import concat_clips
+from renders.gl import RenderSetupError
+from sgt_tui.editor.protocol import Done, Event, Failed, JobRequest, JobResult, Progress, ProtocolError, encode_event
+
+#: Failures whose message is written for the user as it is; any other exception is a bug and
+#: its message is prefixed with its type.
+USER_ERRORS = (GenerateError, RenderSetupError, ProtocolError, ValueError, OSError)  # NoSuchUtterance is a GenerateError
 
 
 class _Emitter:
     def __init__(self, stream) -> None:
         self.stream = stream
 
-    def __call__(self, **event) -> None:
-        self.stream.write(json.dumps(event, ensure_ascii=False) + "\n")
+    def __call__(self, event: Event) -> None:
+        self.stream.write(encode_event(event) + "\n")
         self.stream.flush()
 
 
 def _progress(emit, rid: str, phase: str):
     def cb(done: int, total: int, what: str = "") -> None:
-        emit(id=rid, event="progress", phase=phase, done=int(done), total=int(total), what=str(what)[:60])
+        emit(Progress(rid, phase, int(done), int(total), str(what)[:60]))
 
     return cb
 
@@ -53,45 +51,32 @@ def _progress(emit, rid: str, phase: str):
 def _clips(req: dict, emit):
     """Compile the request's text and generate motion; raises GenerateError."""
     rid = req["id"]
-    engine = req.get("engine") or DEFAULT_ENGINE
-    options = Options(weights=req.get("weights"))
-    engine_function(engine, options)  # a clear error (with the fix) when weights are missing
-    result = compile_file(Path(req["path"]), timing=req.get("timing", "speech"), source=req["source"],
-                          utterances=req.get("utterances"), progress=_progress(emit, rid, "speech"))
-    if result.plan is None:
-        errors = [d for d in result.diagnostics if d.is_error]
-        first = errors[0] if errors else None
-        where = f" (line {first.line}: {first.message})" if first else ""
-        raise GenerateError(f"the script has {len(errors)} error{'s' if len(errors) != 1 else ''}{where}", result.diagnostics)
-    clips = clips_from_plan(result.plan, engine=engine, seed=req.get("seed"),
-                            progress=_progress(emit, rid, "motion"), options=options)
-    return clips, [u.index for u in result.plan.utterances], result.plan.utterances[0].speech.get("engine") if result.plan.utterances else None
+    take = generate(req["path"], source=req["source"], engine=req.get("engine"), utterances=req.get("utterances"),
+                    seed=req.get("seed"), timing=req.get("timing", "speech"), options=Options(weights=req.get("weights")),
+                    progress=_progress(emit, rid, "motion"), speech_progress=_progress(emit, rid, "speech"))
+    return take.clips, take.utterances, take.timing
 
 
-def handle(req: dict, emit) -> dict:
-    op = req.get("op")
-    if op == "ping":
-        return {"pong": True, "pid": os.getpid()}
-    if op not in ("generate", "render"):
-        raise ValueError(f"unknown request '{op}'")
-    clips, indices, timing = _clips(req, emit)
-    result = {"utterances": indices, "frames": sum(c.n_frames for c in clips), "timing": timing}
-    if req.get("out"):
-        save_motion(req["out"], clips)
-        result["motion"] = req["out"]
-    if op == "render":
-        size = tuple(req.get("size") or (320, 320))
-        info = render_gif(concat_clips(clips), req["gif"], size=size, progress=_progress(emit, req["id"], "render"))
-        result.update(gif=req["gif"], gif_frames=info["frames"], gif_bytes=info["bytes"])
+def handle(raw: dict, emit) -> JobResult:
+    """Run one request (the JSON object as read: ``_clips`` reads it as it is)."""
+    req = JobRequest.from_dict(raw)  # raises ProtocolError for an unknown operation
+    clips, indices, timing = _clips(raw, emit)
+    result = JobResult(utterances=tuple(indices), frames=sum(c.n_frames for c in clips), timing=timing)
+    if req.out:
+        save_motion(req.out, clips)
+        result = dataclasses.replace(result, motion=req.out)
+    if req.op == "render":
+        info = render_gif(concat_clips(clips), req.gif, size=req.size, progress=_progress(emit, raw["id"], "render"))
+        result = dataclasses.replace(result, gif=req.gif, gif_frames=info["frames"])
     return result
 
 
-def _error_event(exc: BaseException) -> dict:
-    diags = [d.to_dict() for d in getattr(exc, "diagnostics", []) or []]
-    message = str(exc) or exc.__class__.__name__
-    if exc.__class__.__name__ not in ("GenerateError", "RenderSetupError", "ValueError", "OSError"):
-        message = f"{exc.__class__.__name__}: {message}"
-    return {"message": message, "diagnostics": diags}
+def error_event(rid: str | None, exc: BaseException) -> Failed:
+    diags = tuple(getattr(exc, "diagnostics", None) or ())
+    message = str(exc) or type(exc).__name__
+    if not isinstance(exc, USER_ERRORS):
+        message = f"{type(exc).__name__}: {message}"
+    return Failed(rid, message, diags)
 
 
 def main() -> int:
@@ -104,20 +89,20 @@ def main() -> int:
         if not line.strip():
             continue
         try:
-            req = json.loads(line)
+            raw = json.loads(line)
         except ValueError:
-            emit(id=None, event="error", message="bad request", diagnostics=[])
+            emit(Failed(None, "bad request"))
             continue
-        rid = req.get("id")
+        rid = str(raw.get("id")) if isinstance(raw, dict) else None
         try:
-            result = handle(req, emit)
+            result = handle(raw, emit)
         except Exception as exc:  # reported to the editor as a message, never a traceback
             import traceback
 
             traceback.print_exc(file=sys.stderr)
-            emit(id=rid, event="error", **_error_event(exc))
+            emit(error_event(rid, exc))
             continue
-        emit(id=rid, event="done", result=result)
+        emit(Done(rid, result))
     return 0
 
 

@@ -1,0 +1,191 @@
+"""The editor's background services: live analysis, disk watching, recovery and jobs.
+
+Each service owns one concern and its timing (Textual workers, timers, a subprocess) and tells
+the application what happened with a typed message; the application only shows it:
+
+- :class:`AnalysisService` analyses each new version of the text after a short pause in typing,
+  in a Textual worker of the exclusive group ``"analysis"`` (a newer keystroke cancels the
+  pending one; a slow analysis runs on a thread) -> :class:`AnalysisReady`;
+- :class:`DiskWatcher` checks the script on disk every few seconds (a thread worker of the
+  exclusive group ``"disk"``) -> :class:`DiskChanged`;
+- :class:`RecoveryService` writes unsaved work to the recovery file every few seconds and finds
+  work left by a crash -> :class:`RecoveryFound`;
+- :class:`JobService` runs generate/render jobs in the worker process -> :class:`JobUpdated`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from pathlib import Path
+
+from textual.app import App
+from textual.message import Message
+
+from sgt_tui.editor.analysis import Analyser, Analysis
+from sgt_tui.editor.document import Document
+from sgt_tui.editor.files import ScriptFile
+from sgt_tui.editor.jobs import Job, JobPlan, JobRunner
+from sgt_tui.editor.recovery import INTERVAL, Recovered, RecoveryFile, editor_cache_dir
+
+ANALYSIS_DELAY = 0.08  # seconds of quiet typing before the diagnostics are refreshed
+QUICK_ANALYSIS = 0.03  # an analysis faster than this (seconds) runs on the interface thread
+DISK_CHECK = 2.0  # seconds between checks for changes on disk
+
+
+class AnalysisReady(Message):
+    """The analysis of version ``version`` of the text."""
+
+    def __init__(self, analysis: Analysis, version: int) -> None:
+        super().__init__()
+        self.analysis, self.version = analysis, version
+
+
+class DiskChanged(Message):
+    """The script on disk is no longer what the editor read or saved (``exists``: not deleted)."""
+
+    def __init__(self, exists: bool) -> None:
+        super().__init__()
+        self.exists = exists
+
+
+class RecoveryFound(Message):
+    """Unsaved work from an earlier session, different from the file's text."""
+
+    def __init__(self, found: Recovered) -> None:
+        super().__init__()
+        self.found = found
+
+
+class JobUpdated(Message):
+    """A job was queued, made progress, or finished (its ``state`` says which)."""
+
+    def __init__(self, job: Job) -> None:
+        super().__init__()
+        self.job = job
+
+
+class AnalysisService:
+    """Live diagnostics: the newest version of the text, analysed once typing pauses."""
+
+    def __init__(self, app: App, doc: Document, path: Path) -> None:
+        self.app, self.doc = app, doc
+        self.analyser = Analyser(path)
+        self.latest: Analysis | None = None
+        self.version = -1  # the version :attr:`latest` is the analysis of
+        self.seconds = 1.0  # how long the last analysis took
+
+    def retarget(self, path: Path) -> None:
+        """The script is now ``path`` ("save as"): its diagnostics name the new file."""
+        self.analyser = Analyser(path)
+        self.version = -1
+        self.schedule()
+
+    def schedule(self) -> None:
+        """After a change: analyse once typing pauses (a newer change cancels this one)."""
+        self.app.run_worker(self._debounced, name="analysis", group="analysis", exclusive=True)
+
+    async def _debounced(self) -> None:
+        await asyncio.sleep(ANALYSIS_DELAY)
+        version, text = self.doc.version, self.doc.text
+        if version == self.version:
+            return
+        if self.seconds < QUICK_ANALYSIS:  # cheaper than handing it to a thread
+            result = self._run(text)
+        else:
+            result = await asyncio.to_thread(self._run, text)
+        self._publish(result, version)
+
+    def now(self) -> Analysis:
+        """The analysis of the current text, made here and now when it is stale (an action needs it)."""
+        if self.version != self.doc.version or self.latest is None:
+            self.app.workers.cancel_group(self.app, "analysis")
+            self._publish(self._run(self.doc.text), self.doc.version)
+        return self.latest
+
+    def _run(self, text: str) -> Analysis:
+        t = time.perf_counter()
+        result = self.analyser.run(text)
+        self.seconds = time.perf_counter() - t
+        return result
+
+    def _publish(self, analysis: Analysis, version: int) -> None:
+        if version != self.doc.version:
+            return  # a newer change is on its way (and scheduled its own analysis)
+        self.latest, self.version = analysis, version
+        self.app.post_message(AnalysisReady(analysis, version))
+
+
+class DiskWatcher:
+    """Notices when someone else changes (or deletes) the script on disk."""
+
+    def __init__(self, app: App, script: ScriptFile) -> None:
+        self.app, self.script = app, script
+
+    def start(self) -> None:
+        self.app.set_interval(DISK_CHECK, self.check_soon)
+
+    def check_soon(self) -> None:
+        self.app.run_worker(self.check, name="disk", group="disk", exclusive=True, thread=True)
+
+    def check(self) -> bool:
+        """Compare the file with what was read or saved (any thread); True when it changed."""
+        if not self.script.changed_on_disk():
+            return False
+        self.app.post_message(DiskChanged(self.script.path.exists()))
+        return True
+
+
+class RecoveryService:
+    """Keeps unsaved work in the recovery file; offers what a crash left behind."""
+
+    def __init__(self, app: App, doc: Document, path: Path, directory: Path | None = None) -> None:
+        self.app, self.doc = app, doc
+        self.file = RecoveryFile(path, directory)
+
+    def start(self) -> None:
+        self.app.set_interval(INTERVAL, self.write)
+        self.app.call_after_refresh(self.look)
+
+    def write(self) -> None:
+        """Write the text when it changed since the last write and is unsaved (remove it when saved)."""
+        self.file.update(self.doc.text, self.doc.version, self.doc.modified)
+
+    def look(self) -> None:
+        found = self.file.load()
+        if found is None:
+            return
+        if found.text == self.doc.text:
+            self.file.discard()
+            return
+        self.app.post_message(RecoveryFound(found))
+
+    def discard(self) -> None:
+        self.file.discard()
+
+    def moved(self, path: Path) -> None:
+        """The script is now saved under ``path`` ("save as"): the recovery file follows it."""
+        self.file.discard()
+        self.file = RecoveryFile(path, self.file.path.parent)
+
+
+class JobService:
+    """Generate and render jobs, one at a time, in the worker process."""
+
+    def __init__(self, app: App) -> None:
+        self.runner = JobRunner(lambda job: app.post_message(JobUpdated(job)),
+                                log_path=editor_cache_dir() / "worker.log")
+
+    @property
+    def busy(self) -> bool:
+        return self.runner.busy
+
+    def submit(self, plan: JobPlan) -> Job:
+        return self.runner.submit_plan(plan)
+
+    def cancel_newest(self) -> Job | None:
+        """Cancel the job asked for last (the last queued, else the running one); returns it."""
+        return self.runner.cancel()
+
+    def shutdown(self) -> None:
+        self.runner.shutdown()

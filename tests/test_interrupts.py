@@ -1,0 +1,131 @@
+"""Ctrl+C always stops a command: exit 130, "interrupted", no traceback, within seconds.
+
+trimesh (imported by pyrender) wraps its imports in ``except BaseException``; a SIGINT that
+landed there used to be swallowed and `sgt render SCRIPT.sgt` ran on to the end.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from core.interrupts import interrupts_deferred
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLE = ROOT / "examples" / "mall_guide.sgt"
+
+
+def test_a_deferred_interrupt_survives_a_library_that_swallows_it():
+    reached = []
+    with pytest.raises(KeyboardInterrupt):
+        with interrupts_deferred():
+            try:  # what trimesh does around its imports
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)  # the handler runs here
+                reached.append("after the signal")
+            except BaseException:
+                reached.append("swallowed")
+    assert reached == ["after the signal"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_no_interrupt_no_exception_and_an_ignored_sigint_stays_ignored():
+    with interrupts_deferred():
+        pass
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with interrupts_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+# A command started through this bootstrap gets SIGINT at the exact moment a chosen module
+# starts to import: deterministic, where a timer would hit the window only sometimes.
+BOOT = """
+import os, runpy, signal, sys
+TARGET = sys.argv.pop(1)
+class Hook:
+    fired = False
+    def find_spec(self, name, path=None, target=None):
+        if name == TARGET and not Hook.fired:
+            Hook.fired = True
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+sys.meta_path.insert(0, Hook())
+sys.argv[0] = "sgt"
+runpy.run_module("sgt_tui.cli", run_name="__main__", alter_sys=True)
+"""
+
+
+@pytest.fixture(scope="module")
+def motion_file(tmp_path_factory):
+    from sgt_tui.cli import main
+
+    path = tmp_path_factory.mktemp("motion") / "take.json"
+    assert main(["generate", str(EXAMPLE), "-o", str(path), "--engine", "keyframe", "--utterance", "0"]) == 0
+    return path
+
+
+def _env():
+    return {**os.environ, "PYTHONPATH": str(ROOT)}
+
+
+def test_ctrl_c_inside_trimesh_import_is_not_swallowed(tmp_path, motion_file):
+    """SIGINT while trimesh imports its optional parts (inside its ``except BaseException``)."""
+    boot = tmp_path / "boot.py"
+    boot.write_text(BOOT)
+    gif = tmp_path / "out.gif"
+    r = subprocess.run([sys.executable, str(boot), "trimesh.path", "render", str(motion_file), "-o", str(gif),
+                        "--size", "32x32"], cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=300)
+    assert r.returncode == 130, r.stderr
+    assert "interrupted" in r.stderr and "Traceback" not in r.stderr
+    assert not gif.exists()
+
+
+def _loaded(pid: int, library: str) -> bool:
+    try:
+        with open(f"/proc/{pid}/maps") as f:
+            return library in f.read()
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc to see the start-up progress")
+@pytest.mark.parametrize("delay", [0.0, 0.3, 0.8, 1.5, 2.5, 4.0])
+def test_ctrl_c_at_any_moment_of_render_start_up_exits_130(tmp_path, delay):
+    """A real `sgt render SCRIPT.sgt`: SIGINT ``delay`` seconds after numpy loads (the command
+    has started: imports of torch, speech, the generator, pyrender and GL follow)."""
+    gif = tmp_path / "out.gif"
+    p = subprocess.Popen([sys.executable, "-m", "sgt_tui.cli", "render", str(EXAMPLE), "-o", str(gif)],
+                         cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not _loaded(p.pid, "_multiarray_umath") and p.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(delay)
+        assert p.poll() is None, "the render ended before the interrupt: make the script longer"
+        p.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        _, err = p.communicate(timeout=30)
+        waited = time.monotonic() - sent
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.communicate()
+    # 130; or, now and then, death by SIGINT itself, which a shell shows as the same 130: CPython
+    # ends that way when a KeyboardInterrupt escaped a C-level PyRun_* call during an import,
+    # even though sgt caught it and printed "interrupted" (measured: in 3 runs of 50 that died
+    # by SIGINT, CPython's _Py_UnhandledKeyboardInterrupt was already set when sgt caught it).
+    assert p.returncode in (130, -signal.SIGINT), err[-2000:]
+    assert "interrupted" in err and "Traceback" not in err
+    assert waited < 10, f"took {waited:.1f} s to stop"
+    assert not gif.exists()
