@@ -26,7 +26,7 @@ shipped model (or ``--weights``) generates ``--seeds`` takes and the script repo
 - the beat alignment of the motion with the speech onsets (docs/metrics.md), and the same
   motion against the onsets of another set's recording (``BA shuffled``, the chance level).
 
-    python scripts/real_speech_check.py [--weights FILE] [--out DIR] [--seeds N] [--engine neural|rules]
+    python scripts/real_speech_check.py [--weights FILE] [--out DIR] [--seeds N] [--engine neural|rules] [--json FILE]
 """
 
 from __future__ import annotations
@@ -159,6 +159,7 @@ def main() -> int:
     ap.add_argument("--out", default="out/real_speech", help="working folder (default out/real_speech)")
     ap.add_argument("--seeds", type=int, default=5, help="takes per condition (default 5)")
     ap.add_argument("--engine", choices=("neural", "rules"), default="neural")
+    ap.add_argument("--json", metavar="FILE", help="also write every row and the human-speech summary as JSON")
     args = ap.parse_args()
     sets = recording_sets()
     if not sets:
@@ -203,10 +204,20 @@ def main() -> int:
         print(f"{name:10} {kind:10} {nw:5d} {dur:6.1f} {m['speaking']:9.3f} {m['silent']:7.3f} {m['silent_max']:6.3f} "
               f"{m['speaking'] / m['silent']:6.2f} {m['corr']:5.2f} {m['corr_1s']:7.2f} {m['ba']:5.2f} {m['ba_shuffled']:7.2f}")
     human = [m for _, kind, _, _, m in rows if kind != "espeak-ng"]
+    summary = {"ratio": float(np.mean([m["speaking"] / m["silent"] for m in human])),
+               "corr": float(np.mean([m["corr"] for m in human])), "corr_1s": float(np.mean([m["corr_1s"] for m in human])),
+               "ba": float(np.mean([m["ba"] for m in human])), "ba_shuffled": float(np.mean([m["ba_shuffled"] for m in human]))}
     print(f"human speech ({len(human)} recordings x {args.seeds} takes, {args.engine}): speaking/silent ratio "
-          f"{np.mean([m['speaking'] / m['silent'] for m in human]):.2f}, correlation with loudness "
-          f"{np.mean([m['corr'] for m in human]):.2f} per frame, {np.mean([m['corr_1s'] for m in human]):.2f} over 1 s, BA {np.mean([m['ba'] for m in human]):.2f} "
-          f"(shuffled {np.mean([m['ba_shuffled'] for m in human]):.2f})")
+          f"{summary['ratio']:.2f}, correlation with loudness {summary['corr']:.2f} per frame, {summary['corr_1s']:.2f} "
+          f"over 1 s, BA {summary['ba']:.2f} (shuffled {summary['ba_shuffled']:.2f})")
+    if args.json:
+        import json
+
+        from core.fileio import atomic_write_text
+
+        data = {"engine": args.engine, "weights": args.weights, "seeds": args.seeds, "human": summary,
+                "rows": [{"set": name, "gaps": kind, "words": nw, "seconds": dur, **m} for name, kind, nw, dur, m in rows]}
+        atomic_write_text(Path(args.json), json.dumps(data, indent=2) + "\n")
     return 0
 
 
