@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from synthetic import write_fortunes  # noqa: E402
 
 NAMES = ["model", "model+pose raw", "model+pose", "model+style", "mean pose", "rules", "keyframe"]
-SEED = 6  # this seed's tiny corpus has 4 train clips (mirrored and not), 1 val and 1 test clip
+SEED = 13  # this seed's tiny corpus (corpus v2: Festival voices, clips with gaps) has 3 train clips (mirrored and not), 1 val and 2 test clips
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +41,7 @@ def corpus(tmp_path_factory):
 @pytest.fixture(scope="module")
 def clips(corpus):
     out = load_corpus(corpus, "train")
-    assert len(out) == 4 and {c["meta"]["mirror"] for c in out} == {True, False}
+    assert len(out) == 3 and {c["meta"]["mirror"] for c in out} == {True, False}
     return out
 
 
