@@ -59,7 +59,7 @@ def evaluate_run(run: Path, *, split: str, seeds: int, force: bool) -> dict:
         "pause": (run / "pause.json",
                   [py, "scripts/pause_check.py", "--weights", str(weights), "--seeds", str(seeds), "--json", str(run / "pause.json")]),
     }
-    for name, (out, argv) in jobs.items():
+    for out, argv in jobs.values():
         if force or _stale(out, weights):
             _run(argv, run / f"{out.stem}.log")
     from model.weights import load_weights  # lazy: torch
@@ -110,7 +110,7 @@ def figures(r: dict) -> dict[str, float]:
 
 
 def fmt(v: float) -> str:
-    if v != v:
+    if not np.isfinite(v):
         return "-"
     return f"{v:.3f}" if abs(v) < 10 else f"{v:.1f}"
 
