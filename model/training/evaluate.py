@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.controls import ControlArrays
+from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
 from model import keyframe, neural, postprocess
@@ -121,8 +121,6 @@ def style_following(clips, model, *, seed: int = 0, smoothing: str = "one_euro",
     free); achieved = the mean over clips and frames of that dimension of the output's style
     (Eq. 4-6). Returns ``{name: {"requested", "achieved", "slope"}}``, ``slope`` the least-squares
     slope of achieved on requested (1 = follows the request over the whole range)."""
-    from core.controls import STYLE_NAMES
-
     out = {}
     for k, name in enumerate(STYLE_NAMES):
         achieved = []
