@@ -2,8 +2,15 @@
 
 - Audio (Kucherenko et al. 4.2; SGToolkit uses raw audio through a CNN): ``N_MELS`` log-mel
   bands plus log energy, one vector per motion frame (``FPS`` = 15 per second, window of two
-  frames centred on the frame). Each utterance is normalised to zero mean and unit variance
-  per band, so gain and microphone colour do not matter (real recordings versus TTS).
+  frames centred on the frame). Levels are relative to the utterance's **speech level**: per
+  band, the power is divided by its level over the utterance's loud frames
+  (:func:`speech_level`), a floor ``FLOOR_DB`` below that level is added, and the log is
+  scaled by fixed constants (:func:`level_features`). So gain and microphone colour do not
+  matter (real recordings versus TTS), and silence reads the same whatever its share of the
+  utterance: digital zeros sit exactly on the floor (:func:`silence_features`), room noise a
+  little above it. (A per-utterance z-score, used before, moved every value with the share
+  of silence and put digital zeros many deviations below anything seen in training; the
+  generator then gestured wildly inside a ``[pause 2s]``.)
 - Words: the word spoken at each frame as a hashed id in [1, WORD_BUCKETS) (0 = no word), so
   any word, seen in training or not, has an embedding slot; plus a word-onset flag.
 
@@ -30,6 +37,9 @@ N_MELS = 32
 AUDIO_DIM = N_MELS + 1
 WORD_BUCKETS = 4096
 HOP = SAMPLE_RATE // FPS  # samples per motion frame
+#: What the audio numbers mean; weights files record it, so weights trained on other audio
+#: features are refused (v1: per-utterance z-scores; v2: levels relative to the speech level).
+AUDIO_FEATURES = "log-mel+energy, dB re speech level, floor -60 dB (v2)"
 
 
 def load_audio(path: Path | str, sample_rate: int = SAMPLE_RATE) -> np.ndarray:
@@ -91,26 +101,71 @@ def _frames(y: np.ndarray, length: int, hop: int) -> np.ndarray:
     return np.lib.stride_tricks.sliding_window_view(y, length)[::hop][:n]
 
 
-def audio_features(audio: np.ndarray, n_frames: int, offset_frames: int = 0) -> np.ndarray:
-    """(n_frames, AUDIO_DIM) float32 for ``audio`` at SAMPLE_RATE placed ``offset_frames`` into the motion.
-
-    Frames before the offset or past the end of the audio get the features of silence.
-    """
+def raw_features(audio: np.ndarray, n_frames: int, offset_frames: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(mel power (n_frames, N_MELS), frame energy (n_frames,) = mean square) of ``audio`` at
+    SAMPLE_RATE placed ``offset_frames`` into the motion; silence before the offset and past
+    the end. The same numbers as ``librosa.feature.melspectrogram`` and ``rms ** 2``."""
     pad = np.zeros(offset_frames * HOP, np.float32)
     y = np.concatenate([pad, np.asarray(audio, np.float32)])
     need = n_frames * HOP
     y = np.pad(y, (0, max(0, need - len(y))))[:need]
     window, mel_filters = _analysis()
     power = np.abs(np.fft.rfft(_frames(y, N_FFT, HOP) * window, axis=1)) ** 2
-    logmel = np.log(power @ mel_filters + 1e-6)[:n_frames]
-    rms2 = np.mean(_frames(y, 2 * HOP, HOP).astype(np.float64) ** 2, axis=1)
-    energy = np.log(rms2 + 1e-8)[:n_frames, None]
-    feats = np.concatenate([logmel, energy], axis=1)  # (T, AUDIO_DIM)
-    if len(feats) < n_frames:
-        feats = np.pad(feats, ((0, n_frames - len(feats)), (0, 0)), mode="edge")
-    mean = feats.mean(axis=0, keepdims=True)
-    std = feats.std(axis=0, keepdims=True) + 1e-3
-    return ((feats - mean) / std).astype(np.float32)
+    mel = (power @ mel_filters)[:n_frames].astype(np.float64)
+    rms2 = np.mean(_frames(y, 2 * HOP, HOP).astype(np.float64) ** 2, axis=1)[:n_frames]
+    if len(mel) < n_frames:
+        mel = np.pad(mel, ((0, n_frames - len(mel)), (0, 0)), mode="edge")
+        rms2 = np.pad(rms2, (0, n_frames - len(rms2)), mode="edge")
+    return mel, rms2
+
+
+#: The speech level of a band: this percentile of its power over the utterance's active frames,
+#: those within ACTIVE_DB of the band's loudest frame (silence and quiet noise are left out, so
+#: the level does not depend on how much of the utterance is silent).
+LEVEL_PERCENTILE = 90.0
+ACTIVE_DB = 30.0
+#: The floor, in dB below the speech level: digital silence reads exactly this.
+FLOOR_DB = 60.0
+#: Power below this (absolute) is taken as no signal at all when finding the speech level.
+_NO_SIGNAL = 1e-12
+#: Fixed scaling of the log levels: speech reads about 0 to 1, the floor -2.
+_DB_SCALE, _DB_OFFSET = 20.0, 1.0
+
+
+def speech_level(power: np.ndarray) -> np.ndarray:
+    """(1, bands): per column, the :data:`LEVEL_PERCENTILE`-th percentile of the frames within
+    :data:`ACTIVE_DB` of the column's maximum (at least a tiny absolute level)."""
+    p = np.asarray(power, np.float64)
+    top = np.maximum(p.max(axis=0, keepdims=True), _NO_SIGNAL)
+    active = np.where(p >= top * 10.0 ** (-ACTIVE_DB / 10.0), p, np.nan)
+    return np.maximum(np.nanpercentile(active, LEVEL_PERCENTILE, axis=0, keepdims=True), _NO_SIGNAL)
+
+
+def level_features(power: np.ndarray) -> np.ndarray:
+    """Per column (band): ``10 log10(p / L + 10^(-FLOOR_DB / 10)) / 20 + 1`` with ``L`` the
+    column's :func:`speech_level`. Speech reads about 0 to 1, silence the floor, -2."""
+    p = np.asarray(power, np.float64)
+    db = 10.0 * np.log10(p / speech_level(p) + 10.0 ** (-FLOOR_DB / 10.0))
+    return db / _DB_SCALE + _DB_OFFSET
+
+
+def level_db(features: np.ndarray) -> np.ndarray:
+    """The features back in dB relative to the speech level (the inverse of the scaling)."""
+    return (np.asarray(features, np.float64) - _DB_OFFSET) * _DB_SCALE
+
+
+def audio_features(audio: np.ndarray, n_frames: int, offset_frames: int = 0) -> np.ndarray:
+    """(n_frames, AUDIO_DIM) float32 for ``audio`` at SAMPLE_RATE placed ``offset_frames`` into the motion.
+
+    Frames before the offset or past the end of the audio get the features of silence.
+    """
+    mel, rms2 = raw_features(audio, n_frames, offset_frames)
+    return level_features(np.concatenate([mel, rms2[:, None]], axis=1)).astype(np.float32)
+
+
+def silence_features(n_frames: int) -> np.ndarray:
+    """The features of ``n_frames`` of silence (no audio at all): every value on the floor."""
+    return np.full((n_frames, AUDIO_DIM), -FLOOR_DB / _DB_SCALE + _DB_OFFSET, np.float32)
 
 
 def word_id(word: str) -> int:

@@ -100,6 +100,29 @@ class GestureNet(nn.Module):
         return dirs.reshape(b, t, POSE_DIM)
 
 
+class PosteriorEncoder(nn.Module):
+    """Training only (not shipped): reads a reference window (poses and velocities) and gives
+    the mean and log-variance of a noise vector that explains what the speech cannot, such as
+    the speaker's resting hold and beat size (a conditional VAE's posterior). Trained with a KL
+    term towards N(0, I), the prior that generation draws the noise from, so each seed is a
+    different plausible take instead of the average of all of them."""
+
+    def __init__(self, noise_dim: int, hidden: int = 64) -> None:
+        super().__init__()
+        self.net = nn.Sequential(
+            nn.Conv1d(2 * POSE_DIM, hidden, 5, padding=2), nn.LeakyReLU(0.2),
+            nn.Conv1d(hidden, hidden, 5, padding=2, stride=2), nn.LeakyReLU(0.2),
+            nn.Conv1d(hidden, hidden, 5, padding=2, stride=2), nn.LeakyReLU(0.2),
+        )
+        self.out = nn.Linear(hidden, 2 * noise_dim)
+
+    def forward(self, poses):
+        vel = torch.diff(poses, dim=1, prepend=poses[:, :1])
+        h = self.net(torch.cat([poses, vel], dim=-1).transpose(1, 2)).mean(dim=-1)
+        mu, logvar = self.out(h).chunk(2, dim=-1)
+        return mu, logvar.clamp(-8.0, 4.0)
+
+
 class Discriminator(nn.Module):
     """Judges whether a window of poses (and their velocities) looks like the training motion."""
 

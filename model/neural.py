@@ -25,7 +25,7 @@ import numpy as np
 from core.controls import network_pose_controls
 from core.skeleton import FPS, POSE_DIM
 from model import postprocess
-from model.features import AUDIO_DIM, audio_features, load_audio, word_features
+from model.features import audio_features, load_audio, silence_features, word_features
 from model.runtime import as_runner, load_runner
 
 WINDOW = 60
@@ -52,7 +52,7 @@ def speech_inputs(inputs, n_frames: int):
     if inputs.audio_path is not None and Path(inputs.audio_path).exists():
         audio = audio_features(load_audio(inputs.audio_path), n_frames, offset_frames=int(round(inputs.lead_in * FPS)))
     else:
-        audio = np.zeros((n_frames, AUDIO_DIM), np.float32)
+        audio = silence_features(n_frames)
     ids, onsets = word_features(inputs.words, n_frames)
     return audio, ids, onsets
 

@@ -32,7 +32,7 @@ import numpy as np
 from core.controls import STYLE_INDEX, STYLE_LIMIT, STYLE_NAMES
 from core.skeleton import FPS, POSE_DIM
 from core.words import TimedWord
-from model.features import AUDIO_DIM, word_features
+from model.features import silence_features, word_features
 from model.postprocess import one_euro
 
 CONTEXT = 45  # frames of words before the decided ones (3 s)
@@ -126,7 +126,7 @@ class StreamGenerator:
         recent = [TimedWord(w.word, w.start - t0, w.end - t0) for w in self.words if w.end > t0 - 1.0 / FPS]
         ids, onsets = word_features(recent, n)
         free = np.zeros((n, POSE_DIM), np.float32)
-        y = self.runner.run_window(np.zeros((n, AUDIO_DIM), np.float32), ids, onsets, free, np.zeros(n, np.float32),
+        y = self.runner.run_window(silence_features(n), ids, onsets, free, np.zeros(n, np.float32),
                                    np.repeat(self.style[None], n, 0), np.repeat(self.style_mask[None], n, 0), self.z)
         k = min(STEP, e - a)
         self.done += k

@@ -216,25 +216,39 @@ def _gauss_smooth(x: np.ndarray, sigma: float) -> np.ndarray:
 # -- accents --------------------------------------------------------------------------------
 
 
-def _accents(words, n: int, audio, lead_in: float, rng) -> list[tuple[int, float]]:
-    """(frame, strength in [0, 1]) of accented syllables, at most one per content word."""
-    strength = None
-    if audio is not None and len(audio) > 0:
-        y = np.asarray(audio, np.float32)
-        off = int(round(lead_in * SAMPLE_RATE))
-        y = np.concatenate([np.zeros(max(0, off), np.float32), y[max(0, -off):]])
-        y = np.pad(y, (0, max(0, n * HOP - len(y))))[: n * HOP]
-        frames = y.reshape(n, HOP).astype(np.float64)
-        rms = np.sqrt((frames**2).mean(1) + 1e-12)
-        # onset strength: positive change of the log energy in 4 sub-bands (quarters) of each frame
-        quarter = HOP // 4
-        sub = frames[:, : 4 * quarter].reshape(n, 4, quarter)
-        loge = np.log(np.sqrt((sub**2).mean(-1)) + 1e-5).mean(1)
-        flux = np.maximum(np.diff(loge, prepend=loge[:1]), 0.0)
-        s = np.log(rms + 1e-5)
-        s = (s - s.min()) / max(1e-6, s.max() - s.min())
-        f = flux / max(1e-6, np.percentile(flux, 99))
-        strength = np.clip(0.6 * s + 0.4 * np.clip(f, 0, 1), 0.0, 1.0)
+#: Weights of the frame's loudness and of its onset strength in :func:`accent_strength`.
+ACCENT_MIX = (0.6, 0.4)
+
+
+def accent_strength(audio, n: int, lead_in: float = 0.0) -> np.ndarray | None:
+    """Per-frame accent strength in [0, 1] of ``audio`` (mono at SAMPLE_RATE starting ``lead_in``
+    seconds into the ``n`` motion frames): 0.6 x the frame's log energy (scaled to the clip's
+    range) + 0.4 x its onset strength (positive change of the log energy of four sub-frames,
+    scaled by its 99th percentile). None without audio. The corpus stores it with each clip, so
+    the teacher can be re-run (``sgt eval``'s ``rules`` row) on the same accents without the audio."""
+    if audio is None or len(audio) == 0:
+        return None
+    y = np.asarray(audio, np.float32)
+    off = int(round(lead_in * SAMPLE_RATE))
+    y = np.concatenate([np.zeros(max(0, off), np.float32), y[max(0, -off):]])
+    y = np.pad(y, (0, max(0, n * HOP - len(y))))[: n * HOP]
+    frames = y.reshape(n, HOP).astype(np.float64)
+    rms = np.sqrt((frames**2).mean(1) + 1e-12)
+    # onset strength: positive change of the log energy in 4 sub-bands (quarters) of each frame
+    quarter = HOP // 4
+    sub = frames[:, : 4 * quarter].reshape(n, 4, quarter)
+    loge = np.log(np.sqrt((sub**2).mean(-1)) + 1e-5).mean(1)
+    flux = np.maximum(np.diff(loge, prepend=loge[:1]), 0.0)
+    s = np.log(rms + 1e-5)
+    s = (s - s.min()) / max(1e-6, s.max() - s.min())
+    f = flux / max(1e-6, np.percentile(flux, 99))
+    return np.clip(ACCENT_MIX[0] * s + ACCENT_MIX[1] * np.clip(f, 0, 1), 0.0, 1.0)
+
+
+def _accents(words, n: int, strength, rng) -> list[tuple[int, float]]:
+    """(frame, strength in [0, 1]) of accented syllables, at most one per content word: the
+    strongest frame of :func:`accent_strength` in the first half of the word, or (no audio)
+    the word's onset with a strength from its length."""
     out = []
     for text, a, b in words:
         w = _norm_word(text)
@@ -523,12 +537,13 @@ def _finish(dirs: np.ndarray, c: _Clip, talk: np.ndarray, torso: np.ndarray) -> 
 
 def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
           rng: np.random.Generator | None = None, trigger_prob: float | None = None,
-          hands_out: list | None = None) -> np.ndarray:
+          strength: np.ndarray | None = None, hands_out: list | None = None) -> np.ndarray:
     """Poses (n_frames, 27) float32 of unit bone directions for timed ``words``.
 
     ``words``: timed words (seconds on the motion timeline; :class:`~core.words.TimedWord`).
     ``audio``: mono float32 at :data:`model.features.SAMPLE_RATE` starting ``lead_in``
-    seconds into the motion, or None. ``style``: dict of speed/space/handedness in [-3, 3],
+    seconds into the motion, or None; or instead ``strength``, its :func:`accent_strength`
+    (n_frames,) computed before. ``style``: dict of speed/space/handedness in [-3, 3],
     scalars (per clip) or arrays (per frame). ``trigger_prob`` overrides the chance that a
     trigger word gets its library gesture. Deterministic given ``rng``'s state (the steps
     draw from it in this order, which fixes the corpus). With ``hands_out`` (a list), the
@@ -546,7 +561,9 @@ def teach(words, n_frames: int, *, audio=None, lead_in: float = 0.0, style=None,
     talk = _speaking_envelope(tw, n)
     c = _Clip(n, np.arange(n) / FPS, speed, st["space"] / 3.0, st["handedness"] / 3.0, pers, _hold_times(n, speed, rng))
     var, rest_other = _hold_variants(len(c.keys_t), rng)
-    beats = _beats(_accents(tw, n, audio, lead_in, rng), c, rng)
+    if strength is None:
+        strength = accent_strength(audio, n, lead_in)
+    beats = _beats(_accents(tw, n, strength, rng), c, rng)
     dirs = _arms(c, talk, var, rest_other, beats)
     hands = None if hands_out is None else (HandTrack.rest(n), np.zeros(n))
     _add_library_gestures(dirs, tw, c, trigger_prob, rng, hands)

@@ -20,7 +20,7 @@ import numpy as np
 from core.controls import CONTROL_LAYOUT, STYLE_NAMES
 from core.fileio import atomic_write
 from core.skeleton import FPS, JOINTS, POSE_DIM
-from model.features import AUDIO_DIM, N_MELS, SAMPLE_RATE, WORD_BUCKETS
+from model.features import AUDIO_DIM, AUDIO_FEATURES, N_MELS, SAMPLE_RATE, WORD_BUCKETS
 from model.style import STATS_PATH, load_stats
 
 FORMAT = "sgt-generator"
@@ -37,12 +37,13 @@ def layout() -> dict:
     return {
         "fps": FPS, "pose_dim": POSE_DIM, "joints": list(JOINTS), "audio_dim": AUDIO_DIM, "n_mels": N_MELS,
         "sample_rate": SAMPLE_RATE, "word_buckets": WORD_BUCKETS, "style_names": list(STYLE_NAMES),
-        "controls": [[name, width] for name, width in CONTROL_LAYOUT],
+        "controls": [[name, width] for name, width in CONTROL_LAYOUT], "audio_features": AUDIO_FEATURES,
     }
 
 
 #: Layout entries that files written before they were recorded were trained with.
-_LAYOUT_BEFORE_RECORDED = {"controls": [["pose", 27], ["pose_mask", 1], ["style", 3], ["style_mask", 3]]}
+_LAYOUT_BEFORE_RECORDED = {"controls": [["pose", 27], ["pose_mask", 1], ["style", 3], ["style_mask", 3]],
+                           "audio_features": "log-mel+energy, per-utterance z-scores (v1)"}
 
 
 def _stats_problem(path: Path, theirs: dict | None) -> str | None:

@@ -9,12 +9,14 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 PY="${PYTHON:-python3}"
 
 echo "==> system packages (espeak-ng: speech; EGL/OSMesa: offscreen rendering; fortunes: training sentences;"
-echo "    tmux: terminal tests; alsa-utils: recorded human speech for scripts/real_speech_check.py;"
+echo "    tmux: terminal tests; alsa-utils, pocketsphinx-testdata: recorded human speech for scripts/real_speech_check.py;"
+echo "    festival + festvox voices: the corpus's voices besides espeak-ng (model/training/voices.py);"
 echo "    ffmpeg: ffprobe, the independent reader of sgt's MP4s in the tests;"
 echo "    blender + python3-numpy: Blender's glTF/BVH importers read the rig exports in tests/test_rigs_blender.py)"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
     espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min alsa-utils \
+    pocketsphinx-testdata festival festvox-kallpc16k festvox-kdlpc16k festvox-us-slt-hts \
     ffmpeg blender python3-numpy >/dev/null
 
 echo "==> PyTorch (CPU build)"

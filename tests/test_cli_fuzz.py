@@ -271,9 +271,9 @@ def command_line(name: str, data, w: World) -> list[str]:
         if source:
             argv += [source, data.draw(v.folder() | v.input("corpus"))]
         option(data, argv, "-o", v.folder(), 0.5)
-        for opt in ("--epochs", "--steps", "--batch", "--threads", "--hidden", "--smooth", "--seed"):
+        for opt in ("--epochs", "--steps", "--batch", "--threads", "--hidden", "--smooth", "--seed", "--window"):
             option(data, argv, opt, v.number(), 0.15)
-        for opt in ("--minutes", "--ctrl-weight", "--style-weight", "--vel-weight"):
+        for opt in ("--minutes", "--ctrl-weight", "--style-weight", "--vel-weight", "--kl", "--p-prior", "--restyle"):
             option(data, argv, opt, floats, 0.15)
     elif name == "eval":
         option(data, argv, "--corpus", v.folder() | v.input("corpus"), 0.9)

@@ -62,7 +62,7 @@ def test_tiny_corpus_reproducible_shapes_splits_resume(tmp_path, fortunes):
     ca, cb = load_corpus(a, None), load_corpus(b, None)
     assert len(ca) == len(ma["clips"]) == 2 * len(ma["shards"])
     for x, y in zip(ca, cb):
-        for key in ("audio", "audio_clean", "word_ids", "onsets", "poses"):
+        for key in ("audio", "audio_clean", "word_ids", "onsets", "poses", "accent"):
             assert np.array_equal(x[key], y[key]), key
         T = len(x["poses"])
         assert T == x["meta"]["n_frames"]
@@ -73,8 +73,12 @@ def test_tiny_corpus_reproducible_shapes_splits_resume(tmp_path, fortunes):
         assert x["onsets"].sum() == len(x["meta"]["words"]) > 0
         assert (x["word_ids"] > 0).any()
         m = x["meta"]
-        assert {"text", "voice", "rate", "pitch", "style", "mirror", "augmentation", "words"} <= set(m)
-        assert 120 <= m["rate"] <= 220 and 30 <= m["pitch"] <= 70
+        assert {"text", "voice", "engine", "style", "mirror", "augmentation", "words", "gaps"} <= set(m)
+        if m["engine"] == "espeak-ng":
+            assert 120 <= m["rate"] <= 220 and 30 <= m["pitch"] <= 70
+        else:
+            assert m["engine"] == "festival" and all(0.8 <= s <= 1.3 for s in m["stretch"])
+        assert x["accent"].shape == (T,) and 0 <= x["accent"].min() and x["accent"].max() <= 1
 
     # splits: disjoint and covering
     ids = {s: {c["id"] for c in load_corpus(a, s)} for s in ("train", "val", "test")}
@@ -118,7 +122,7 @@ def test_jobs_build_the_same_corpus(tmp_path, fortunes):
 def test_different_seed_differs(tmp_path, fortunes):
     m1 = build_corpus(tmp_path / "s1", hours=1e-4, seed=1, clips_per_shard=2, fortune_dir=fortunes)
     m2 = build_corpus(tmp_path / "s2", hours=1e-4, seed=2, clips_per_shard=2, fortune_dir=fortunes)
-    key = lambda m: [(c["text"], c["voice"], c["rate"]) for c in m["clips"]]
+    key = lambda m: [(c["text"], c["voice"], c.get("rate")) for c in m["clips"]]
     assert key(m1) != key(m2)
 
 
@@ -138,3 +142,40 @@ def test_cli(tmp_path, fortunes, monkeypatch, capsys):
     for command in ("train", "eval"):
         assert main([command, "--corpus", str(tmp_path / "none")]) == 1
         assert f"sgt corpus -o {tmp_path / 'none'}" in capsys.readouterr().err
+
+
+def test_gap_clips_rest_in_their_silences(tmp_path, fortunes):
+    """A clip of several sentences has silent gaps: the clean audio sits on the silence floor
+    there, and the teacher's hands move far less inside a long gap than while speaking."""
+    from core.skeleton import JOINTS
+    from model.features import silence_features
+    from model.training.corpus import make_clip
+    from model.training.metrics import joint_speeds
+
+    texts = ["Look over there, the big red house is where I grew up.", "We never went back after that summer."]
+    clip = make_clip(texts, 3, 11, ["en-us"], tmp_path)
+    (gap,) = clip["meta"]["gaps"]
+    assert 2.0 <= gap <= 4.0  # drawn from 0.8-4 s; this seed's is long enough to rest in
+    words = clip["meta"]["words"]
+    first_end = max(w["end"] for w in words[:12])
+    second_start = min(w["start"] for w in words[12:])
+    assert second_start - first_end == pytest.approx(gap, abs=0.3)
+    inside = slice(int((first_end + 0.7) * FPS), int((second_start - 0.5) * FPS))
+    assert np.allclose(clip["audio_clean"][inside], silence_features(1), atol=1e-2)
+    wrists = [JOINTS.index("left_wrist"), JOINTS.index("right_wrist")]
+    speed = joint_speeds(clip["poses"])[:, wrists].mean(axis=1)
+    talking = slice(int(words[0]["start"] * FPS), int(first_end * FPS))
+    assert speed[inside].mean() < 0.5 * speed[talking].mean()
+
+
+@pytest.mark.skipif(not __import__("model.training.voices", fromlist=["x"]).festival_voices(), reason="festival not installed")
+def test_festival_voices_give_timed_words(tmp_path):
+    from model.training.voices import festival_voices, speak
+
+    for voice in festival_voices():
+        wav, words, drawn = speak("Look over there, 12 people!", voice, tmp_path, np.random.default_rng(0))
+        assert [w for w, _, _ in words][:3] == ["Look", "over", "there"] and len(words) == 5  # "twelve" expanded
+        assert all(a <= b for _, a, b in words) and all(b1 <= a2 + 1e-6 for (_, _, b1), (_, a2, _) in zip(words, words[1:]))
+        import soundfile as sf
+
+        assert sf.info(str(wav)).duration >= words[-1][2] - 0.05

@@ -267,3 +267,76 @@ def test_report_rows_and_table(extractor, moving):
     assert "   -" in lines[4]  # PCS of an uncontrolled condition is not applicable
     with pytest.raises(ValueError, match="pairs"):
         M.report({"x": (refs, refs[:2])}, extractor=None)
+
+
+# ------------------------------------------------------------------ beat alignment
+
+def test_beat_alignment_formula():
+    """Li et al.'s score over the motion beats: exp(-d^2 / (2 sigma^2)) of each beat's distance
+    to the nearest onset, averaged; sigma 0.1 s at 15 fps."""
+    d = 3 / 15  # seconds from the beat at frame 20 to the onset at frame 23
+    assert M.beat_alignment([10, 20], [10, 23, 40]) == pytest.approx((1 + math.exp(-d * d / (2 * 0.1 * 0.1))) / 2)
+    assert M.beat_alignment([10], [10]) == 1.0
+    assert M.beat_alignment([10, 20], []) == 0.0 and math.isnan(M.beat_alignment([], [10]))
+    assert M.beat_alignment([10], [12], sigma=0.2) > M.beat_alignment([10], [12], sigma=0.1)
+
+
+def _arm_strokes(stops, n):
+    """A right forearm that swings down and up, coming to rest (zero speed) at each frame in ``stops``."""
+    from core.skeleton import BONE_INDEX, N_BONES
+
+    t = np.arange(n, dtype=np.float64)
+    # position along a cosine between stops: speed 0 exactly at each stop, fastest half-way
+    phase = np.interp(t, stops, np.arange(len(stops)) * np.pi)
+    angle = 0.6 * (1 - np.cos(phase)) / 2 + 0.2
+    dirs = np.repeat(REST_POSE.reshape(1, N_BONES, 3), n, axis=0).astype(np.float64)
+    dirs[:, BONE_INDEX["right_wrist"]] = np.stack([np.zeros(n), -np.cos(angle), np.sin(angle)], -1)
+    return dirs.reshape(n, 27)
+
+
+def test_motion_beats_are_where_strokes_stop():
+    stops = [5, 14, 22, 33, 41]
+    beats = M.motion_beats(_arm_strokes(stops, 46))
+    # a ripple is no beat: the same strokes 50 times smaller stop too gently
+    tiny = REST_POSE + 0.02 * (_arm_strokes(stops, 46) - REST_POSE)
+    assert len(M.motion_beats(tiny)) == 0 and len(beats) == 4
+    # every stop after the first (still from frame 0 to 5: a flat start is no minimum)
+    assert beats.tolist() == pytest.approx(stops[1:], abs=1)
+
+
+def test_audio_onsets_are_where_sounds_start():
+    from model.features import SAMPLE_RATE, audio_features
+
+    rng = np.random.default_rng(0)
+    y = 0.001 * rng.standard_normal(3 * SAMPLE_RATE).astype(np.float32)
+    starts = [0.4, 1.1, 2.0]  # seconds
+    for s in starts:
+        a = int(s * SAMPLE_RATE)
+        y[a:a + 3000] += (0.3 * rng.standard_normal(3000)).astype(np.float32)
+    onsets = M.audio_onsets(audio_features(y, 45))
+    assert onsets.tolist() == pytest.approx([round(s * FPS) for s in starts], abs=1)
+
+
+def test_clip_beat_alignment_pools_beats_and_sees_shuffled_audio():
+    """Strokes that stop on the sounds' onsets score 1 on those beats (the last stop of each
+    clip has no sound: 0; the still start is no beat), so 4/5 in all; against another clip's
+    onsets (the shuffled control) far less."""
+    from model.features import SAMPLE_RATE, audio_features
+
+    rng = np.random.default_rng(1)
+
+    def clip(starts, n=60):
+        y = 0.001 * rng.standard_normal(n * SAMPLE_RATE // FPS + 2000).astype(np.float32)
+        for f in starts:
+            a = int(f * SAMPLE_RATE / FPS)
+            y[a:a + 2500] += (0.3 * rng.standard_normal(2500)).astype(np.float32)
+        return audio_features(y, n), _arm_strokes([0] + list(starts) + [n - 1], n)
+
+    (fa, ma), (fb, mb) = clip([9, 20, 31, 44]), clip([14, 26, 38, 51])
+    own = M.clips_beat_alignment([ma, mb], [fa, fb])
+    swapped = M.clips_beat_alignment([ma, mb], [fb, fa])
+    assert own == pytest.approx(4 / 5, abs=0.01) and swapped < 0.25
+    beats_a, beats_b = M.motion_beats(ma), M.motion_beats(mb)
+    pooled = (M.beat_alignment(beats_a, M.audio_onsets(fa)) * len(beats_a)
+              + M.beat_alignment(beats_b, M.audio_onsets(fb)) * len(beats_b)) / (len(beats_a) + len(beats_b))
+    assert own == pytest.approx(pooled)

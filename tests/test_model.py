@@ -80,7 +80,11 @@ def test_pose_controls_are_followed(weights):
     assert pcs_raw < np.abs(free[28:33] - clip[28:33]).mean()
     blended = gen(weights, inp, blend=True)
     assert np.abs(blended[28:33] - clip[28:33]).max() < 1e-5  # exact with the blend
-    assert np.abs(np.diff(blended, axis=0)).max() < 0.5  # and no jump into or out of it
+    # and no jump into or out of it: the blend eases over its ramp, so no step comes near the jump
+    # a hard switch from the network's motion to the control would make (a tiny model may end
+    # far from the control, so the bound is relative to that distance)
+    hard = max(np.abs(raw[27] - clip[28]).max(), np.abs(raw[33] - clip[32]).max())
+    assert np.abs(np.diff(blended, axis=0)).max() < 0.5 * hard
 
 
 def test_style_controls_move_the_statistics(weights):
@@ -270,9 +274,11 @@ def test_validation_pcs_is_the_pcs_of_sgt_eval(weights):
 
 
 def test_audio_features_equal_librosa_and_do_not_import_it():
-    """The numpy log-mel + energy give librosa's numbers (the shipped model was trained on
-    them), on noise, a rising tone and a clip shorter than the motion, with and without an
-    offset; librosa is not imported."""
+    """The numpy mel power and energy are librosa's numbers, and the features are their levels
+    relative to each band's speech level (the 90th percentile of the frames within 30 dB of its
+    loudest) with a floor 60 dB below, scaled (dB / 20 + 1):
+    on noise, a rising tone and a clip shorter than the motion, with and without an offset;
+    librosa is not imported."""
     import subprocess
     import sys
 
@@ -286,17 +292,38 @@ def test_audio_features_equal_librosa_and_do_not_import_it():
         mel = librosa.feature.melspectrogram(y=y, sr=16000, n_fft=N_FFT, hop_length=HOP, win_length=2 * HOP,
                                              n_mels=N_MELS, center=True)
         rms = librosa.feature.rms(y=y, frame_length=2 * HOP, hop_length=HOP, center=True)
-        f = np.concatenate([np.log(mel + 1e-6)[:, :n_frames], np.log(rms**2 + 1e-8)[:, :n_frames]]).T
-        return (f - f.mean(0)) / (f.std(0) + 1e-3)
+        p = np.concatenate([mel[:, :n_frames], rms[:, :n_frames] ** 2]).T.astype(np.float64)
+        level = np.array([np.percentile(c[c >= c.max() / 1000], 90) for c in p.T])
+        return (10 * np.log10(p / level + 1e-6)) / 20 + 1
 
     rng = np.random.default_rng(3)
     tone = np.sin(2 * np.pi * 220 * np.arange(16000 * 2) / 16000) * np.linspace(0, 1, 16000 * 2)
     for audio, n, off in ((0.1 * rng.standard_normal(16000 * 3), 50, 0), (tone, 40, 4), (tone[:5000], 30, 2)):
         audio = audio.astype(np.float32)
-        assert np.allclose(audio_features(audio, n, off), reference(audio, n, off), atol=1e-4)
+        assert np.allclose(audio_features(audio, n, off), reference(audio, n, off), atol=1e-3)
     code = ("import sys, numpy as np; from model.features import audio_features; "
             "audio_features(np.zeros(16000, np.float32), 15); sys.exit('librosa' in sys.modules)")
     assert subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).resolve().parent.parent).returncode == 0
+
+
+def test_silence_reads_the_same_whatever_its_share_and_kind():
+    """Digital zeros are exactly the floor (the features of no audio); the features of speech
+    do not move when silence is added around it; quiet room noise sits near the floor, far
+    below speech."""
+    from model.features import SAMPLE_RATE, audio_features, silence_features
+
+    rng = np.random.default_rng(0)
+    t = np.arange(3 * SAMPLE_RATE) / SAMPLE_RATE  # 3 s of a voiced, syllable-rate modulated tone
+    speech = (0.3 * np.sin(2 * np.pi * 180 * t) * (1 + np.sin(2 * np.pi * 3 * t)) + 0.02 * rng.standard_normal(len(t)))
+    speech = speech.astype(np.float32)
+    short = audio_features(speech, 45)
+    long = audio_features(np.concatenate([speech, np.zeros(6 * SAMPLE_RATE, np.float32)]), 45 + 90)
+    assert np.abs(long[:43] - short[:43]).max() < 0.02  # two thirds silence: speech reads the same
+    assert np.array_equal(long[50:], np.repeat(silence_features(1), 85, axis=0))
+    noisy = np.concatenate([speech, 0.003 * rng.standard_normal(6 * SAMPLE_RATE).astype(np.float32)])
+    f = audio_features(noisy, 135)
+    assert f[50:, -1].mean() < f[2:43, -1].mean() - 1.0  # the noise-only energy far below speech
+    assert f[50:, -1].mean() > silence_features(1)[0, -1]  # and above the floor of digital zeros
 
 
 def test_cli_smoothing_choices_are_the_engines():
@@ -305,3 +332,15 @@ def test_cli_smoothing_choices_are_the_engines():
 
     assert SMOOTHING_CHOICES == postprocess.SMOOTHERS
     assert neural.Options().smoothing == SMOOTHING_CHOICES[0]
+
+
+def test_weights_record_the_audio_features(tmp_path, weights):
+    """Weights trained on the old per-utterance z-scored audio (files without the entry) or any
+    other audio features are refused: their network would read every audio number wrongly."""
+    from model.features import AUDIO_FEATURES
+
+    blob = torch.load(str(weights), weights_only=True)
+    assert blob["layout"]["audio_features"] == AUDIO_FEATURES
+    older = {k: v for k, v in blob["layout"].items() if k != "audio_features"}
+    with pytest.raises(WeightsError, match="audio_features"):
+        load_weights(_saved(tmp_path, {**blob, "layout": older}))

@@ -38,7 +38,9 @@ def _fake_eval(monkeypatch):
     import model.training.evaluate as evaluate
 
     rows = [{"name": "model", "fgd": 12.5, "pcs": float("nan")}]
-    monkeypatch.setattr(evaluate, "evaluate_corpus", lambda *a, **k: rows)
+    style = {"speed": {"requested": [-2.0, 2.0], "achieved": [-1.5, 1.5], "slope": 0.75}}
+    monkeypatch.setattr(evaluate, "evaluate_corpus",
+                        lambda *a, with_style=False, **k: (rows, style) if with_style else rows)
 
 
 # name -> (suffix of the output, argv for an output path, what a whole file starts with)
@@ -54,7 +56,7 @@ WRITERS = {
     "export csv": (".csv", lambda i, out, t: ["export", i["motion"], "-o", out], b"frame,time"),
     "export json": (".json", lambda i, out, t: ["export", i["motion"], "-o", out], b"{"),
     "export npz": (".npz", lambda i, out, t: ["export", i["motion"], "-o", out], b"PK"),
-    "eval -o": (".json", lambda i, out, t: ["eval", "--corpus", str(i["dir"]), "-o", out], b"["),
+    "eval -o": (".json", lambda i, out, t: ["eval", "--corpus", str(i["dir"]), "-o", out], b"{"),
 }
 # Folder outputs: the file inside the folder that the command writes.
 FOLDER_WRITERS = {
@@ -135,7 +137,7 @@ def test_a_symlink_output_stays_a_link_and_its_target_gets_the_file(name, inputs
     (["export", "{motion}", "-o", "-"], lambda out: len(json.loads(out)["utterances"]) == 2),
     (["export", "{motion}", "-o", "-", "--format", "csv"], lambda out: out.startswith("frame,time,")),
     (["export", "{script}", "-o", "-", "--format", "bvh", "--engine", "keyframe"], lambda out: out.startswith("HIERARCHY")),
-    (["eval", "--corpus", "{dir}", "-o", "-"], lambda out: json.loads(out)[0]["fgd"] == 12.5),
+    (["eval", "--corpus", "{dir}", "-o", "-"], lambda out: json.loads(out)["conditions"][0]["fgd"] == 12.5),
 ])
 def test_dash_writes_text_outputs_to_stdout(argv, check, inputs, monkeypatch, capsys):
     _fake_eval(monkeypatch)

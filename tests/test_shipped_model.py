@@ -78,3 +78,40 @@ def test_shipped_model_reads_style_controls_per_frame(utterances):
 
     for seed in range(2):
         assert half_change(n // 2, n, seed) > 0.05 > 0 > half_change(0, n // 2, seed)
+
+
+PAUSES = ("guide: Welcome to the mall. The shops on this floor open at nine every morning, [pause 2s] and the food "
+          "court upstairs stays open late. [pause 4s] If you need anything at all, just ask me and I will show you the way.\n")
+
+
+def test_shipped_model_rests_in_pauses(tmp_path):
+    """Issue 10: inside `[pause]` spans (digital silence) the wrists move no faster than while
+    speaking, and the middle of a long gap is calm. (The weights trained on per-utterance
+    z-scored features gestured hardest there: 0.45 m/s inside a `[pause 2s]`, 0.15 speaking.)"""
+    from core.skeleton import FPS, JOINTS
+    from model.training.metrics import joint_speeds
+
+    script = tmp_path / "pauses.sgt"
+    script.write_text(PAUSES)
+    result = compile_file(script)
+    assert result.plan is not None
+    u = result.plan.utterances[0]
+    spans = [(c.start_frame, c.end_frame) for c in u.controls if c.kind == "pause"]
+    assert [round((b - a) / FPS) for a, b in spans] == [2, 4]
+    pause = np.zeros(u.n_frames, bool)
+    for a, b in spans:
+        pause[a:b] = True
+    t = np.arange(u.n_frames) / FPS
+    speaking = np.zeros(u.n_frames, bool)
+    for w in u.words:
+        speaking |= (t >= w.start) & (t < w.end)
+    speaking &= ~pause
+    a, b = spans[1]
+    mid_gap = np.zeros(u.n_frames, bool)
+    mid_gap[a + FPS:b - FPS] = True  # the long gap less a second at each end (arms going down and up)
+    wrists = [JOINTS.index("left_wrist"), JOINTS.index("right_wrist")]
+    inputs = EngineInputs.from_plan(u)
+    for seed in range(3):
+        speed = np.r_[0.0, joint_speeds(neural.generate(inputs, seed=seed))[:, wrists].mean(axis=1)]
+        assert np.median(speed[pause]) <= np.median(speed[speaking])
+        assert speed[mid_gap].mean() < 0.5 * speed[speaking].mean()

@@ -66,7 +66,7 @@ def test_accents_follow_the_loud_syllables_of_the_audio():
     The words' audio bursts come 0.25 s after their onsets (motion time: audio starts at the
     0.2 s lead-in), so an accent on the onset would be 3-4 frames early."""
     from model.features import SAMPLE_RATE
-    from model.teacher import _accents
+    from model.teacher import _accents, accent_strength, teach
 
     rng = np.random.default_rng(0)
     y = np.zeros(int(3 * SAMPLE_RATE), np.float32)
@@ -77,13 +77,18 @@ def test_accents_follow_the_loud_syllables_of_the_audio():
     lead = 0.2
     words = [TimedWord("alpha", 0.4, 0.9), TimedWord("market", 1.1, 1.6), TimedWord("gamma", 1.9, 2.5)]
     words = [w.shifted(lead) for w in words]
-    got = _accents([(w.word, w.start, w.end) for w in words], 60, y, lead, np.random.default_rng(0))
+    strength = accent_strength(y, 60, lead)
+    got = _accents([(w.word, w.start, w.end) for w in words], 60, strength, np.random.default_rng(0))
     want = [int((t + lead) * FPS) for t in bursts]
     assert [f for f, _ in got] == pytest.approx(want, abs=1)
     onsets = [int(w.start * FPS) for w in words]
     assert all(abs(f - o) >= 3 for (f, _), o in zip(got, onsets))
-    no_audio = _accents([(w.word, w.start, w.end) for w in words], 60, None, lead, np.random.default_rng(0))
+    no_audio = _accents([(w.word, w.start, w.end) for w in words], 60, None, np.random.default_rng(0))
     assert [f for f, _ in no_audio] == onsets
+    # the stored strength (the corpus keeps it for re-running the teacher) gives the same motion as the audio
+    with_audio = teach(words, 60, audio=y, lead_in=lead, rng=np.random.default_rng(4))
+    assert np.array_equal(teach(words, 60, strength=strength, rng=np.random.default_rng(4)), with_audio)
+    assert not np.allclose(teach(words, 60, rng=np.random.default_rng(4)), with_audio)
 
 
 def upper_arm_height(p):

@@ -6,7 +6,14 @@ No speech-gesture dataset can be downloaded, so the generator learns from synthe
   fortunes-min``), cleaned (attributions, tabs, code-like and non-speech lines dropped) and
   cut into 3-25-word utterances, de-duplicated;
 - speech: :func:`dsl.speech.synthesize` (espeak-ng) with several English voices and variants,
-  rates 120-220 and pitches 30-70, sometimes with a pause at a comma;
+  rates 120-220 and pitches 30-70, sometimes with a pause at a comma; and, on
+  :data:`FESTIVAL_SHARE` of the clips when Festival is installed, one of its three English
+  voices (:mod:`model.training.voices`: two diphone voices and an HTS voice, word times from
+  the engine);
+- silence: :data:`GAP_SHARE` of the clips join two or three sentences with long gaps of
+  silence between them (:data:`GAP_SECONDS`), digital zeros in the clean audio and noise in
+  the augmented one, so the model learns that silence means rest (the teacher's speaking
+  envelope drops to rest in gaps over about a second);
 - motion: :func:`model.teacher.teach` with a random per-clip style (speed, space, handedness)
   and, for half of the clips, mirrored left/right (the stored style's handedness is negated);
 - audio augmentation (so the model behaves on real recordings): a light tempo change
@@ -22,7 +29,9 @@ Layout of a corpus folder::
     shard_0000.npz ...   concatenated per-frame arrays of its clips + offsets + meta JSON
 
 Per clip (see :func:`load_corpus`): ``audio`` / ``audio_clean`` (T, AUDIO_DIM), ``word_ids``
-(T,), ``onsets`` (T,), ``poses`` (T, 27), ``meta`` (dict). Shards are independent and fixed
+(T,), ``onsets`` (T,), ``poses`` (T, 27), ``accent`` (T,) (the teacher's
+:func:`~model.teacher.accent_strength` of the clean speech, so the teacher can be re-run
+without the audio), ``meta`` (dict). Shards are independent and fixed
 by (seed, shard index), so the same seed gives the same corpus, interrupted runs resume by
 skipping finished shards, and ``--jobs`` builds shards in parallel processes.
 """
@@ -48,15 +57,23 @@ from core.words import TimedWord
 from dsl.parser import WORD_RE
 from dsl.speech import list_voices, synthesize
 from model.features import AUDIO_DIM, SAMPLE_RATE, audio_features, load_audio, word_features
-from model.teacher import teach
+from model.teacher import accent_strength, teach
+from model.training import voices as other_voices
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 FORTUNE_DIR = Path("/usr/share/games/fortunes")
 #: Mean clip length guess (seconds) used to size shards.
 _CLIP_SECONDS = 4.5
 SPLITS = ("train", "val", "test")
+#: Per-frame arrays of every clip, concatenated in a shard.
+ARRAY_KEYS = ("audio", "audio_clean", "word_ids", "onsets", "poses", "accent")
 BASE_VOICES = ("en-us", "en-gb", "en-gb-scotland", "en-gb-x-rp", "en-gb-x-gbclan", "en-gb-x-gbcwmd",
                "en-us-nyc", "en-029")
+#: Share of the clips spoken by a Festival voice (when Festival and its voices are installed).
+FESTIVAL_SHARE = 0.35
+#: Share of the clips made of 2-3 sentences with long silent gaps between them; gap lengths (s).
+GAP_SHARE = 0.3
+GAP_SECONDS = (0.8, 4.0)
 VARIANTS = ("", "", "+f1", "+f2", "+f3", "+f4", "+f5", "+m1", "+m2", "+m3", "+m4", "+m5", "+m6", "+m7", "+klatt")
 
 
@@ -170,8 +187,9 @@ def _load_sentences(fortune_dir: Path) -> list[str]:
 
 
 def available_voices() -> list[str]:
+    """espeak-ng's English voices that are installed, then the Festival ones (``festival:NAME``)."""
     have = set(list_voices())
-    return [v for v in BASE_VOICES if v in have] or ["en-us"]
+    return ([v for v in BASE_VOICES if v in have] or ["en-us"]) + other_voices.festival_voices()
 
 
 # -- audio augmentation ---------------------------------------------------------------------
@@ -252,20 +270,57 @@ def _draw_style(rng) -> dict[str, float]:
     return out
 
 
-def make_clip(text: str, seed: int, index: int, voices: list[str], cache_dir: Path) -> dict:
-    """One corpus clip (arrays + meta), deterministic in (text, seed, index)."""
-    rng = _clip_rng(seed, index, 0)
-    spans = [(m.start(), m.end()) for m in WORD_RE.finditer(text)]
-    voice = voices[int(rng.integers(len(voices)))] + VARIANTS[int(rng.integers(len(VARIANTS)))]
+def _speak(texts: list[str], seed: int, index: int, voices: list[str], cache_dir: Path, rng) -> tuple[np.ndarray, list, dict]:
+    """The clip's speech: (audio at SAMPLE_RATE, (word, start, end) list, meta). Several texts are
+    joined with silent gaps (digital zeros) between them."""
+    espeak = [v for v in voices if not v.startswith(other_voices.PREFIX)]
+    festival = [v for v in voices if v.startswith(other_voices.PREFIX)]
+    use_festival = bool(festival) and _clip_rng(seed, index, 5).random() < FESTIVAL_SHARE
+    pool = festival if use_festival else espeak
+    voice = pool[int(rng.integers(len(pool)))] + ("" if use_festival else VARIANTS[int(rng.integers(len(VARIANTS)))])
     rate = int(rng.integers(120, 221))
     pitch = int(rng.integers(30, 71))
-    pauses = []
-    commas = [m.end() for m in re.finditer(r"[,;:]", text)]
-    if commas and rng.random() < 0.35:
-        pauses = [(int(commas[int(rng.integers(len(commas)))]), round(float(rng.uniform(0.15, 0.8)), 2))]
-    speech = synthesize(text, spans, pauses, voice=voice, rate=rate, pitch=pitch, cache_dir=cache_dir)
-    y = load_audio(speech.audio_path, SAMPLE_RATE)
-    words = [(w.word, w.start, w.end) for w in speech.words]
+    grng = _clip_rng(seed, index, 6)
+    meta: dict = {"voice": voice}
+    if use_festival:
+        meta["engine"] = "festival"
+    else:
+        meta.update(engine="espeak-ng", rate=rate, pitch=pitch)
+    audio, words, pauses, gaps = [], [], [], []
+    t0 = 0.0
+    for j, text in enumerate(texts):
+        if j > 0:
+            gap = round(float(grng.uniform(*GAP_SECONDS)), 2)
+            gaps.append(gap)
+            audio.append(np.zeros(int(gap * SAMPLE_RATE), np.float32))
+            t0 += int(gap * SAMPLE_RATE) / SAMPLE_RATE
+        if use_festival:
+            wav, timed, drawn = other_voices.speak(text, voice, cache_dir, grng)
+            meta.setdefault("stretch", []).append(drawn["stretch"])
+        else:
+            spans = [(m.start(), m.end()) for m in WORD_RE.finditer(text)]
+            commas = [m.end() for m in re.finditer(r"[,;:]", text)]
+            p = []
+            if commas and rng.random() < 0.35:
+                p = [(int(commas[int(rng.integers(len(commas)))]), round(float(rng.uniform(0.15, 0.8)), 2))]
+            pauses += [[j, *q] for q in p]
+            speech = synthesize(text, spans, p, voice=voice, rate=rate, pitch=pitch, cache_dir=cache_dir)
+            wav, timed = speech.audio_path, [(w.word, w.start, w.end) for w in speech.words]
+        y = load_audio(wav, SAMPLE_RATE)
+        audio.append(y)
+        words += [(w, a + t0, b + t0) for w, a, b in timed]
+        t0 += len(y) / SAMPLE_RATE
+    meta["pauses"] = pauses
+    meta["gaps"] = gaps
+    return np.concatenate(audio), words, meta
+
+
+def make_clip(text: str | list[str], seed: int, index: int, voices: list[str], cache_dir: Path) -> dict:
+    """One corpus clip (arrays + meta), deterministic in (text, seed, index); ``text`` may be a
+    list of sentences, spoken with silent gaps between them."""
+    rng = _clip_rng(seed, index, 0)
+    texts = [text] if isinstance(text, str) else list(text)
+    y, words, speech_meta = _speak(texts, seed, index, voices, cache_dir, rng)
 
     arng = _clip_rng(seed, index, 2)
     tempo = 1.0
@@ -289,7 +344,8 @@ def make_clip(text: str, seed: int, index: int, voices: list[str], cache_dir: Pa
 
     style = _draw_style(rng)
     mirror = bool(rng.random() < 0.5)
-    poses = teach(mwords, n, audio=clean, lead_in=lead, style=style, rng=_clip_rng(seed, index, 1))
+    accent = accent_strength(clean, n, lead)
+    poses = teach(mwords, n, strength=accent, style=style, rng=_clip_rng(seed, index, 1))
     if mirror:
         poses = mirror_pose(poses)
     eff_style = dict(style)
@@ -302,9 +358,9 @@ def make_clip(text: str, seed: int, index: int, voices: list[str], cache_dir: Pa
         "word_ids": ids.astype(np.int32),
         "onsets": onsets.astype(np.float32),
         "poses": np.asarray(poses, np.float32),
+        "accent": accent.astype(np.float16),
         "meta": {
-            "index": index, "text": text, "voice": voice, "rate": rate, "pitch": pitch,
-            "pauses": [list(p) for p in pauses], "lead_in": round(lead, 4), "n_frames": n,
+            "index": index, "text": " ".join(texts), **speech_meta, "lead_in": round(lead, 4), "n_frames": n,
             "style": eff_style, "teacher_style": style, "mirror": mirror,
             "augmentation": aug_info, "words": [w.to_dict(4) for w in mwords], "split": clip_split(seed, index),
         },
@@ -335,10 +391,13 @@ def build_shard(out: str, k: int, config: dict, sentences: list[str], voices: li
     with tempfile.TemporaryDirectory(prefix="sgt-corpus-") as tmp:
         for j in range(cps):
             index = k * cps + j
-            text = sentences[int(order[index % len(order)])]
-            clips.append(make_clip(text, config["seed"], index, voices, Path(tmp)))
+            texts = [sentences[int(order[index % len(order)])]]
+            grng = _clip_rng(config["seed"], index, 4)
+            if grng.random() < GAP_SHARE:
+                texts += [sentences[int(grng.integers(len(sentences)))] for _ in range(int(grng.integers(1, 3)))]
+            clips.append(make_clip(texts, config["seed"], index, voices, Path(tmp)))
     offsets = np.cumsum([0] + [len(c["poses"]) for c in clips]).astype(np.int64)
-    arrays = {key: np.concatenate([c[key] for c in clips]) for key in ("audio", "audio_clean", "word_ids", "onsets", "poses")}
+    arrays = {key: np.concatenate([c[key] for c in clips]) for key in ARRAY_KEYS}
     metas = [c["meta"] for c in clips]
     buf = io.BytesIO()  # np.savez stamps every entry 1980-01-01: the same arrays give the same bytes
     np.savez(buf, offsets=offsets, meta=np.array(json.dumps(metas)), config=np.array(json.dumps(config, sort_keys=True)),
@@ -521,7 +580,7 @@ def load_corpus(path, split: str | None = "train", *, dtype=np.float32) -> list[
     """Clips of ``split`` ("train", "val", "test", or None for all) as dicts of arrays + ``meta``.
 
     Keys: ``audio``, ``audio_clean`` (T, AUDIO_DIM), ``word_ids`` (T,) int64, ``onsets`` (T,),
-    ``poses`` (T, 27), ``meta`` (text, voice, style, words, ...), ``id``, ``split``.
+    ``poses`` (T, 27), ``accent`` (T,), ``meta`` (text, voice, style, words, ...), ``id``, ``split``.
     """
     if split is not None and split not in SPLITS:
         raise CorpusError(f"unknown split {split!r}: choose one of {', '.join(SPLITS)}")
@@ -539,7 +598,7 @@ def load_corpus(path, split: str | None = "train", *, dtype=np.float32) -> list[
             continue
         with np.load(root / shard["file"]) as z:
             offsets = z["offsets"]
-            arrays = {k: z[k] for k in ("audio", "audio_clean", "word_ids", "onsets", "poses")}
+            arrays = {k: z[k] for k in ARRAY_KEYS if k in z}  # corpora of format 1 have no accent
         for c in entries:
             a, b = int(offsets[c["position"]]), int(offsets[c["position"] + 1])
             out.append({
@@ -549,6 +608,7 @@ def load_corpus(path, split: str | None = "train", *, dtype=np.float32) -> list[
                 "word_ids": arrays["word_ids"][a:b].astype(np.int64),
                 "onsets": arrays["onsets"][a:b].astype(dtype),
                 "poses": arrays["poses"][a:b].astype(np.float32),
+                **({"accent": arrays["accent"][a:b].astype(np.float32)} if "accent" in arrays else {}),
                 "meta": {k: v for k, v in c.items() if k not in ("shard", "position", "frame_offset")},
             })
     return out

@@ -11,8 +11,14 @@ Every held-out clip is one evaluation window (the corpus clips are single uttera
   :func:`~model.training.metrics.style_control`);
 - ``mean pose``: the static mean pose of the training split (PCS/SCS against the same
   controls, to show their range, as the paper's asterisked entries);
-- ``rules``: the rule teacher with another random seed (same words, style and side);
-- ``keyframe``: the MANUAL baseline through the same 5-frame pose control.
+- ``rules``: the rule teacher with another random seed (same words, style, side and audio accents);
+- ``keyframe``: the MANUAL baseline through the same 5-frame pose control;
+- ``shuffled audio``: the beat alignment of the ``model`` row's motions against the speech
+  onsets of *another* clip (clip ``i + 1``'s clean audio, repeated or cut to clip ``i``'s
+  length): the chance level of the beat alignment column (its other columns are not applicable).
+
+Every row's beat alignment (``beat_align``) is against the onsets of the clip's clean audio.
+:func:`style_following` measures requested versus achieved style over the range.
 """
 
 from __future__ import annotations
@@ -21,10 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from core.controls import ControlArrays
+from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
 from model import keyframe, neural, postprocess
+from model.style import style as style_of
 from model.teacher import teach
 from model.training import metrics
 from model.training.corpus import load_corpus
@@ -40,10 +47,11 @@ def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
 
 
 def _rules(clip, seed):
-    """The teacher with another random seed on the clip's words, style and side (no audio)."""
+    """The teacher with another random seed on the clip's words, style, side and accents (the
+    accent strength of its audio, stored by the corpus; word onsets for corpora without it)."""
     meta = clip["meta"]
     poses = teach([TimedWord.from_dict(w) for w in meta["words"]], len(clip["poses"]), style=meta.get("teacher_style") or meta.get("style"),
-                  lead_in=meta.get("lead_in", 0.0), rng=np.random.default_rng(RULES_SEED + seed))
+                  strength=clip.get("accent"), rng=np.random.default_rng(RULES_SEED + seed))
     return mirror_pose(poses) if meta.get("mirror") else poses
 
 
@@ -88,9 +96,65 @@ def condition_motions(clips, model, mean: np.ndarray, *, seed: int = 0, smoothin
     }
 
 
+def shuffled(features: list[np.ndarray]) -> list[np.ndarray]:
+    """Clip ``i + 1``'s features (the last clip takes the first's), repeated or cut to clip
+    ``i``'s length: audio that belongs to another utterance."""
+    n = len(features)
+    return [features[(i + 1) % n][np.arange(len(features[i])) % len(features[(i + 1) % n])] for i in range(n)]
+
+
+def shuffled_row(motions, features) -> dict:
+    """The ``shuffled audio`` row: only ``beat_align`` (the model's motion against another clip's onsets)."""
+    row = {k: float("nan") for k in metrics.ROW_KEYS}
+    row.update(name="shuffled audio", beat_align=metrics.clips_beat_alignment(motions, shuffled(features)),
+               n_clips=len(motions), n_frames=int(sum(len(m) for m in motions)))
+    return row
+
+
+#: Requested style values of :func:`style_following`.
+STYLE_LEVELS = (-2.0, -1.0, 1.0, 2.0)
+
+
+def style_following(clips, model, *, seed: int = 0, smoothing: str = "one_euro", levels=STYLE_LEVELS) -> dict:
+    """Requested versus achieved style: for each style dimension and each value of ``levels``,
+    the model generates every clip with that one dimension requested on every frame (the others
+    free); achieved = the mean over clips and frames of that dimension of the output's style
+    (Eq. 4-6). Returns ``{name: {"requested", "achieved", "slope"}}``, ``slope`` the least-squares
+    slope of achieved on requested (1 = follows the request over the whole range)."""
+    out = {}
+    for k, name in enumerate(STYLE_NAMES):
+        achieved = []
+        for value in levels:
+            got = []
+            for i, clip in enumerate(clips):
+                arrays = ControlArrays.empty(len(clip["poses"]))
+                arrays.style[:, k] = value
+                arrays.style_mask[:, k] = 1.0
+                speaking = np.asarray(clip["word_ids"]) > 0
+                got.append(style_of(_neural(model, clip, arrays, seed + i, smoothing=smoothing))[speaking, k])
+            achieved.append(float(np.concatenate(got).mean()))
+        slope = float(np.polyfit(np.asarray(levels, np.float64), np.asarray(achieved), 1)[0])
+        out[name] = {"requested": list(levels), "achieved": achieved, "slope": slope}
+    return out
+
+
+def format_style_following(result: dict) -> str:
+    """The requested-versus-achieved table of :func:`style_following`."""
+    levels = next(iter(result.values()))["requested"] if result else []
+    head = "style       " + "".join(f" {v:+6.1f}" for v in levels) + "   slope"
+    lines = [head, "-" * len(head)]
+    for name, r in result.items():
+        lines.append(f"{name:<12}" + "".join(f" {a:+6.2f}" for a in r["achieved"]) + f"  {r['slope']:6.2f}")
+    lines.append("achieved style (normalised units, mean over the clips' speaking frames) for each requested value")
+    return "\n".join(lines) + "\n"
+
+
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
-                    progress=None, limit: int | None = None, smoothing: str = "one_euro") -> list[dict]:
-    """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``.
+                    progress=None, limit: int | None = None, smoothing: str = "one_euro",
+                    with_style: bool = False) -> list[dict] | tuple[list[dict], dict]:
+    """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``,
+    then the ``shuffled audio`` row; with ``with_style`` also :func:`style_following`, as
+    ``(rows, style)``.
 
     ``smoothing`` is the neural engine's post-filter for the model rows (``model+pose raw`` is
     always unsmoothed and unblended: the network's own pose following)."""
@@ -100,4 +164,9 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
     model, _ = load_weights(weights)
     conditions = condition_motions(clips, model, mean_pose(load_corpus(corpus, "train")), seed=seed,
                                    smoothing=smoothing, progress=progress)
-    return metrics.report(conditions, extractor=extractor)
+    audio = [c["audio_clean"] for c in clips]
+    rows = metrics.report(conditions, extractor=extractor, audio=audio)
+    rows.append(shuffled_row(conditions["model"][1], audio))
+    if not with_style:
+        return rows
+    return rows, style_following(clips, model, seed=seed, smoothing=smoothing)

@@ -18,6 +18,10 @@ Metrics of Kucherenko et al. ("Moving fast and slow", sections 4.4-5.4, Tables 1
 - :func:`speed_histogram` and :func:`hellinger`, the distance between speed distributions, for
   all joints, the elbows and the wrists.
 
+Beat alignment (the Beat Alignment Score of Li et al. 2021, as used for co-speech gesture by
+BEAT, Liu et al. 2022, with speech onsets for music beats): :func:`audio_onsets`,
+:func:`motion_beats` and :func:`beat_alignment`.
+
 :func:`report` evaluates named conditions into table rows and :func:`format_table` prints them.
 
 Joint positions come from forward kinematics (:func:`core.skeleton.positions_from_pose`) with
@@ -38,6 +42,7 @@ import numpy as np
 
 from core.controls import ControlArrays
 from core.skeleton import FPS, JOINT_INDEX, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
+from model.features import N_MELS, level_db
 from model.style import style
 from model.training import fgd as fgd_module
 
@@ -64,9 +69,21 @@ HIST_EDGES = np.linspace(0.0, HIST_MAX_SPEED, int(round(HIST_MAX_SPEED / HIST_BI
 #: "Jerk within 25 % of the reference": |jerk_ratio - 1| <= JERK_TOLERANCE.
 JERK_TOLERANCE = 0.25
 
+#: Beat alignment: the Gaussian's sigma (seconds), the onset threshold (mean rise of the log-mel
+#: bands from one frame to the next, in dB), the neighbourhood (frames each side) in which an
+#: onset or a motion beat must be the extreme, the joints whose speed gives the motion beats
+#: and how much (m/s) that speed must have dropped within the BEAT_LOOKBACK frames before a
+#: beat (the end of a stroke, not a ripple of a hold).
+BEAT_SIGMA = 0.1
+ONSET_RISE_DB = 6.0
+BEAT_ORDER = 2
+BEAT_GROUP = "wrists"
+BEAT_DROP = 0.05
+BEAT_LOOKBACK = 5
+
 #: Keys of a :func:`report` row, in table order.
 ROW_KEYS = ("fgd", "pcs", "scs", "ape", "speed", "accel", "jerk", "jerk_ratio",
-            "hellinger", "hellinger_elbows", "hellinger_wrists")
+            "hellinger", "hellinger_elbows", "hellinger_wrists", "beat_align")
 
 
 # --------------------------------------------------------------------------- helpers
@@ -295,6 +312,82 @@ def speed_hellinger(reference, generated, group: str | Sequence[str] = "all") ->
     return hellinger(speed_histogram(reference, group), speed_histogram(generated, group))
 
 
+# --------------------------------------------------------------------------- beat alignment
+
+def _local_extrema(x: np.ndarray, order: int, kind: str) -> np.ndarray:
+    """Frames where ``x`` is the strict max (``kind`` "max") or min ("min") of the ``order``
+    frames on each side (the window cut at the ends); plateaus give their first frame."""
+    x = np.asarray(x, np.float64)
+    n = len(x)
+    out = []
+    for t in range(n):
+        lo, hi = max(0, t - order), min(n, t + order + 1)
+        seg = x[lo:hi]
+        best = seg.max() if kind == "max" else seg.min()
+        if x[t] == best and int(np.argmax(seg == best)) == t - lo and np.ptp(seg) > 0:
+            out.append(t)
+    return np.asarray(out, np.int64)
+
+
+def onset_strength(audio_features: np.ndarray) -> np.ndarray:
+    """(T,) spectral flux of the log-mel bands of :func:`model.features.audio_features`: the mean
+    over bands of the positive change from the previous frame, in dB (0 on the first frame)."""
+    db = level_db(np.asarray(audio_features, np.float64)[:, :N_MELS])
+    rise = np.maximum(np.diff(db, axis=0), 0.0).mean(axis=1)
+    return np.concatenate([[0.0], rise])
+
+
+def audio_onsets(audio_features: np.ndarray, rise_db: float = ONSET_RISE_DB, order: int = BEAT_ORDER) -> np.ndarray:
+    """Frames of the speech onsets: peaks of :func:`onset_strength` (the largest within
+    ``order`` frames each side) at least ``rise_db`` dB high."""
+    flux = onset_strength(audio_features)
+    peaks = _local_extrema(flux, order, "max")
+    return peaks[flux[peaks] >= rise_db] if len(peaks) else peaks
+
+
+def motion_beats(motion, group: str | Sequence[str] = BEAT_GROUP, order: int = BEAT_ORDER,
+                 drop: float = BEAT_DROP) -> np.ndarray:
+    """Frames of the motion beats, the moments a stroke stops: local minima (within ``order``
+    frames each side) of the mean joint speed of the group (the wrists by default) that lie at
+    least ``drop`` m/s below the fastest of the :data:`BEAT_LOOKBACK` frames before them. The
+    speed of frame ``t`` is the centred difference ``|x[t+1] - x[t-1]| / 2`` (frames 1 to T-2),
+    so a stroke that stops at frame ``t`` has its minimum there."""
+    x = joint_positions(motion)[..., _joint_indices(group), :]
+    if len(x) < 3:
+        return np.zeros(0, np.int64)
+    speed = np.linalg.norm(x[2:] - x[:-2], axis=-1).mean(axis=-1) / 2 * FPS
+    minima = _local_extrema(speed, order, "min")
+    keep = [t for t in minima if t > 0 and speed[max(0, t - BEAT_LOOKBACK):t].max() - speed[t] >= drop]
+    return np.asarray(keep, np.int64) + 1
+
+
+def beat_alignment(beats, onsets, sigma: float = BEAT_SIGMA, fps: float = FPS) -> float:
+    """Beat alignment score (Li et al. 2021):
+    ``1/|B_m| sum_{m in B_m} exp(-min_{a in B_a} (m - a)^2 / (2 sigma^2))`` over the motion
+    beats ``B_m`` and the audio onsets ``B_a`` (frames; times in seconds): 1 when every motion
+    beat falls on an onset. NaN without motion beats, 0 without onsets."""
+    m = np.asarray(beats, np.float64) / fps
+    a = np.asarray(onsets, np.float64) / fps
+    if len(m) == 0:
+        return float("nan")
+    if len(a) == 0:
+        return 0.0
+    d = np.abs(m[:, None] - a[None, :]).min(axis=1)
+    return float(np.exp(-(d**2) / (2 * sigma**2)).mean())
+
+
+def clips_beat_alignment(motions, audio_features, sigma: float = BEAT_SIGMA) -> float:
+    """:func:`beat_alignment` pooled over clips (every motion beat of every clip weighs the
+    same): motion ``i`` against the onsets of ``audio_features[i]``."""
+    total, count = 0.0, 0
+    for motion, feats in zip(motions, audio_features):
+        beats = motion_beats(motion)
+        if len(beats):
+            total += beat_alignment(beats, audio_onsets(feats), sigma) * len(beats)
+            count += len(beats)
+    return total / count if count else float("nan")
+
+
 # --------------------------------------------------------------------------- FGD
 
 def fgd(features_a, features_b, eps: float = 1e-6) -> float:
@@ -376,7 +469,7 @@ def _pcs_scs(generated: list[np.ndarray], controls, stats) -> tuple[float, float
 
 
 def evaluate(reference, generated, controls=None, extractor=None, stats=None,
-             reference_features=None) -> dict[str, Any]:
+             reference_features=None, audio=None) -> dict[str, Any]:
     """One table row for paired clip lists (reference[i] <-> generated[i], same lengths).
 
     - ``fgd``: between extractor features of all reference windows and all generated windows
@@ -387,7 +480,10 @@ def evaluate(reference, generated, controls=None, extractor=None, stats=None,
     - ``speed``/``accel``/``jerk`` of the generated clips (pooled), and ``*_ratio`` to the
       reference's; ``jerk_ok``: ratio within 25 %;
     - ``hellinger*``: per clip pair (as in Kucherenko Tables 2-3), then averaged; ``*_std``
-      is the spread over clips. Extra keys: ``reference_*`` statistics, ``n_clips``, ``n_frames``.
+      is the spread over clips;
+    - ``beat_align``: :func:`clips_beat_alignment` of the generated clips against ``audio`` (the
+      audio features of each clip, or None: NaN). Extra keys: ``reference_*`` statistics,
+      ``n_clips``, ``n_frames``.
     """
     ref = _as_clips(reference)
     gen = _as_clips(generated)
@@ -425,6 +521,7 @@ def evaluate(reference, generated, controls=None, extractor=None, stats=None,
         hs = hs[np.isfinite(hs)]
         row[key] = float(hs.mean()) if len(hs) else float("nan")
         row[f"{key}_std"] = float(hs.std()) if len(hs) else float("nan")
+    row["beat_align"] = clips_beat_alignment(gen, audio) if audio is not None else float("nan")
     row["n_clips"] = len(ref)
     row["n_frames"] = frames
     return row
@@ -437,13 +534,14 @@ def _require_poses(clip: np.ndarray) -> np.ndarray:
     return clip
 
 
-def report(conditions: Mapping[str, Any], extractor: Any = "default", stats=None) -> list[dict[str, Any]]:
+def report(conditions: Mapping[str, Any], extractor: Any = "default", stats=None, audio=None) -> list[dict[str, Any]]:
     """Evaluate named conditions into table rows (dicts with :data:`ROW_KEYS` and ``name``).
 
     ``conditions`` maps a name to ``(reference clips, generated clips)`` or ``(reference clips,
     generated clips, controls)``; controls are one ControlArrays/dict per generated clip (or
     None). ``extractor``: a :class:`model.training.fgd.FGDExtractor`, a weights path, ``"default"``
     (the shipped ``model/weights/fgd_extractor.pt``; raises if it is missing) or None (no FGD).
+    ``audio``: the audio features of each clip (for ``beat_align``), the same for every condition.
     """
     if isinstance(extractor, str) or hasattr(extractor, "__fspath__"):
         extractor = fgd_module.load(None if extractor == "default" else extractor)
@@ -460,7 +558,7 @@ def report(conditions: Mapping[str, Any], extractor: Any = "default", stats=None
             if key not in cache:
                 cache[key] = extractor.features(_as_clips(ref))
             feats = cache[key]
-        row = {"name": name, **evaluate(ref, gen, controls, extractor, stats, reference_features=feats)}
+        row = {"name": name, **evaluate(ref, gen, controls, extractor, stats, reference_features=feats, audio=audio)}
         rows.append(row)
     return rows
 
@@ -468,11 +566,12 @@ def report(conditions: Mapping[str, Any], extractor: Any = "default", stats=None
 _HEADERS = {  # key: (header, width)
     "fgd": ("FGD", 7), "pcs": ("PCS", 6), "scs": ("SCS", 6), "ape": ("APE", 6),
     "speed": ("spd", 6), "accel": ("acc", 6), "jerk": ("jerk", 7),
-    "jerk_ratio": ("jerk/ref", 8), "hellinger": ("H all", 6),
-    "hellinger_elbows": ("H elb", 6), "hellinger_wrists": ("H wri", 6),
+    "jerk_ratio": ("j/ref", 6), "hellinger": ("H all", 6),
+    "hellinger_elbows": ("H elb", 6), "hellinger_wrists": ("H wri", 6), "beat_align": ("BA", 5),
 }
 _COLUMNS = tuple((key, *_HEADERS[key]) for key in ROW_KEYS)  # (key, header, width), in table order
-_UNITS = "units: APE m, spd m/s, acc m/s^2, jerk m/s^3; - = n/a; * = jerk not within 25% of ref"
+_UNITS = ("units: APE m, spd m/s, acc m/s^2, jerk m/s^3; j/ref: jerk / the reference's (* = not within 25%);\n"
+          "BA: beat alignment with the speech onsets (0-1, higher is better); - = n/a")
 
 
 def _fmt(v, width: int) -> str:
@@ -486,11 +585,12 @@ def _fmt(v, width: int) -> str:
     return f"{v:.2g}".rjust(width)
 
 
-def format_table(rows: Sequence[Mapping[str, Any]], name_width: int = 16) -> str:
+def format_table(rows: Sequence[Mapping[str, Any]], name_width: int = 15) -> str:
     """A plain-text table like SGToolkit's Table 1 (at most 100 columns); '-' = not applicable.
 
     Lower is better for every column except jerk/ref (1.00 is ideal; '*' marks a ratio outside
-    the 25 % tolerance) and the raw speed/accel/jerk, which should match the reference.
+    the 25 % tolerance), the raw speed/accel/jerk, which should match the reference, and the
+    beat alignment (higher is better).
     """
     header = "condition".ljust(name_width) + "".join(" " + h.rjust(w) for _, h, w in _COLUMNS)
     lines = [header, "-" * len(header)]

@@ -12,7 +12,7 @@ WINDOW = 40
 
 @dataclass
 class TrainConfig:
-    epochs: int = 120
+    epochs: int = 60
     steps_per_epoch: int = 60
     batch: int = 48
     lr: float = 5e-4
@@ -22,13 +22,18 @@ class TrainConfig:
     beta: float = 5.0  # adversarial term; 0 switches it off
     gamma: float = 5.0  # style-consistency term
     huber_delta: float = 0.05
-    ctrl: float = 50.0  # L1 on pose-controlled frames; 0 switches it off
+    ctrl: float = 100.0  # L1 on pose-controlled frames; 0 switches it off
     vel: float = 50.0  # L1 on velocities; 0 switches it off
+    kl: float = 0.01  # KL weight of the conditional-VAE noise (a training-only posterior encoder); 0 = off
+    p_prior: float = 0.0  # with the encoder: share of uncontrolled windows whose noise comes from the prior
+    # (controlled windows always get the prior's)
+    p_restyle: float = 0.25  # share of speech windows given a counterfactual style request (train.restyle_requests)
     p_drop_all: float = 0.25
     p_pose: float = 0.5
     p_seed: float = 0.5
     p_style: float = 0.5
     seed: int = 0
     threads: int = 2
+    device: str = "auto"  # "auto": CUDA when present, else CPU; "cpu" forces the CPU
     minutes: float | None = None  # stop after this much wall time (finishing the epoch)
     net: dict = field(default_factory=dict)

@@ -84,6 +84,14 @@ def non_negative_float(text: str) -> float:
     return _number(text, float, 0.0)
 
 
+def share(text: str) -> float:
+    """A share of something: a number from 0 to 1."""
+    value = _number(text, float, 0.0)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"{text} must be at most 1 (a share)")
+    return value
+
+
 def _number(text: str, kind, low, strict: bool = False):
     import math
 

@@ -11,7 +11,10 @@ table like SGToolkit's Table 1, with Kucherenko et al.'s motion statistics: FGD 
 of the shipped motion autoencoder), PCS (a 5-frame pose control mid-clip, with and without
 the exact blend), SCS (style controls from the reference), APE, speed, acceleration and
 jerk (and jerk relative to the reference), Hellinger distances of speed histograms for
-all joints, elbows and wrists. See docs/metrics.md."""
+all joints, elbows and wrists, and the beat alignment of the motion with the speech onsets
+(with a shuffled-audio row for its chance level). Then requested versus achieved style for
+-2, -1, +1, +2 on each style dimension, with the slope (--no-style skips it). See
+docs/metrics.md."""
 
 
 def register(sub) -> None:
@@ -23,9 +26,10 @@ def register(sub) -> None:
     p.add_argument("--weights", help="generator weights (default: the shipped ones)")
     p.add_argument("--extractor", default="default", help="FGD feature extractor weights (default: the shipped ones)")
     p.add_argument("-o", "--output", metavar="JSON",
-                   help="also write the rows as JSON ('-': standard output, the table then goes to stderr)")
+                   help="also write the rows as JSON ('-': standard output, the tables then go to stderr)")
     p.add_argument("--limit", type=positive_int, help="only the first N clips (quick look)")
     p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--no-style", action="store_true", help="skip the requested-versus-achieved style table")
     p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0],
                    help="the neural engine's post-filter for the model rows (default one_euro, as sgt generate)")
     p.set_defaults(run=run)
@@ -47,24 +51,28 @@ def run(args) -> int:
     out = output_file(args.output) if args.output else None
 
     from model.training.corpus import CorpusError
-    from model.training.evaluate import evaluate_corpus
+    from model.training.evaluate import evaluate_corpus, format_style_following
     from model.training.fgd import ExtractorError
     from model.training.metrics import format_table
     from model.weights import WeightsError
     from sgt_tui.progress import ProgressBar
 
     try:
-        rows = evaluate_corpus(args.corpus, split=args.split, weights=weights, extractor=extractor,
-                               seed=args.seed, progress=ProgressBar("eval"), limit=args.limit,
-                               smoothing=args.smoothing)
+        result = evaluate_corpus(args.corpus, split=args.split, weights=weights, extractor=extractor,
+                                 seed=args.seed, progress=ProgressBar("eval"), limit=args.limit,
+                                 smoothing=args.smoothing, with_style=not args.no_style)
     except (WeightsError, ExtractorError, CorpusError) as exc:
         raise InputError(str(exc)) from None
     except (FileNotFoundError, ValueError) as exc:
         raise InputError(f"{exc}\n  make a corpus with: sgt corpus -o {args.corpus}") from None
-    print(format_table(rows), file=sys.stderr if out is not None and is_stdout(out) else sys.stdout)
+    rows, style = (result, None) if args.no_style else result
+    table = sys.stderr if out is not None and is_stdout(out) else sys.stdout
+    print(format_table(rows), file=table)
+    if style is not None:
+        print(format_style_following(style), file=table)
     if out is not None:
         clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()} for r in rows]
-        atomic_write_text(out, json.dumps(clean, indent=2) + "\n")
+        atomic_write_text(out, json.dumps({"conditions": clean, "style_following": style}, indent=2) + "\n")
         if not is_stdout(out):
             print(f"wrote {shown(out)}", file=sys.stderr)
     return 0

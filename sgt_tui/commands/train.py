@@ -9,7 +9,10 @@ DESCRIPTION = """\
 Train the controllable generator (SGToolkit Eq. 7: Huber pose term, adversarial term,
 style-consistency term) on a corpus made by 'sgt corpus', or on your own BVH takes
 (--data). The learning rate follows a cosine decay over the epochs. Checkpoints after
-every epoch; running the same command again resumes. Per-epoch losses and validation
+every epoch; running the same command again resumes. Runs on several processes or GPUs
+when launched by torchrun (DistributedDataParallel; gloo on CPU, NCCL on CUDA), e.g.
+'torchrun --nproc_per_node 4 -m sgt_tui.cli train --corpus DIR -o OUT'; --batch is then
+the global batch, split over the processes. Per-epoch losses and validation
 figures go to OUT/metrics.jsonl; OUT/generator.pt holds the weights of the epoch with the
 best validation score (PCS/0.014 + SCS/0.249), OUT/last.pt the last epoch's. Copy
 OUT/generator.pt to model/weights/generator.pt to ship it."""
@@ -17,7 +20,7 @@ OUT/generator.pt to model/weights/generator.pt to ship it."""
 
 def register(sub) -> None:
     from model.training.train_config import TrainConfig
-    from sgt_tui.commands.common import non_negative_float, non_negative_int, positive_float, positive_int, seed
+    from sgt_tui.commands.common import non_negative_float, non_negative_int, positive_float, positive_int, seed, share
 
     p = sub.add_parser("train", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     src = p.add_mutually_exclusive_group()
@@ -39,6 +42,19 @@ def register(sub) -> None:
                    help=f"weight of the style-consistency term (Eq. 7 gamma; default {TrainConfig.gamma:g})")
     p.add_argument("--vel-weight", type=non_negative_float, default=TrainConfig.vel,
                    help=f"weight of the L1 velocity term, 0 = off (default {TrainConfig.vel:g})")
+    p.add_argument("--kl", type=non_negative_float, default=TrainConfig.kl,
+                   help="KL weight of the conditional-VAE noise: a training-only encoder reads each reference window "
+                        f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
+    p.add_argument("--p-prior", type=share, default=TrainConfig.p_prior,
+                   help="with --kl: share of uncontrolled training windows whose noise comes from the prior (windows with "
+                        f"controls always get the prior's; default {TrainConfig.p_prior:g})")
+    p.add_argument("--restyle", type=share, default=TrainConfig.p_restyle, metavar="P",
+                   help="share of speech windows trained on a style request other than their own, with the style "
+                        f"and adversarial terms only, so style controls reach the whole range (default {TrainConfig.p_restyle:g})")
+    p.add_argument("--window", type=positive_int, default=TrainConfig.window,
+                   help=f"training window in frames (default {TrainConfig.window})")
+    p.add_argument("--device", choices=("auto", "cpu"), default=TrainConfig.device,
+                   help="auto: CUDA when present, else the CPU (default auto)")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--fresh", action="store_true", help="ignore an existing checkpoint")
     p.add_argument("--hidden", type=positive_int, default=128, help="network width")
@@ -53,7 +69,7 @@ def run(args) -> int:
     from pathlib import Path
 
     from sgt_tui.commands.common import existing_folder, output_folder
-    from sgt_tui.errors import InputError, UsageError
+    from sgt_tui.errors import InputError
 
     if args.data:
         existing_folder(args.data, "--data")
@@ -81,6 +97,7 @@ def run(args) -> int:
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
                       threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight,
+                      kl=args.kl, p_prior=args.p_prior, p_restyle=args.restyle, window=args.window, device=args.device,
                       net={"hidden": args.hidden, "gru": not args.no_gru, "smooth": args.smooth})
     try:
         train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
@@ -97,9 +114,7 @@ def _user_data(root):
     """(train, val) clips from a BVH folder (model/loaders.py), or None after printing the error."""
     import sys
 
-    import numpy as np
-
-    from model.features import AUDIO_DIM
+    from model.features import silence_features
     from model.training.loaders import LoaderError, load_folder
 
     try:
@@ -110,7 +125,7 @@ def _user_data(root):
     for c in clips:
         if "audio" not in c:
             print(f"sgt train: warning: take '{c['id']}' has no audio; it trains with silence", file=sys.stderr)
-            c["audio"] = np.zeros((len(c["poses"]), AUDIO_DIM), np.float32)
+            c["audio"] = silence_features(len(c["poses"]))
     if len(clips) < 2:
         print(f"sgt train: error: {root} has {len(clips)} take(s); at least 2 are needed (one for validation)", file=sys.stderr)
         return None
