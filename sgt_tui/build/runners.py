@@ -1,0 +1,126 @@
+"""Where a build's tasks run: in this process, in local worker processes, or on Ray.
+
+Each runner calls ``on_result(TaskResult)`` in this process as tasks finish, in any order;
+the build writes cache entries and outputs from there, so a worker never writes a file.
+
+- :func:`run_local`: ``jobs`` worker processes (spawned, one torch thread each); with one
+  worker, or one task, in this process (no start-up cost).
+- :func:`run_ray`: the same tasks as Ray tasks (``num_cpus=1``, retried by Ray when a worker
+  dies). The weights go to Ray's object store once and each worker process writes them to
+  a local file once. ``address`` None starts a Ray instance on this machine (what the tests
+  use); ``auto`` or ``ray://HOST:10001`` joins a cluster, whose nodes need this Python
+  environment and the scripts' folder (recordings, gesture folders) at the same path.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from core.fileio import atomic_write
+from sgt_tui.build.keys import weights_hash
+from sgt_tui.build.work import Task, TaskResult, one_thread, run_task
+
+OnResult = Callable[[TaskResult], None]
+
+
+class RunnerError(Exception):
+    """The runner itself failed (a worker process died, Ray could not start); one line for users."""
+
+
+def default_jobs() -> int:
+    """The CPUs this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult) -> None:
+    workers = min(jobs, len(tasks))
+    if workers <= 1:
+        for task in tasks:
+            on_result(run_task(task))
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    ctx = multiprocessing.get_context("spawn")  # no inherited state (threads, torch) from this process
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=one_thread)
+    try:
+        futures = [pool.submit(run_task, task) for task in tasks]
+        for future in as_completed(futures):
+            on_result(future.result())
+    except BrokenProcessPool:
+        raise RunnerError("a worker process died (killed, or out of memory); run the build again to finish it") from None
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+# -- Ray --------------------------------------------------------------------------------------
+
+#: Per Ray worker process: weights sha256 -> the local file holding them.
+_WEIGHTS_FILES: dict[str, str] = {}
+
+
+def _local_weights(digest: str, holder: list) -> str:
+    """The weights as a file on this worker, fetched from the object store once per process."""
+    path = _WEIGHTS_FILES.get(digest)
+    if path is None:
+        import tempfile
+
+        import ray  # lazy: ray
+
+        path = os.path.join(tempfile.gettempdir(), f"sgt-weights-{digest}.pt")
+        if not os.path.isfile(path):
+            atomic_write(path, ray.get(holder[0]))
+        _WEIGHTS_FILES[digest] = path
+    return path
+
+
+def _ray_task(task: Task, weights: tuple | None) -> TaskResult:
+    local = _local_weights(*weights) if weights is not None else None
+    return run_task(task, weights=local)
+
+
+def run_ray(tasks: Sequence[Task], address: str | None, on_result: OnResult, *, jobs: int | None = None) -> None:
+    try:
+        import ray  # lazy: ray
+    except ImportError:
+        raise RunnerError("--ray needs Ray: pip install -e '.[ray]' (or pip install 'ray>=2.40')") from None
+    started = not ray.is_initialized()
+    if started:
+        kwargs: dict = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
+        if address:
+            kwargs["address"] = address
+        elif jobs:
+            kwargs["num_cpus"] = jobs
+        # workers import sgt from the same place as this process (a checkout on PYTHONPATH or an install)
+        root = str(Path(__file__).resolve().parents[2])
+        kwargs["runtime_env"] = {"env_vars": {"PYTHONPATH": os.pathsep.join(
+            p for p in (root, os.environ.get("PYTHONPATH", "")) if p)}}
+        try:
+            ray.init(**kwargs)
+        except Exception as exc:  # noqa: BLE001 - ray.init raises ConnectionError, RuntimeError, ValueError...: all mean "no cluster"
+            raise RunnerError(f"cannot start or reach Ray{' at ' + address if address else ''}: {exc}") from None
+    try:
+        weights = None
+        settings = tasks[0].settings if tasks else None
+        if settings is not None and settings.engine == "neural":
+            from model.weights import DEFAULT_WEIGHTS  # lazy: numpy
+
+            source = Path(settings.weights) if settings.weights else DEFAULT_WEIGHTS
+            weights = (weights_hash(settings.weights), [ray.put(source.read_bytes())])
+        remote = ray.remote(num_cpus=1, max_retries=3)(_ray_task)
+        pending = [remote.remote(task, weights) for task in tasks]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            try:
+                on_result(ray.get(done[0]))
+            except ray.exceptions.RayError as exc:
+                raise RunnerError(f"a Ray task failed: {str(exc).splitlines()[0]}") from None
+    finally:
+        if started:
+            ray.shutdown()
