@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from core.motion import load_motion
+from sgt_tui.build.outputs import STATE
 from sgt_tui.cli import main
 from sgt_tui.progress import BuildProgress
 
@@ -51,7 +52,9 @@ def build(*args) -> int:
 
 
 def files(folder: Path) -> dict[str, bytes]:
-    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+    """Every file but the build's record of output sizes and times (outputs.STATE)."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and p.name != STATE}
 
 
 def manifest(out: Path) -> dict:
@@ -94,7 +97,7 @@ def test_layout_mirrors_the_sources_and_the_manifest_hashes_every_output(env, ca
 def test_a_rebuild_with_nothing_changed_writes_nothing(env, capsys):
     out = env / "out"
     assert build(env / "game", "-o", out, "--bvh", "-j", "1") == 0
-    stamps = {p: p.stat().st_mtime_ns for p in out.rglob("*.*") if p.name != "manifest.json"}
+    stamps = {p: p.stat().st_mtime_ns for p in out.rglob("*.*") if p.name not in ("manifest.json", STATE)}
     before = files(out)
     capsys.readouterr()
     assert build(env / "game", "-o", out, "--bvh", "-j", "1") == 0
@@ -187,6 +190,10 @@ def test_an_output_edited_by_hand_is_rewritten(env):
     assert build(env / "game", "-o", out, "-j", "1", "-q") == 0
     good = (out / "act2.json").read_bytes()
     (out / "act2.json").write_text("{}")
+    assert build(env / "game", "-o", out, "-j", "1", "-q") == 0
+    assert (out / "act2.json").read_bytes() == good
+    # the same size, another content: the recorded size and time no longer match, so it is read again
+    (out / "act2.json").write_bytes(good.replace(b'"text"', b'"txet"'))
     assert build(env / "game", "-o", out, "-j", "1", "-q") == 0
     assert (out / "act2.json").read_bytes() == good
 

@@ -116,6 +116,7 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
     old_scripts = {s.get("source"): s for s in old.get("scripts") or () if isinstance(s, dict)}
     described = settings.describe()
     same_settings = old.get("settings") == described
+    state = outputs.read_state(out)
     file_hashes: dict[str, str] = {}
 
     def files(path) -> str:
@@ -150,7 +151,7 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
     owners: dict[int, _Script] = {}
     for s in scripts:
         prev = old_scripts.get(s.rel)
-        if same_settings and prev and _unchanged(out, prev, s, exports):
+        if same_settings and prev and _unchanged(out, prev, s, exports, state):
             s.record = prev
             s.record["utterances"] = [{**u, "cached": True} for u in prev["utterances"]]
             report.up_to_date += 1
@@ -240,6 +241,7 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
     keep = {r["path"] for rec in records for r in rec.get("outputs") or ()}
     outputs.remove_stale(out, old, keep)
     outputs.write_manifest(out, described, records)
+    outputs.write_state(out, records)
     return report
 
 
@@ -248,7 +250,7 @@ def _balanced(tasks: list[Task], jobs: int) -> list[Task]:
     return sorted(tasks, key=lambda t: -len(t.keys)) if jobs > 1 else tasks
 
 
-def _unchanged(out: Path, prev: dict, s: _Script, exports: tuple[str, ...]) -> bool:
+def _unchanged(out: Path, prev: dict, s: _Script, exports: tuple[str, ...], state: dict) -> bool:
     utts = prev.get("utterances") or []
     if prev.get("status") != "ok" or [u.get("key") for u in utts] != s.keys:
         return False
@@ -256,7 +258,7 @@ def _unchanged(out: Path, prev: dict, s: _Script, exports: tuple[str, ...]) -> b
         return False
     if prev.get("exports") != list(exports):
         return False
-    return all(outputs.intact(out, r) for r in prev.get("outputs") or ())
+    return all(outputs.intact(out, r, state) for r in prev.get("outputs") or ())
 
 
 def _write(out: Path, s: _Script, exports: tuple[str, ...]) -> dict:

@@ -22,6 +22,10 @@ from pathlib import Path
 from core.fileio import atomic_write
 
 MANIFEST = "manifest.json"
+#: Size and modification time of each output when this build last wrote or checked it: a
+#: rebuild trusts an output whose size and time are unchanged instead of reading it again
+#: (as git and make do). Not part of the manifest, which must not depend on when it was built.
+STATE = ".sgt-build-state.json"
 MANIFEST_FORMAT = "sgt-build"
 MANIFEST_VERSION = 1
 
@@ -56,13 +60,46 @@ def file_record(out: Path, rel: str) -> dict:
     return {"path": rel, "sha256": sha256(data), "bytes": len(data)}
 
 
-def intact(out: Path, record: dict) -> bool:
-    """Whether the output a manifest lists is still there with the same content."""
+def intact(out: Path, record: dict, state: dict | None = None) -> bool:
+    """Whether the output a manifest lists is still there with the same content: the same size
+    and time as ``state`` recorded for that content, or else the same sha256."""
     try:
-        data = (out / record["path"]).read_bytes()
-    except (OSError, KeyError, TypeError):
+        path = out / record["path"]
+        st = os.stat(path)
+    except (OSError, KeyError, TypeError, ValueError):
         return False
-    return len(data) == record.get("bytes") and sha256(data) == record.get("sha256")
+    seen = (state or {}).get(record["path"])
+    if seen == [st.st_size, st.st_mtime_ns, record.get("sha256")]:
+        return True
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return False
+    ok = len(data) == record.get("bytes") and sha256(data) == record.get("sha256")
+    if ok and state is not None:
+        state[record["path"]] = [st.st_size, st.st_mtime_ns, record["sha256"]]
+    return ok
+
+
+def read_state(out: Path) -> dict:
+    try:
+        state = json.loads((out / STATE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return state if isinstance(state, dict) else {}
+
+
+def write_state(out: Path, records: list[dict]) -> None:
+    """Size and time of every output listed in ``records`` (the manifest's scripts)."""
+    state = {}
+    for script in records:
+        for r in script.get("outputs") or ():
+            try:
+                st = os.stat(out / r["path"])
+            except OSError:
+                continue
+            state[r["path"]] = [st.st_size, st.st_mtime_ns, r["sha256"]]
+    atomic_write(out / STATE, json.dumps(state, separators=(",", ":")).encode("utf-8"))
 
 
 def write_motion_outputs(out: Path, rel: str, clips: list, exports: tuple[str, ...]) -> list[dict]:
