@@ -54,7 +54,6 @@ class Report:
     generated: int = 0
     cached: int = 0
     up_to_date: int = 0  # scripts left alone
-    outputs: int = 0  # files written by this build
     errors: list[str] = field(default_factory=list)  # one-line problems other than diagnostics
 
 
@@ -181,7 +180,7 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
     if progress:
         progress(count)
 
-    outputs.remove_temporaries(out, {Path(s.rel).parent for s in scripts})
+    outputs.remove_temporaries(out, {Path(".")} | {Path(s.rel).parent for s in scripts})
 
     def finish(s: _Script) -> None:
         from dsl.speech import SpeechError  # lazy: the speech engine
@@ -191,8 +190,6 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
         except (OSError, SpeechError) as exc:
             s.failed = True
             report.errors.append(f"{s.path}: {exc}")
-            return
-        report.outputs += len(s.record["outputs"])
 
     for s in scripts:
         if s.record is None and s.pending == 0:

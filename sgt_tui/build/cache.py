@@ -93,8 +93,5 @@ class BuildCache:
             return None
         return Entry.from_bytes(data, key)
 
-    def has(self, key: str) -> bool:
-        return self.path(key).is_file()
-
     def put_bytes(self, key: str, data: bytes) -> None:
         atomic_write(self.path(key), data)
