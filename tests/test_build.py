@@ -162,6 +162,15 @@ def test_scripts_with_errors_are_reported_and_the_others_built(env, capsys):
     assert capsys.readouterr().err == ""
 
 
+def test_a_script_named_like_the_manifest_is_refused_not_overwritten(env, capsys):
+    (env / "game" / "manifest.sgt").write_text(ACT2)
+    out = env / "out"
+    assert build(env / "game", "-o", out, "-j", "1", "-q") == 1
+    assert "manifest.sgt: its motion file would be" in capsys.readouterr().err
+    assert manifest(out)["format"] == "sgt-build"
+    assert {s["source"]: s["status"] for s in manifest(out)["scripts"]}["manifest.sgt"] == "failed"
+
+
 def test_a_script_that_starts_failing_loses_its_outputs_and_a_removed_one_too(env):
     out = env / "out"
     assert build(env / "game", "-o", out, "--bvh", "-j", "1", "-q") == 0

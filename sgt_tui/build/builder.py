@@ -128,6 +128,12 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
     records: list[dict] = []
     for path, rel in find_sources(paths):
         report.scripts += 1
+        if f"{outputs.stem(rel)}.json" in (outputs.MANIFEST, outputs.STATE):
+            report.failed.append(rel)
+            report.errors.append(f"{path}: its motion file would be {out / outputs.MANIFEST}, the build's manifest; "
+                                 f"rename the script or move it into a folder")
+            records.append({"source": rel, "status": "failed", "errors": 1, "outputs": []})
+            continue
         script, lib, diags = load_script(path)
         errors = [d for d in diags if d.is_error]
         if show and diags:
