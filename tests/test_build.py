@@ -301,3 +301,12 @@ def test_ray_builds_the_same_bytes(env):
     assert cached_flags(env / "ray") == {"act1/intro.sgt": [False, False], "act2.sgt": [False, False]}
     a.pop("manifest.json"), b.pop("manifest.json")
     assert a == b
+
+
+def test_a_file_name_that_is_not_utf8_builds_and_the_manifest_stays_json(env):
+    name = os.fsdecode(b"sc\x80ne.sgt")
+    (env / "game" / name).write_text(ACT2)
+    out = env / "out"
+    assert build(env / "game", "-o", out, "-j", "1", "-q", "--engine", "keyframe") == 0
+    assert name in {s["source"] for s in manifest(out)["scripts"]}
+    assert (out / os.fsdecode(b"sc\x80ne.json")).is_file()

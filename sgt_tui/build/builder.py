@@ -83,8 +83,9 @@ def find_sources(paths: Sequence[Path | str]) -> list[tuple[Path, str]]:
             for folder, subdirs, files in os.walk(p):
                 subdirs[:] = sorted(d for d in subdirs if not d.startswith("."))
                 for name in files:
-                    if name.endswith(SUFFIX) and not name.startswith("."):
-                        full = Path(folder) / name
+                    full = Path(folder) / name
+                    # regular files only: a FIFO named *.sgt in a folder would wait for a writer for ever
+                    if name.endswith(SUFFIX) and not name.startswith(".") and full.is_file():
                         found.setdefault(_rel(full, base), full)
         else:
             found.setdefault(_rel(p, base), p)

@@ -146,7 +146,12 @@ def read_manifest(out: Path) -> dict:
 def write_manifest(out: Path, settings: dict, scripts: list[dict]) -> None:
     doc = {"format": MANIFEST_FORMAT, "version": MANIFEST_VERSION, "settings": settings,
            "scripts": sorted(scripts, key=lambda s: s["source"])}
-    atomic_write(out / MANIFEST, (json.dumps(doc, indent=1, ensure_ascii=False, sort_keys=False) + "\n").encode("utf-8"))
+    try:
+        text = json.dumps(doc, indent=1, ensure_ascii=False)
+        data = text.encode("utf-8")
+    except UnicodeEncodeError:  # a file name that is not UTF-8 (Python keeps its bytes as lone surrogates)
+        data = json.dumps(doc, indent=1).encode("ascii")
+    atomic_write(out / MANIFEST, data + b"\n")
 
 
 def remove_stale(out: Path, old: dict, keep: set[str]) -> list[str]:
