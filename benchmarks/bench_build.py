@@ -139,8 +139,8 @@ def bench_threads(args) -> None:
             generate(s)
         one = time.perf_counter() - t0
         print(f"1 process x 2 torch threads: {2 * per / one:.2f} utterances/s ({one:.1f} s for {2 * per}); load {load()}")
-        from concurrent.futures import ProcessPoolExecutor
         import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
 
         with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn"), initializer=_one_thread) as pool:
             list(pool.map(_generate_first, [str(s) for s in scripts]))  # start and load

@@ -27,7 +27,7 @@ from core.diagnostics import Diagnostic
 from sgt_tui.build import outputs
 from sgt_tui.build.cache import BuildCache, Entry
 from sgt_tui.build.keys import Settings, file_sha256, utterance_key
-from sgt_tui.build.runners import run_local, run_ray
+from sgt_tui.build.runners import LocalPool, run_local, run_ray
 from sgt_tui.build.work import Task, TaskResult
 
 #: Utterances per task at most: enough to spread the analysis of a script over its
@@ -110,9 +110,23 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
     out = Path(out)
     cache = cache or BuildCache()
     exports = tuple(e for e in ("bvh", "glb", "wav") if e in exports)
+    old = outputs.read_manifest(out)
+    sources = find_sources(paths)
+    # Start a worker now if there is likely work, so that it loads torch while this process reads
+    # the scripts (a guess from file times: it decides nothing, a wrong guess costs a little CPU).
+    pool = LocalPool(jobs, settings) if not ray and _likely_work(out, sources) else None
+    try:
+        if pool:
+            pool.warm()
+        return _build(sources, out, settings, jobs, ray, exports, cache, show, progress, pool, old, load_script)
+    finally:
+        if pool:
+            pool.close(wait=False)
+
+
+def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, pool, old, load_script) -> Report:
     report = Report()
     count = Progress()
-    old = outputs.read_manifest(out)
     old_scripts = {s.get("source"): s for s in old.get("scripts") or () if isinstance(s, dict)}
     described = settings.describe()
     same_settings = old.get("settings") == described
@@ -127,7 +141,7 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
 
     scripts: list[_Script] = []
     records: list[dict] = []
-    for path, rel in find_sources(paths):
+    for path, rel in sources:
         report.scripts += 1
         if f"{outputs.stem(rel)}.json" in (outputs.MANIFEST, outputs.STATE):
             report.failed.append(rel)
@@ -233,7 +247,7 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
         if ray:
             run_ray(tasks, ray if isinstance(ray, str) else None, on_result, jobs=jobs)
         else:
-            run_local(tasks, jobs, on_result)
+            run_local(tasks, jobs, on_result, pool)
 
     for s in scripts:
         if s.failed or s.record is None:
@@ -247,6 +261,21 @@ def build(paths: Sequence[Path | str], out: Path | str, settings: Settings | Non
     outputs.write_manifest(out, described, records)
     outputs.write_state(out, records)
     return report
+
+
+def _likely_work(out: Path, sources) -> bool:
+    """No manifest yet, or a script changed since it was written."""
+    try:
+        built = os.stat(out / outputs.MANIFEST).st_mtime_ns
+    except OSError:
+        return True
+    for path, _ in sources:
+        try:
+            if os.stat(path).st_mtime_ns > built:
+                return True
+        except OSError:
+            pass
+    return False
 
 
 def _balanced(tasks: list[Task], jobs: int) -> list[Task]:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from core.fileio import atomic_write
 from sgt_tui.build.keys import weights_hash
-from sgt_tui.build.work import Task, TaskResult, one_thread, run_task
+from sgt_tui.build.work import Task, TaskResult, run_task, warm_up
 
 OnResult = Callable[[TaskResult], None]
 
@@ -37,26 +37,55 @@ def default_jobs() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult) -> None:
+class LocalPool:
+    """``jobs`` spawned worker processes (no inherited state: threads, torch), started on
+    demand; :meth:`warm` starts one now, to load torch and the weights while the build is
+    still reading the scripts (the "one line changed" build waits for nothing else)."""
+
+    def __init__(self, jobs: int, settings) -> None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
+                                        initializer=warm_up, initargs=(settings,))
+
+    def warm(self) -> None:
+        self.pool.submit(int)
+
+    def close(self, wait: bool = True) -> None:
+        """Stop the workers; without ``wait``, at once (a warm-up that turned out useless)."""
+        if not wait:  # no public way to stop a worker that is still starting
+            for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
+                proc.terminate()
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: LocalPool | None = None) -> None:
+    """Run ``tasks`` on ``pool`` (closed after), or on a new one; one task or one job without a
+    pool runs in this process."""
     workers = min(jobs, len(tasks))
-    if workers <= 1:
+    if pool is None and workers <= 1:
         for task in tasks:
             on_result(run_task(task))
         return
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import as_completed
     from concurrent.futures.process import BrokenProcessPool
 
-    ctx = multiprocessing.get_context("spawn")  # no inherited state (threads, torch) from this process
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=one_thread)
+    pool = pool or LocalPool(workers, tasks[0].settings)
     try:
-        futures = [pool.submit(run_task, task) for task in tasks]
+        futures = {pool.pool.submit(run_task, task): task for task in tasks}
         for future in as_completed(futures):
-            on_result(future.result())
+            try:
+                result = future.result()
+            except BrokenProcessPool:
+                raise
+            except Exception as exc:  # noqa: BLE001 - a bug in a worker fails its utterances, not the build
+                result = TaskResult(futures[future].number, error=f"internal error: {exc.__class__.__name__}: {exc}")
+            on_result(result)
     except BrokenProcessPool:
         raise RunnerError("a worker process died (killed, or out of memory); run the build again to finish it") from None
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        pool.close()
 
 
 # -- Ray --------------------------------------------------------------------------------------

@@ -53,6 +53,20 @@ def one_thread() -> None:
 _LIMITS = None  # kept alive: the limits hold while it exists
 
 
+def warm_up(settings: Settings) -> None:
+    """Everything a worker loads before its first utterance (torch, the resampler, the
+    engine and its weights), so that it can load them while the build reads the scripts."""
+    one_thread()
+    import scipy.signal  # noqa: F401  # lazy: scipy (model.features resamples speech with it)
+
+    from model.generate import GenerateError, engine_function  # lazy: numpy, the engines
+
+    try:
+        engine_function(settings.engine, settings.options())
+    except GenerateError:
+        pass  # reported by the first task, with the script it concerns
+
+
 def run_task(task: Task, weights: str | None = None) -> TaskResult:
     """Generate the task's utterances; ``weights`` overrides the settings' weights path (a
     Ray worker's local copy of the same file)."""
