@@ -137,13 +137,18 @@ def engine_function(name: str, options=None) -> Callable:
 
 
 def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None = None, progress=None,
-                    options=None) -> list[MotionClip]:
-    """One :class:`~core.motion.MotionClip` per planned utterance."""
+                    options=None, seed_poses: bool = True) -> list[MotionClip]:
+    """One :class:`~core.motion.MotionClip` per planned utterance.
+
+    ``seed_poses``: the neural engine starts each utterance from its speaker's listening motion
+    where it begins (which depends on the whole performance); False generates every utterance
+    from its own inputs alone (what a per-utterance cache needs: ``sgt build``), and the tracks
+    then only ease into it."""
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     base_seed = plan.seed if seed is None else seed
     _check_seed(base_seed)
     # only the neural engine takes seed poses: the others need no listening motion here
-    listening = listening_tracks(plan, base_seed) if (engine or DEFAULT_ENGINE) == "neural" else None
+    listening = listening_tracks(plan, base_seed) if seed_poses and (engine or DEFAULT_ENGINE) == "neural" else None
     clips = []
     for n, u in enumerate(plan.utterances):
         if progress:
@@ -163,7 +168,7 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
 
 def generate(script: Path | str | Plan | None = None, *, source: str | None = None, engine: str | None = None,
              utterances=None, seed: int | None = None, timing: str = "speech", options=None, progress=None,
-             speech_progress=None, library=None) -> Take:
+             speech_progress=None, library=None, seed_poses: bool = True) -> Take:
     """Compile a script and generate its motion: the one way from a script to motion.
 
     ``script`` is a script file's path, or a compiled :class:`~dsl.plan.Plan` (generated as it
@@ -175,6 +180,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
     ``speech_progress`` and ``progress`` are called ``(done, total, what)`` while compiling and
     while generating. ``library`` is a loaded :class:`~library.Library` to compile with (default:
     the built-in and user gestures plus the script's ``@library`` folders, loaded per call).
+    ``seed_poses``: see :func:`clips_from_plan`.
 
     Raises :class:`GenerateError` (script errors, with their diagnostics; an unknown engine;
     missing weights) or :class:`NoSuchUtterance`.
@@ -207,7 +213,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
         if problem:
             raise NoSuchUtterance(problem)
         plan, diagnostics, text = result.plan, result.diagnostics, result.script.source
-    clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options)
+    clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options, seed_poses=seed_poses)
     return Take(plan, clips, diagnostics, text, plan.seed if seed is None else seed)
 
 

@@ -22,8 +22,8 @@ DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recomme
 echo "==> PyTorch (CPU build)"
 "$PY" -m pip install -q torch==2.13.0
 
-echo "==> sgt and its Python dependencies"
-"$PY" -m pip install -q -e '.[dev]'
+echo "==> sgt and its Python dependencies (ray: sgt build --ray, tested in CI on a local Ray)"
+"$PY" -m pip install -q -e '.[dev,ray]'
 
 echo "==> main job: check examples/mall_guide.sgt, generate its motion, render a video with sound, a preview GIF and a contact sheet"
 mkdir -p out

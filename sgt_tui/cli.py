@@ -19,7 +19,7 @@ from core.fileio import OutputError, OutputPathError
 from sgt_tui.errors import InputError, UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
-COMMANDS = ("check", "compile", "explain", "say", "voices", "library_cmd", "generate", "train", "render", "export", "corpus",
+COMMANDS = ("check", "compile", "explain", "say", "voices", "library_cmd", "generate", "build", "train", "render", "export", "corpus",
             "eval", "edit", "serve")
 
 EPILOG = """\

@@ -261,6 +261,15 @@ def command_line(name: str, data, w: World) -> list[str]:
             option(data, argv, "--utterance", v.number(), 0.3)
         argv += ["--engine", data.draw(v.engine())]
         option(data, argv, "--seed", v.number(), 0.3)
+    elif name == "build":
+        argv += data.draw(st.lists(v.input("ok.sgt", "bad.sgt", "folder") | v.folder(), min_size=1, max_size=3))
+        argv += ["-o", data.draw(v.folder())]
+        option(data, argv, "--cache", v.folder(), 0.3)
+        for name_ in ("--bvh", "--glb", "--wav", "-q"):
+            flag(data, argv, name_, 0.3)
+        option(data, argv, "--jobs", v.choice(["1"], ["0", "-1", "x"]), 0.5)
+        argv += ["--engine", data.draw(v.engine())]
+        option(data, argv, "--seed", v.number(), 0.3)
     elif name == "corpus":  # never a valid --hours: a real corpus build takes minutes
         option(data, argv, "-o", v.folder(), 0.8)
         argv += ["--hours", data.draw(st.sampled_from(["0", "-1", "nan", "inf", "x", "", "-0.5"]))]
@@ -325,7 +334,7 @@ def run_once(argv: list[str], world: World) -> None:
 
 
 COMMANDS = {  # command -> examples: a few seconds each, the whole file well under two minutes
-    "check": 40, "compile": 60, "say": 30, "library": 50, "generate": 50, "render": 15, "export": 50,
+    "check": 40, "compile": 60, "say": 30, "library": 50, "generate": 50, "render": 15, "export": 50, "build": 15,
     "corpus": 15, "train": 30, "eval": 30, "edit": 20,
 }
 

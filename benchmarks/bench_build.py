@@ -1,0 +1,189 @@
+"""Benchmark: `sgt build` from scratch, with nothing changed, and with one line changed.
+
+    python benchmarks/bench_build.py [--utterances 10000] [--per-script 100] [--jobs 2] [--engine neural]
+    python benchmarks/bench_build.py --threads [--utterances 40]   # 1 process x 2 threads or 2 x 1?
+
+Makes a game-sized source tree: ``--utterances`` lines in scripts of ``--per-script`` lines
+each, in folders of ten scripts. Each line is a sentence of 6-16 words from a fixed
+vocabulary (all distinct), a third of them with a pose control, a sixth with a style span,
+a few with a pause, two speakers with their own voices. Then times the whole command
+(`python -m sgt_tui.cli build SRC -o OUT -q`, interpreter start and imports included):
+
+1. from scratch: an empty sgt cache (speech timing and utterances), ``--jobs`` workers;
+2. a rebuild with nothing changed (target: under 5 s);
+3. one line changed in one script (target: under 3 s), repeated on other lines, median.
+
+Targets (issue 12): 10,000 utterances from scratch in under 10 minutes on this machine's 2
+cores. ``--threads`` measures instead the choice of one torch thread per worker: the same
+utterances generated (warm speech cache) by one process with 2 torch threads and by 2
+worker processes with one thread each.
+Figures vary with machine load (`uptime` is printed): quote them with it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+WORDS = ("the a shelf river valley merchant apples today we look at how this that over there north south gate "
+         "tower market bread coins sword shield lantern morning evening quickly slowly friend stranger road "
+         "bridge king queen village forest mountain castle door window table chair light").split()
+GESTURES = ("point_right", "point_left", "open_arms", "beat_right", "beat_both", "wave", "shrug", "point_self")
+
+
+def make_tree(root: Path, n: int, per_script: int, seed: int = 0) -> list[Path]:
+    rng = random.Random(seed)
+    scripts = []
+    header = "@voice guide: en-us\n@voice robot: en-us+m3\n@rate robot: 175\n@seed 3\n"
+    for s in range((n + per_script - 1) // per_script):
+        lines = [header]
+        for i in range(min(per_script, n - s * per_script)):
+            words = [rng.choice(WORDS) for _ in range(rng.randint(6, 16))]
+            words[0] = f"{words[0].capitalize()}{s}x{i}"  # every line distinct
+            r = rng.random()
+            if r < 0.33:
+                at = rng.randrange(len(words))
+                words[at] = f"[pose:{rng.choice(GESTURES)}] {words[at]}"
+            elif r < 0.5:
+                a = rng.randrange(len(words) - 2)
+                words[a] = f"<speed:{rng.choice(['-1', '+1', '+2'])}>{words[a]}"
+                words[a + 2] = f"{words[a + 2]}</speed>"
+            elif r < 0.55:
+                words[len(words) // 2] += " [pause 200ms]"
+            lines.append(f"{rng.choice(['guide', 'robot'])}: {' '.join(words)}.\n")
+        path = root / f"act{s // 10:02d}" / f"scene{s:03d}.sgt"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("".join(lines), encoding="utf-8")
+        scripts.append(path)
+    return scripts
+
+
+def run_build(src: Path, out: Path, env: dict, jobs: int, engine: str) -> float:
+    cmd = [sys.executable, "-m", "sgt_tui.cli", "build", str(src), "-o", str(out), "-q", "--jobs", str(jobs),
+           "--engine", engine]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True)
+    dt = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise SystemExit(f"build failed ({proc.returncode}): {proc.stderr[-2000:]}")
+    return dt
+
+
+def load() -> str:
+    return open("/proc/loadavg").read().split()[0] if os.path.exists("/proc/loadavg") else "?"
+
+
+def bench_builds(args) -> None:
+    tmp = Path(tempfile.mkdtemp(prefix="sgt-bench-build-"))
+    try:
+        src, out = tmp / "src", tmp / "out"
+        scripts = make_tree(src, args.utterances, args.per_script)
+        env = {**os.environ, "PYTHONPATH": str(ROOT), "SGT_CACHE_DIR": str(tmp / "cache")}
+        print(f"{args.utterances} utterances in {len(scripts)} scripts, --jobs {args.jobs}, engine {args.engine}, "
+              f"{os.cpu_count()} CPUs, load {load()}")
+        t = run_build(src, out, env, args.jobs, args.engine)
+        size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
+        print(f"from scratch: {t:.1f} s ({t / args.utterances * 1000:.1f} ms per utterance, "
+              f"{args.utterances / t:.1f} utterances/s); outputs {size / 2**20:.0f} MiB; load after {load()}")
+        if args.utterances and args.scratch_only:
+            return
+        times = [run_build(src, out, env, args.jobs, args.engine) for _ in range(args.repeat)]
+        print(f"nothing changed: median {statistics.median(times):.2f} s, min {min(times):.2f} s "
+              f"(target < 5 s; {args.repeat} runs); load {load()}")
+        rng = random.Random(1)
+        times = []
+        for _ in range(args.repeat):
+            path = rng.choice(scripts)
+            lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+            i = rng.randrange(5, len(lines))
+            lines[i] = lines[i].rstrip("\n").rstrip(".") + " again.\n"
+            path.write_text("".join(lines), encoding="utf-8")
+            times.append(run_build(src, out, env, args.jobs, args.engine))
+        print(f"one line changed: median {statistics.median(times):.2f} s, min {min(times):.2f} s "
+              f"(target < 3 s; {args.repeat} runs); load {load()}")
+    finally:
+        if args.keep:
+            print(f"kept {tmp}")
+        else:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def bench_threads(args) -> None:
+    """Utterances per second: one process with two torch threads against two one-thread workers."""
+    sys.path.insert(0, str(ROOT))
+    tmp = Path(tempfile.mkdtemp(prefix="sgt-bench-threads-"))
+    os.environ["SGT_CACHE_DIR"] = str(tmp / "cache")
+    try:
+        per = max(1, args.utterances // 2)
+        scripts = make_tree(tmp / "src", 2 * per, per)
+        from model.generate import generate
+
+        for s in scripts:  # warm the speech cache: time generation only
+            generate(s, engine="keyframe")
+        import torch
+
+        torch.set_num_threads(2)
+        generate(scripts[0], utterances=[0])  # load the model
+        t0 = time.perf_counter()
+        for s in scripts:
+            generate(s)
+        one = time.perf_counter() - t0
+        print(f"1 process x 2 torch threads: {2 * per / one:.2f} utterances/s ({one:.1f} s for {2 * per}); load {load()}")
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn"), initializer=_one_thread) as pool:
+            list(pool.map(_generate_first, [str(s) for s in scripts]))  # start and load
+            t0 = time.perf_counter()
+            list(pool.map(_generate, [str(s) for s in scripts]))
+            two = time.perf_counter() - t0
+        print(f"2 processes x 1 torch thread: {2 * per / two:.2f} utterances/s ({two:.1f} s); load {load()}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _one_thread() -> None:
+    sys.path.insert(0, str(ROOT))
+    from sgt_tui.build.work import one_thread
+
+    one_thread()
+
+
+def _generate_first(path: str) -> None:
+    from model.generate import generate
+
+    generate(Path(path), utterances=[0])
+
+
+def _generate(path: str) -> None:
+    from model.generate import generate
+
+    generate(Path(path))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--utterances", type=int, default=10000)
+    ap.add_argument("--per-script", type=int, default=100)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--engine", default="neural")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--threads", action="store_true", help="measure 1 process x 2 threads against 2 x 1 instead")
+    ap.add_argument("--scratch-only", action="store_true", help="only the build from scratch")
+    ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
+    args = ap.parse_args()
+    (bench_threads if args.threads else bench_builds)(args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,164 @@
+"""Where a build's tasks run: in this process, in local worker processes, or on Ray.
+
+Each runner calls ``on_result(TaskResult)`` in this process as tasks finish, in any order;
+the build writes cache entries and outputs from there, so a worker never writes a file.
+
+- :func:`run_local`: ``jobs`` worker processes (spawned, one torch thread each); with one
+  worker, or one task, in this process (no start-up cost).
+- :func:`run_ray`: the same tasks as Ray tasks (``num_cpus=1``, retried by Ray when a worker
+  dies). The weights go to Ray's object store once and each worker process writes them to
+  a local file once. ``address`` None starts a Ray instance on this machine (what the tests
+  use); ``auto`` or ``ray://HOST:10001`` joins a cluster, whose nodes need this Python
+  environment and the scripts' folder (recordings, gesture folders) at the same path.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from core.fileio import atomic_write
+from sgt_tui.build.keys import weights_hash
+from sgt_tui.build.work import Task, TaskResult, run_task, warm_up
+
+OnResult = Callable[[TaskResult], None]
+
+
+class RunnerError(Exception):
+    """The runner itself failed (a worker process died, Ray could not start); one line for users."""
+
+
+def default_jobs() -> int:
+    """The CPUs this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+class LocalPool:
+    """``jobs`` spawned worker processes (no inherited state: threads, torch), started on
+    demand; :meth:`warm` starts one now, to load torch and the weights while the build is
+    still reading the scripts (the "one line changed" build waits for nothing else)."""
+
+    def __init__(self, jobs: int, settings) -> None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
+                                        initializer=warm_up, initargs=(settings,))
+
+    def warm(self) -> None:
+        self.pool.submit(int)
+
+    def close(self, wait: bool = True) -> None:
+        """Stop the workers; without ``wait``, at once (a warm-up that turned out useless)."""
+        if not wait:  # no public way to stop a worker that is still starting
+            for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
+                proc.terminate()
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: LocalPool | None = None) -> None:
+    """Run ``tasks`` on ``pool`` (closed after), or on a new one; one task or one job without a
+    pool runs in this process."""
+    workers = min(jobs, len(tasks))
+    if pool is None and workers <= 1:
+        for task in tasks:
+            on_result(run_task(task))
+        return
+    from concurrent.futures import as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    pool = pool or LocalPool(workers, tasks[0].settings)
+    try:
+        futures = {pool.pool.submit(run_task, task): task for task in tasks}
+        for future in as_completed(futures):
+            try:
+                result = future.result()
+            except BrokenProcessPool:
+                raise
+            except Exception as exc:  # noqa: BLE001 - a bug in a worker fails its utterances, not the build
+                result = TaskResult(futures[future].number, error=f"internal error: {exc.__class__.__name__}: {exc}")
+            on_result(result)
+    except BrokenProcessPool:
+        raise RunnerError("a worker process died (killed, or out of memory); run the build again to finish it") from None
+    finally:
+        pool.close()
+
+
+# -- Ray --------------------------------------------------------------------------------------
+
+#: Per Ray worker process: weights sha256 -> the local file holding them (and their ONNX
+#: export beside it, when the weights have one).
+_WEIGHTS_FILES: dict[str, str] = {}
+
+
+def _local_weights(digest: str, holder: list) -> str:
+    """The weights as a file on this worker, fetched from the object store once per process."""
+    path = _WEIGHTS_FILES.get(digest)
+    if path is None:
+        import tempfile
+
+        import ray  # lazy: ray
+
+        path = os.path.join(tempfile.gettempdir(), f"sgt-weights-{digest}.pt")
+        if not os.path.isfile(path):
+            atomic_write(path, ray.get(holder[0]))
+        if len(holder) > 1:  # the ONNX export beside it, so workers run what local ones run
+            onnx = path[: -len(".pt")] + ".onnx"
+            if not os.path.isfile(onnx):
+                atomic_write(onnx, ray.get(holder[1]))
+        _WEIGHTS_FILES[digest] = path
+    return path
+
+
+def _ray_task(task: Task, weights: tuple | None) -> TaskResult:
+    local = _local_weights(*weights) if weights is not None else None
+    return run_task(task, weights=local)
+
+
+def run_ray(tasks: Sequence[Task], address: str | None, on_result: OnResult, *, jobs: int | None = None) -> None:
+    try:
+        import ray  # lazy: ray
+    except ImportError:
+        raise RunnerError("--ray needs Ray: pip install -e '.[ray]' (or pip install 'ray>=2.40')") from None
+    started = not ray.is_initialized()
+    if started:
+        kwargs: dict = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
+        if address:
+            kwargs["address"] = address
+        elif jobs:
+            kwargs["num_cpus"] = jobs
+        # workers import sgt from the same place as this process (a checkout on PYTHONPATH or an install)
+        root = str(Path(__file__).resolve().parents[2])
+        kwargs["runtime_env"] = {"env_vars": {"PYTHONPATH": os.pathsep.join(
+            p for p in (root, os.environ.get("PYTHONPATH", "")) if p)}}
+        try:
+            ray.init(**kwargs)
+        except Exception as exc:  # noqa: BLE001 - ray.init raises ConnectionError, RuntimeError, ValueError...: all mean "no cluster"
+            raise RunnerError(f"cannot start or reach Ray{' at ' + address if address else ''}: {exc}") from None
+    try:
+        weights = None
+        settings = tasks[0].settings if tasks else None
+        if settings is not None and settings.engine == "neural":
+            from model.weights import DEFAULT_WEIGHTS  # lazy: numpy
+
+            source = Path(settings.weights) if settings.weights else DEFAULT_WEIGHTS
+            holder = [ray.put(source.read_bytes())]
+            export = source.with_suffix(".onnx")  # model.runtime.onnx_path: inference uses it when fresh
+            if export.is_file():
+                holder.append(ray.put(export.read_bytes()))
+            weights = (weights_hash(settings.weights), holder)
+        remote = ray.remote(num_cpus=1, max_retries=3)(_ray_task)
+        pending = [remote.remote(task, weights) for task in tasks]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            try:
+                on_result(ray.get(done[0]))
+            except ray.exceptions.RayError as exc:
+                raise RunnerError(f"a Ray task failed: {str(exc).splitlines()[0]}") from None
+    finally:
+        if started:
+            ray.shutdown()

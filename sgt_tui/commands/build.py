@@ -1,0 +1,88 @@
+"""sgt build: every script under some paths -> motion files and exports, incrementally."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+HELP = "build every script under PATHS into OUT (incremental, cached, parallel)"
+DESCRIPTION = """\
+Build every .sgt script under PATHS (folders are searched recursively) into the folder
+OUT: a motion file per script (OUT/<path>.json, mirroring the sources), plus --bvh, --glb
+and --wav (one WAV per utterance), and OUT/manifest.json listing every output with its
+sha256 and, per utterance, its cache key and whether this build took it from the cache.
+
+Each utterance is cached by the content of everything that changes its motion (text,
+controls, the gestures they play, voice, rate, pitch, recordings, engine, weights, seed),
+so editing one line regenerates one utterance, and a build with nothing changed writes
+nothing. Outputs are written atomically: a killed build leaves no half-written file and
+the next one finishes it. Scripts with errors are reported (every problem, as 'sgt check'
+does) and the others still build; the exit status is 1 when anything failed.
+
+--jobs N runs N local worker processes with one torch thread each; --ray runs the same
+work on Ray (a local instance, or a cluster at ADDRESS; pip install -e '.[ray]')."""
+
+
+def register(sub) -> None:
+    from sgt_tui.commands.common import ENGINE_CHOICES, SMOOTHING_CHOICES, add_seed_option, positive_int
+    from sgt_tui.commands.generate import ENGINE_HELP
+
+    p = sub.add_parser("build", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("paths", nargs="+", metavar="PATH", help="script files or folders of scripts")
+    p.add_argument("-o", "--output", metavar="OUT", required=True, help="output folder (created if missing)")
+    p.add_argument("--bvh", action="store_true", help="also write OUT/<path>.bvh (every utterance, one after another)")
+    p.add_argument("--glb", action="store_true", help="also write OUT/<path>.glb (glTF, sgt's rig)")
+    p.add_argument("--wav", action="store_true", help="also write the speech, OUT/<path>_NNN.wav per utterance")
+    p.add_argument("-j", "--jobs", type=positive_int, metavar="N", help="local worker processes (default: the CPUs available)")
+    p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                   help="run on Ray: a local instance, or the cluster at ADDRESS ('auto', 'ray://HOST:10001')")
+    p.add_argument("--cache", metavar="DIR", help="the utterance cache (default: build/ in the sgt cache, $SGT_CACHE_DIR)")
+    p.add_argument("--engine", choices=ENGINE_CHOICES, default="neural", help=ENGINE_HELP)
+    add_seed_option(p, "random seed for every script (default: each script's @seed)")
+    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0], help="post-filter of the neural engine (default one_euro)")
+    p.add_argument("--no-blend", action="store_true", help="neural engine: do not force exact pose following")
+    p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no warnings, no summary: only errors")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from pathlib import Path
+
+    from sgt_tui.build import BuildCache, Settings, build, find_sources
+    from sgt_tui.build.runners import RunnerError, default_jobs
+    from sgt_tui.commands.common import existing_file, output_folder, print_diagnostics
+    from sgt_tui.errors import InputError, UsageError
+    from sgt_tui.progress import BuildProgress
+
+    out = output_folder(args.output)
+    cache = BuildCache(output_folder(args.cache, "--cache") if args.cache else None)
+    weights = str(existing_file(args.weights).resolve()) if args.weights else None
+    settings = Settings(engine=args.engine, seed=args.seed, smoothing=args.smoothing, blend=not args.no_blend, weights=weights)
+    exports = [name for name in ("bvh", "glb", "wav") if getattr(args, name)]
+    if args.ray is not None and args.jobs is not None and args.ray:
+        raise UsageError("--jobs sets the workers of a local build or a local Ray instance; a Ray cluster has its own")
+
+    def show(diags, sources) -> None:
+        if args.quiet:
+            diags = [d for d in diags if d.is_error]
+        print_diagnostics(diags, sources, summarise=False)
+
+    if not find_sources([Path(p) for p in args.paths]):
+        raise UsageError(f"no .sgt scripts under {' '.join(args.paths)}")
+    progress = None if args.quiet else BuildProgress()
+    try:
+        report = build([Path(p) for p in args.paths], out, settings, jobs=args.jobs or default_jobs(),
+                       ray=(args.ray or True) if args.ray is not None else None, exports=exports, cache=cache,
+                       show=show, progress=progress)
+    except RunnerError as exc:
+        raise (UsageError if "pip install" in str(exc) else InputError)(str(exc)) from None
+    for line in report.errors:
+        print(f"sgt build: error: {line}", file=sys.stderr)
+    if not args.quiet or report.failed:
+        ok = report.scripts - len(report.failed)
+        failed = f", {len(report.failed)} failed ({', '.join(report.failed[:5])}{', ...' if len(report.failed) > 5 else ''})" if report.failed else ""
+        print(f"built {ok} of {report.scripts} script{'s' if report.scripts != 1 else ''} into {out}{failed}: "
+              f"{report.generated} utterance{'s' if report.generated != 1 else ''} generated, {report.cached} cached, "
+              f"{report.up_to_date} script{'s' if report.up_to_date != 1 else ''} up to date", file=sys.stderr)
+    return 1 if report.failed else 0
