@@ -253,6 +253,26 @@ def _entries(cache: Path) -> int:
     return sum(1 for p in (cache / "build").rglob("*") if p.is_file() and not p.name.startswith("."))
 
 
+def _children(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
 def test_kill_9_mid_build_leaves_no_half_written_output_and_the_next_run_finishes(tmp_path):
     src = tmp_path / "src"
     src.mkdir()
@@ -268,10 +288,15 @@ def test_kill_9_mid_build_leaves_no_half_written_output_and_the_next_run_finishe
         deadline = time.monotonic() + 240
         while _entries(tmp_path / "cache") < 8 and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.01)
+        workers = _children(proc.pid)
         proc.send_signal(signal.SIGKILL)
     finally:
         proc.wait(30)
     assert proc.returncode == -signal.SIGKILL
+    deadline = time.monotonic() + 20  # the workers end with the build that started them
+    while [w for w in workers if _alive(w)] and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [w for w in workers if _alive(w)], "worker processes outlived the killed build"
     done = _entries(tmp_path / "cache")
     assert 8 <= done < 24, f"the kill did not land mid-way ({done} of 24 utterances were cached)"
     assert not (out / "manifest.json").exists()

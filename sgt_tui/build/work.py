@@ -10,6 +10,9 @@ the script; anything else is a bug and is reported as ``error``.
 
 from __future__ import annotations
 
+import os
+import sys
+
 from dataclasses import dataclass, field
 
 from sgt_tui.build.cache import Entry
@@ -40,10 +43,10 @@ def one_thread() -> None:
     machine: OpenBLAS sums in another order with another thread count (measured: a build with
     ``OMP_NUM_THREADS=1``, as Ray sets it, differed in the 5th decimal from one with the
     default two threads), so without this two machines would not write the same bytes."""
-    import torch  # lazy: torch
-    from threadpoolctl import threadpool_limits
+    from threadpoolctl import threadpool_limits  # lazy: only workers need it
 
-    if torch.get_num_threads() != 1:
+    torch = sys.modules.get("torch")  # loaded only when the weights have no fresh ONNX export
+    if torch is not None and torch.get_num_threads() != 1:  # (model.neural.use_threads sets 1 then too)
         torch.set_num_threads(1)
     global _LIMITS
     if _LIMITS is None:
@@ -53,12 +56,28 @@ def one_thread() -> None:
 _LIMITS = None  # kept alive: the limits hold while it exists
 
 
+def _die_with_parent() -> None:
+    """Ask Linux to send this process SIGTERM when its parent dies (prctl PR_SET_PDEATHSIG), so
+    that a killed build leaves no idle workers behind; elsewhere nothing is done."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() == 1:  # the parent died before the request was made
+        os._exit(1)
+
+
 def warm_up(settings: Settings) -> None:
     """Everything a worker loads before its first utterance (torch, the resampler, the
-    engine and its weights), so that it can load them while the build reads the scripts."""
+    engine and its weights), so that it can load them while the build reads the scripts.
+    A worker also ends when the build that started it dies (kill -9 included)."""
+    _die_with_parent()
     one_thread()
-    import scipy.signal  # noqa: F401  # lazy: scipy (model.features resamples speech with it)
-
     from model.generate import GenerateError, engine_function  # lazy: numpy, the engines
 
     try:
