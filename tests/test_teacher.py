@@ -199,3 +199,15 @@ def test_rules_engine_style_controls():
     f = np.mean([raw_style(generate(EngineInputs(fast, SENTENCE), seed=s))[:, 0].mean() for s in range(4)])
     s_ = np.mean([raw_style(generate(EngineInputs(slow, SENTENCE), seed=s))[:, 0].mean() for s in range(4)])
     assert f > s_
+
+
+@pytest.mark.parametrize("shape,sigma", [((100, 27), 2.5), ((7,), 1.0), ((300, 3), 8.3), ((50, 9), 0.7)])
+def test_gauss_smooth_is_scipys_gaussian_filter_with_nearest_edges(shape, sigma):
+    from scipy.ndimage import gaussian_filter1d
+
+    from model.teacher import _gauss_smooth
+
+    x = np.random.default_rng(3).normal(size=shape)
+    np.testing.assert_allclose(_gauss_smooth(x, sigma), gaussian_filter1d(x, sigma, axis=0, mode="nearest"),
+                               rtol=0, atol=1e-12)
+    assert _gauss_smooth(x.astype(np.float32), sigma).dtype == np.float32
