@@ -23,6 +23,8 @@ on the first call of every process.
 
 from __future__ import annotations
 
+import warnings
+
 import zlib
 from functools import lru_cache
 from pathlib import Path
@@ -138,7 +140,10 @@ def speech_level(power: np.ndarray) -> np.ndarray:
     p = np.asarray(power, np.float64)
     top = np.maximum(p.max(axis=0, keepdims=True), _NO_SIGNAL)
     active = np.where(p >= top * 10.0 ** (-ACTIVE_DB / 10.0), p, np.nan)
-    return np.maximum(np.nanpercentile(active, LEVEL_PERCENTILE, axis=0, keepdims=True), _NO_SIGNAL)
+    with warnings.catch_warnings():  # a column of digital silence has no active frame: NaN, then the floor
+        warnings.simplefilter("ignore", RuntimeWarning)
+        level = np.nanpercentile(active, LEVEL_PERCENTILE, axis=0, keepdims=True)
+    return np.fmax(level, _NO_SIGNAL)
 
 
 def level_features(power: np.ndarray) -> np.ndarray:
