@@ -21,7 +21,7 @@ def mix(parts, n_frames: int, sample_rate: int | None = None) -> tuple[np.ndarra
     performance: every utterance's motion lasts past its speech)."""
     import soundfile as sf
 
-    from model.features import load_audio  # lazy: scipy (resampling)
+    from model.features import load_audio  # lazy: the audio readers (soundfile for non-WAV files)
 
     parts = [(Path(p), float(at)) for p, at in parts if p is not None]
     if sample_rate is None:

@@ -100,7 +100,7 @@ def _library_for(source: str, library):
 def _outputs(kinds, take) -> dict:
     out: dict = {}
     if "bvh" in kinds:
-        from renders.export import bvh_text  # lazy: scipy
+        from renders.export import bvh_text  # lazy: the BVH writer (only when a request asks for BVH)
 
         out["bvh"] = [bvh_text(c) for c in take.clips]
     if "glb" in kinds:
