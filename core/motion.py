@@ -64,6 +64,17 @@ class MotionFileError(Exception):
     """A motion file that cannot be read or written."""
 
 
+def _hands_for(hands, n_frames: int, owner: str) -> HandTrack:
+    """``hands`` checked against ``n_frames`` poses; relaxed hands when None."""
+    if hands is None:
+        return HandTrack.rest(n_frames)
+    if not isinstance(hands, HandTrack):
+        raise TypeError(f"{owner}.hands must be core.hands.HandTrack")
+    if hands.n_frames != n_frames:
+        raise MotionFileError(f"hands have {hands.n_frames} frames, poses {n_frames}")
+    return hands
+
+
 @dataclass
 class MotionClip:
     poses: np.ndarray
@@ -92,12 +103,7 @@ class MotionClip:
             self.positions = positions_from_pose(p).astype(np.float32)
         else:
             self.positions = np.asarray(self.positions, dtype=np.float32)
-        if self.hands is None:
-            self.hands = HandTrack.rest(p.shape[0])
-        elif not isinstance(self.hands, HandTrack):
-            raise TypeError("MotionClip.hands must be core.hands.HandTrack")
-        elif self.hands.n_frames != p.shape[0]:
-            raise MotionFileError(f"hands have {self.hands.n_frames} frames, poses {p.shape[0]}")
+        self.hands = _hands_for(self.hands, p.shape[0], "MotionClip")
 
     @property
     def n_frames(self) -> int:
@@ -122,10 +128,7 @@ class Track:
         self.poses = np.asarray(self.poses, dtype=np.float32)
         if self.poses.ndim != 2 or self.poses.shape[1] != POSE_DIM:
             raise MotionFileError(f"track poses must have shape (T, {POSE_DIM}), got {self.poses.shape}")
-        if self.hands is None:
-            self.hands = HandTrack.rest(self.poses.shape[0])
-        elif self.hands.n_frames != self.poses.shape[0]:
-            raise MotionFileError(f"track hands have {self.hands.n_frames} frames, poses {self.poses.shape[0]}")
+        self.hands = _hands_for(self.hands, self.poses.shape[0], "Track")
         if self.positions is None:
             self.positions = positions_from_pose(self.poses).astype(np.float32)
         else:
@@ -229,16 +232,12 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
         doc["utterances"] = [_utterance_meta(c) for c in clips]
         doc["tracks"] = [{"speaker": t.speaker} for t in tracks]
         arrays = {"meta": np.array(json.dumps(doc))}
-        for i, c in enumerate(clips):
-            arrays[f"poses_{i}"] = np.asarray(c.poses, dtype=np.float32)
-            arrays[f"positions_{i}"] = np.asarray(c.positions, dtype=np.float32)
-            arrays[f"hand_palm_{i}"] = c.hands.palm
-            arrays[f"hand_fingers_{i}"] = c.hands.fingers
-        for i, t in enumerate(tracks):
-            arrays[f"track_poses_{i}"] = np.asarray(t.poses, dtype=np.float32)
-            arrays[f"track_positions_{i}"] = np.asarray(t.positions, dtype=np.float32)
-            arrays[f"track_hand_palm_{i}"] = t.hands.palm
-            arrays[f"track_hand_fingers_{i}"] = t.hands.fingers
+        for prefix, parts in (("", clips), ("track_", tracks)):  # the names _npz_part reads
+            for i, part in enumerate(parts):
+                arrays[f"{prefix}poses_{i}"] = np.asarray(part.poses, dtype=np.float32)
+                arrays[f"{prefix}positions_{i}"] = np.asarray(part.positions, dtype=np.float32)
+                arrays[f"{prefix}hand_palm_{i}"] = part.hands.palm
+                arrays[f"{prefix}hand_fingers_{i}"] = part.hands.fingers
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         data = buf.getvalue()
@@ -366,23 +365,13 @@ def load_motion_file(path) -> MotionFile:
                 _check_header(doc, path)
                 clips = []
                 for i, u in enumerate(doc["utterances"]):
-                    if f"poses_{i}" not in z.files:
-                        raise MotionFileError(f"{path}: missing poses_{i}")
-                    pos = z[f"positions_{i}"] if f"positions_{i}" in z.files else None
-                    hands = None
-                    if f"hand_palm_{i}" in z.files and f"hand_fingers_{i}" in z.files:
-                        hands = {"palm": z[f"hand_palm_{i}"], "fingers": z[f"hand_fingers_{i}"]}
-                    clips.append(_clip(u, z[f"poses_{i}"], pos, path, i, hands))
+                    poses, pos, hands = _npz_part(z, "", i, path)
+                    clips.append(_clip(u, poses, pos, path, i, hands))
                 n = _frames(doc, clips, path)
                 tracks = []
                 for i, t in enumerate(doc.get("tracks") or []):
-                    if f"track_poses_{i}" not in z.files:
-                        raise MotionFileError(f"{path}: missing track_poses_{i}")
-                    pos = z[f"track_positions_{i}"] if f"track_positions_{i}" in z.files else None
-                    hands = None
-                    if f"track_hand_palm_{i}" in z.files and f"track_hand_fingers_{i}" in z.files:
-                        hands = {"palm": z[f"track_hand_palm_{i}"], "fingers": z[f"track_hand_fingers_{i}"]}
-                    tracks.append(_track(t, z[f"track_poses_{i}"], pos, path, i, n, hands))
+                    poses, pos, hands = _npz_part(z, "track_", i, path)
+                    tracks.append(_track(t, poses, pos, path, i, n, hands))
                 return _finish(doc, clips, tracks, path)
         except (ValueError, OSError, json.JSONDecodeError) as exc:
             if isinstance(exc, FileNotFoundError):
@@ -390,6 +379,21 @@ def load_motion_file(path) -> MotionFile:
             raise MotionFileError(f"{path}: cannot read as npz: {exc}") from None
     except FileNotFoundError:
         raise MotionFileError(f"{path}: no such file") from None
+
+
+def _npz_part(z, prefix: str, i: int, path: Path) -> tuple:
+    """(poses, positions or None, hands or None) of utterance ``i`` (``prefix`` "") or track
+    ``i`` (``prefix`` "track_") of an NPZ motion file."""
+    def get(name: str):
+        key = f"{prefix}{name}_{i}"
+        return z[key] if key in z.files else None
+
+    poses = get("poses")
+    if poses is None:
+        raise MotionFileError(f"{path}: missing {prefix}poses_{i}")
+    palm, fingers = get("hand_palm"), get("hand_fingers")
+    hands = {"palm": palm, "fingers": fingers} if palm is not None and fingers is not None else None
+    return poses, get("positions"), hands
 
 
 def _frames(doc: dict, clips: list[MotionClip], path: Path) -> int:
