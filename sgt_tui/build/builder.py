@@ -57,11 +57,16 @@ class Report:
     errors: list[str] = field(default_factory=list)  # one-line problems other than diagnostics
 
 
+class LayoutError(Exception):
+    """A built script could not be placed on the performance clock (reported, the build goes on)."""
+
+
 @dataclass
 class _Script:
     rel: str
     path: Path
     script: object
+    library: object  # the gesture library the analysis loaded (with the script's @library folders)
     keys: list[str]
     entries: dict = field(default_factory=dict)  # utterance number -> Entry
     cached: dict = field(default_factory=dict)  # utterance number -> bool
@@ -164,7 +169,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
             report.errors.append(f"{path}: {exc.strerror or exc}")
             records.append({"source": rel, "status": "failed", "errors": 1, "outputs": []})
             continue
-        scripts.append(_Script(rel, path, script, keys))
+        scripts.append(_Script(rel, path, script, lib, keys))
         count.total += len(keys)
 
     tasks: list[Task] = []
@@ -208,7 +213,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
 
         try:
             s.record = _write(out, s, exports, settings)
-        except (OSError, SpeechError) as exc:
+        except (OSError, SpeechError, LayoutError) as exc:
             s.failed = True
             report.errors.append(f"{s.path}: {exc}")
 
@@ -301,29 +306,21 @@ def _write(out: Path, s: _Script, exports: tuple[str, ...], settings: Settings) 
     utts = s.script.utterances
     # Where each utterance plays depends on the lines before it (their speech and gaps): lay the
     # script out on the performance clock now (its speech timing is cached by content).
-    plan = compile_file(s.path, source=s.script.source).plan
-    placed = {u.index: u for u in plan.utterances} if plan is not None else {}
-    clips = []
-    for u in utts:
-        p = placed.get(u.index)
-        clip = s.entries[u.index].clip(u.line, u.index, p.start if p else 0.0, p.audio_offset if p else None)
-        # as the motion file writes them (5 decimals): workers on other machines or thread
-        # counts may differ in the last bits, and the tracks are made from these poses
-        clip.poses = clip.poses.round(5)
-        clips.append(clip)
-    tracks = []
-    if plan is not None and len(plan.utterances) == len(clips):
-        from threadpoolctl import threadpool_limits  # lazy: only a build that writes needs it
+    result = compile_file(s.path, source=s.script.source, library=s.library)
+    placed = {u.index: u for u in result.plan.utterances} if result.plan is not None else {}
+    if set(placed) != {u.index for u in utts}:  # its workers compiled it, so this means the speech changed meanwhile
+        errors = [d.message for d in result.diagnostics if d.is_error]
+        raise LayoutError(f"cannot lay the script out on the performance clock: {errors[0] if errors else 'its utterances changed'}")
+    clips = [s.entries[u.index].clip(u.line, u.index, placed[u.index].start, placed[u.index].audio_offset) for u in utts]
+    from threadpoolctl import threadpool_limits  # lazy: only a build that writes needs it
 
-        seed = plan.seed if settings.seed is None else settings.seed
-        with threadpool_limits(limits=1):  # the same sums on every machine (see work.one_thread)
-            tracks = build_tracks(plan, clips, seed)
+    seed = result.plan.seed if settings.seed is None else settings.seed
+    with threadpool_limits(limits=1):  # the same sums on every machine (see work.one_thread)
+        tracks = build_tracks(result.plan, clips, seed)
     records = outputs.write_motion_outputs(out, s.rel, clips, tuple(e for e in exports if e != "wav"), tracks)
-    if "wav" in exports:
-        from dsl.timing import speech_timing  # lazy: the speech engine
-
+    if "wav" in exports:  # the speech the layout was made from
         for u in utts:
-            records.append(outputs.write_wav(out, s.rel, u.index, speech_timing(u).audio_path))
+            records.append(outputs.write_wav(out, s.rel, u.index, placed[u.index].audio_path))
     return {
         "source": s.rel,
         "status": "ok",

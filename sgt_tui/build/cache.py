@@ -56,7 +56,9 @@ class Entry:
         ``first_line``, utterance ``index`` of its script, placed at ``start`` seconds."""
         controls = [Control.from_dict({**c, "line": c["line"] + first_line}) for c in self.controls]
         words = [TimedWord(str(w), float(a), float(b)) for w, a, b in self.words]
-        return MotionClip(poses=self.poses, speaker=self.speaker, text=self.text, words=words, controls=controls,
+        # poses as the motion file writes them (5 decimals): workers on other machines or thread
+        # counts differ in the last bits, and the speakers' tracks are made from these poses
+        return MotionClip(poses=self.poses.round(5), speaker=self.speaker, text=self.text, words=words, controls=controls,
                           hands=self.hands, index=index, start=start, audio_offset=audio_offset)
 
     def to_bytes(self, key: str) -> bytes:
