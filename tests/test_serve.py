@@ -67,6 +67,10 @@ def test_generate_from_a_script_is_the_python_api_result(api):
     for got, clip in zip(motion["utterances"], take.clips):
         assert np.abs(np.array(got["poses"]) - clip.poses).max() < 1e-5  # JSON keeps 5 decimals
         assert got["text"] == clip.text
+        assert got["start"] == pytest.approx(clip.start)  # on the performance clock
+    # every speaker's continuous track, as sgt generate writes it
+    assert [t["speaker"] for t in motion["tracks"]] == [t.speaker for t in take.tracks]
+    assert np.abs(np.array(motion["tracks"][0]["poses"]) - take.tracks[0].poses).max() < 1e-5
     assert r.json()["timing"] == "estimate"
     seeded = api.post("/v1/generate", json={"script": SCRIPT, "timing": "estimate", "seed": 9, "utterances": [1]}).json()
     other = generate(source=SCRIPT, timing="estimate", seed=9, utterances=[1]).clips

@@ -87,7 +87,12 @@ PAUSES = ("guide: Welcome to the mall. The shops on this floor open at nine ever
 def test_shipped_model_rests_in_pauses(tmp_path):
     """Issue 10: inside `[pause]` spans (digital silence) the wrists move no faster than while
     speaking, and the middle of a long gap is calm. (The weights trained on per-utterance
-    z-scored features gestured hardest there: 0.45 m/s inside a `[pause 2s]`, 0.15 speaking.)"""
+    z-scored features gestured hardest there: 0.45 m/s inside a `[pause 2s]`, 0.15 speaking.)
+
+    A regression check of the shipped weights only: breaking the inputs did not make it fail
+    (z-scored features, loud noise in place of the silence, word ids carried into the pauses,
+    perturbed weights: medians stay about 0.06 m/s in pauses vs 0.12 speaking), so it catches
+    weights that gesture in silence, not a broken feature path."""
     from core.skeleton import FPS, JOINTS
     from model.training.metrics import joint_speeds
 

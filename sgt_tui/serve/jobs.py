@@ -84,7 +84,7 @@ def _generate(config: ServeConfig, req: GenerateRequest, source: str, path: Path
             raise RequestError(422, str(exc).replace(str(path), REQUEST_FILE), diagnostics_json(exc.diagnostics, path)) from None
         raise RequestError(503, f"the generator cannot run: {exc}") from None
     buf = io.BytesIO()
-    save_motion(buf, take.clips, format="json")
+    save_motion(buf, take.clips, format="json", tracks=take.tracks)  # as sgt generate writes it, less the server's path
     answer = {"motion": json.loads(buf.getvalue()), "timing": take.timing,
               "diagnostics": diagnostics_json(take.diagnostics, path)}
     if req.outputs:
