@@ -78,10 +78,15 @@ def _mel_to_hz(m):
 
 
 @lru_cache(maxsize=1)
-def _analysis() -> tuple[np.ndarray, np.ndarray]:
-    """The STFT window (periodic Hann) and the mel filters, transposed for ``power @ filters``."""
+def _analysis() -> tuple[np.ndarray, tuple[tuple[int, int, np.ndarray], ...]]:
+    """The STFT window (periodic Hann) and each mel filter as (first bin, end bin, its weights there)."""
     window = 0.5 - 0.5 * np.cos(2 * np.pi * np.arange(N_FFT) / N_FFT)
-    return window.astype(np.float32), _mel_filters().T.astype(np.float32)
+    bands = []
+    for row in _mel_filters():
+        bins = np.flatnonzero(row)
+        lo, hi = int(bins[0]), int(bins[-1]) + 1
+        bands.append((lo, hi, row[lo:hi].astype(np.float32)))
+    return window.astype(np.float32), tuple(bands)
 
 
 def _mel_filters(sr: int = SAMPLE_RATE, n_fft: int = N_FFT, n_mels: int = N_MELS) -> np.ndarray:
@@ -111,9 +116,15 @@ def raw_features(audio: np.ndarray, n_frames: int, offset_frames: int = 0) -> tu
     y = np.concatenate([pad, np.asarray(audio, np.float32)])
     need = n_frames * HOP
     y = np.pad(y, (0, max(0, need - len(y))))[:need]
-    window, mel_filters = _analysis()
+    window, bands = _analysis()
     power = np.abs(np.fft.rfft(_frames(y, N_FFT, HOP) * window, axis=1)) ** 2
-    mel = (power @ mel_filters)[:n_frames].astype(np.float64)
+    # Each band sums its own bins with numpy's loops, not a BLAS matrix product: BLAS sums
+    # differ with its thread count (measured: 1e-6 between 1 and 2 OpenBLAS threads), and the
+    # features must be the same bits in a worker process, a build and the corpus on any machine.
+    mel = np.empty((len(power), len(bands)), np.float64)
+    for m, (lo, hi, weights) in enumerate(bands):
+        mel[:, m] = np.einsum("tf,f->t", power[:, lo:hi], weights)
+    mel = mel[:n_frames]
     rms2 = np.mean(_frames(y, 2 * HOP, HOP).astype(np.float64) ** 2, axis=1)[:n_frames]
     if len(mel) < n_frames:
         mel = np.pad(mel, ((0, n_frames - len(mel)), (0, 0)), mode="edge")

@@ -179,3 +179,4 @@ def test_festival_voices_give_timed_words(tmp_path):
         import soundfile as sf
 
         assert sf.info(str(wav)).duration >= words[-1][2] - 0.05
+
