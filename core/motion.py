@@ -41,6 +41,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -162,8 +163,60 @@ def _header() -> dict:
     }
 
 
-def _round(a: np.ndarray):
-    return np.round(np.asarray(a, dtype=np.float64), 5).tolist()
+def _round(a: np.ndarray, decimals: int = 5):
+    a = np.asarray(a, dtype=np.float64)
+    return _Rows(np.round(a, decimals).tolist(), a.ndim)
+
+
+class _Rows(list):
+    """An array of ``ndim`` dimensions written one frame per line in a motion JSON file (see
+    :func:`_json_text`)."""
+
+    def __init__(self, items, ndim: int):
+        super().__init__(items)
+        self.ndim = ndim
+
+
+def _hands_rows(hands) -> dict:
+    return {key: _Rows(value, np.ndim(getattr(hands, key))) for key, value in hands.to_dict().items()}
+
+
+_ROWS_MARK = re.compile(r'"\\u0000rows(\d+)"')
+
+
+def _json_text(doc: dict) -> str:
+    """``doc`` as JSON indented by one space, except each :class:`_Rows` array: one line per
+    frame. Files stay easy to read and to diff (a frame is a line, not a column of numbers), and
+    each array is one call of the json module's C encoder (``indent=1`` took 15 s for the 44 MB
+    file of a 100-utterance script; this layout is 18 MB)."""
+    rows: list[_Rows] = []
+
+    def mark(x):
+        if isinstance(x, _Rows):
+            rows.append(x)
+            return f"\0rows{len(rows) - 1}"
+        if isinstance(x, dict):
+            return {k: mark(v) for k, v in x.items()}
+        if isinstance(x, list):
+            return [mark(v) for v in x]
+        return x
+
+    text = json.dumps(mark(doc), indent=1)
+
+    def expand(m: re.Match) -> str:
+        array = rows[int(m.group(1))]
+        if not array:
+            return "[]"
+        line = text[text.rfind("\n", 0, m.start()) + 1 : m.start()]
+        pad = "\n" + " " * (len(line) - len(line.lstrip(" ")))
+        body = json.dumps(list(array), separators=(",", ":"))[1:-1]
+        # between two frames of an array of ndim dimensions, and nowhere else, stand ndim - 1
+        # closing brackets, a comma and ndim - 1 opening ones
+        edge = "]" * (array.ndim - 1) + "," + "[" * (array.ndim - 1)
+        body = body.replace(edge, edge.replace(",", "," + pad + " "))
+        return "[" + pad + " " + body + pad + "]"
+
+    return _ROWS_MARK.sub(expand, text)
 
 
 def _utterance_meta(c: MotionClip) -> dict:
@@ -222,12 +275,12 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
     if kind == "json":
         doc["utterances"] = [
             {**_utterance_meta(c), "poses": _round(c.poses), "positions": _round(c.positions),
-             "hands": c.hands.to_dict()}
+             "hands": _hands_rows(c.hands)}
             for c in clips
         ]
         doc["tracks"] = [{"speaker": t.speaker, "poses": _round(t.poses), "positions": _round(t.positions),
-                          "hands": t.hands.to_dict()} for t in tracks]
-        data = (json.dumps(doc, indent=1) + "\n").encode("utf-8")
+                          "hands": _hands_rows(t.hands)} for t in tracks]
+        data = (_json_text(doc) + "\n").encode("utf-8")
     else:
         doc["utterances"] = [_utterance_meta(c) for c in clips]
         doc["tracks"] = [{"speaker": t.speaker} for t in tracks]

@@ -63,6 +63,24 @@ def test_json_layout(tmp_path):
     assert all(round(x, 5) == x for x in u["poses"][0])
 
 
+def test_json_has_one_line_per_frame(tmp_path):
+    """Each frame of every array is one line (readable diffs, and the C encoder writes it: a
+    100-utterance script's file took 15 s with one number per line)."""
+    path = tmp_path / "m.json"
+    clips = _clips()
+    save_motion(path, clips, tracks=[Track("ann", clips[0].poses)])
+    lines = path.read_text().splitlines()
+    for key, width in (("poses", 27), ("positions", 10), ("palm", 2), ("fingers", 2)):
+        starts = [i for i, line in enumerate(lines) if line.strip() == f'"{key}": [']
+        assert len(starts) == 3, key  # two utterances and the track
+        for i in starts:
+            frame = json.loads(lines[i + 1].rstrip(","))
+            assert len(frame) == width, key
+            assert lines[i + 1].startswith(" " * (len(lines[i]) - len(lines[i].lstrip()) + 1))
+    doc = json.loads(path.read_text())
+    assert len(doc["utterances"][0]["poses"]) == 12 and len(doc["tracks"][0]["poses"]) == 12
+
+
 def test_npz_layout(tmp_path):
     path = tmp_path / "m.npz"
     save_motion(path, _clips())
