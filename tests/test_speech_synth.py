@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import json
+import os
 import re
+import signal
 import subprocess
 import sys
 import time
@@ -260,3 +263,66 @@ def test_a_pause_inside_a_clause_goes_between_words(tmp_path):
     y = _samples(alone)
     end = int(s.words[1].end * sr)
     assert np.array_equal(x[:end], y[:end])
+
+
+FORK_CASES = [("Tower market bread coins sword shield lantern.", "en-us", 175, 50),
+              ("café naïve world", "gmw/en-US", 200, 60), ("Hello there, friend! How are you?", "en-us+m3", 150, 40)]
+
+
+def _fresh(text, voice, rate, pitch):
+    request = json.dumps({"text": text, "voice": voice, "rate": rate, "pitch": pitch}).encode("utf-8")
+    return _espeak._run_fresh(request, 60)
+
+
+def test_the_fork_server_answers_as_a_fresh_process_would():
+    """Each synthesis by a child of the fork server is the same bits as the first synthesis of
+    a new process, however many came before it (the engine keeps state between syntheses in
+    one process: a server that synthesized itself would drift)."""
+    for case in FORK_CASES + FORK_CASES:
+        assert _espeak.run_synth(*case) == _fresh(*case)
+    server = _espeak._fork_server()
+    assert server is not None and server.proc.poll() is None and server is _espeak._fork_server()
+    with pytest.raises(_espeak.EngineError) as ei:
+        _espeak.run_synth("x", "no-such-voice", 175, 50)
+    assert ei.value.kind == "voice" and server.proc.poll() is None
+
+
+def test_a_dead_or_busy_fork_server_is_not_a_failure():
+    case = FORK_CASES[0]
+    server = _espeak._fork_server()
+    os.kill(server.proc.pid, signal.SIGKILL)
+    server.proc.wait()
+    assert _espeak.run_synth(*case) == _fresh(*case)  # a new server
+    assert _espeak._fork_server() is not server and _espeak._fork_server().proc.poll() is None
+    busy = _espeak._fork_server()
+    with busy.lock:  # another thread's request: this one goes to a process of its own
+        assert _espeak.run_synth(*case) == _fresh(*case)
+
+
+def test_the_fork_server_ends_with_its_client():
+    code = ("from dsl.speech import _espeak; _espeak.run_synth('hello', 'en-us', 175, 50); "
+            "print(_espeak._fork_server().proc.pid, flush=True); import time; time.sleep(60)")
+    client = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        pid = int(client.stdout.readline())
+        os.kill(pid, 0)  # running
+        client.kill()
+        client.wait()
+        for _ in range(100):
+            if not _running(pid):
+                break
+            time.sleep(0.05)
+        else:
+            pytest.fail("the fork server outlived its killed client")
+    finally:
+        client.kill()
+        client.stdout.close()
+
+
+def _running(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie, ended but not yet reaped by whoever adopted it, does not)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False

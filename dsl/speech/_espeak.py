@@ -7,8 +7,10 @@ Determinism: espeak-ng keeps generator state (pitch flutter phase...) between sy
 in one process, so the same text synthesized twice in one process gives slightly different
 audio, while the *first* synthesis after loading the library is identical in every process.
 ``espeak_Terminate`` followed by a new ``espeak_Initialize`` hangs in 1.51, so every synthesis
-runs in a short-lived worker process (this file run as a script, stdlib only, ~20 ms overhead):
-:func:`run_synth`. The in-process engine is only used to list and check voices.
+runs in a process of its own that synthesizes once: :func:`run_synth` asks a fork server (this
+file run as a script with ``--serve``, stdlib only), which has loaded and initialised the
+library and forks a child per request (about 15 ms a request, where starting a fresh process
+took 100 ms). The in-process engine is only used to list and check voices.
 
 Facts verified by experiment against espeak-ng 1.51 (see tests/test_speech_synth.py):
 * ``espeak_Initialize(AUDIO_OUTPUT_SYNCHRONOUS, ...)`` returns the sample rate, 22050 Hz.
@@ -24,6 +26,7 @@ from __future__ import annotations
 
 import ctypes
 import glob
+import json
 import os
 import threading
 from dataclasses import dataclass
@@ -243,25 +246,51 @@ def engine() -> _Engine:
 
 
 def run_synth(text: str, voice: str, rate: int, pitch: int, timeout: float = 120.0) -> tuple[int, bytes, list[WordEvent]]:
-    """Synthesize in a fresh worker process (deterministic); returns (sample_rate, s16le bytes, word events)."""
-    import json
+    """Synthesize as the first synthesis of a freshly initialised engine (deterministic);
+    returns (sample_rate, s16le bytes, word events).
+
+    The work is done by a child forked from this process's :class:`_ForkServer` (the library
+    loaded and initialised, nothing synthesized yet: the state of a fresh process, for about
+    15 ms instead of the 100 ms of starting one); by a fresh process of its own when the fork
+    server is busy with another thread's request or cannot run."""
+    request = json.dumps({"text": text, "voice": voice, "rate": rate, "pitch": pitch}).encode("utf-8")
+    server = _fork_server()
+    if server is not None and server.lock.acquire(blocking=False):
+        try:
+            answer = server.ask(request, timeout)
+        finally:
+            server.lock.release()
+        if answer is not None:
+            return _parse_answer(answer, "")
+    return _run_fresh(request, timeout)
+
+
+def _run_fresh(request: bytes, timeout: float) -> tuple[int, bytes, list[WordEvent]]:
+    """The request answered by a new process (this file run as a script)."""
     import subprocess
     import sys
 
-    request = json.dumps({"text": text, "voice": voice, "rate": rate, "pitch": pitch}).encode("utf-8")
     try:
         proc = subprocess.run([sys.executable, "-I", "-S", os.path.abspath(__file__)], input=request,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=timeout, check=False)
     except subprocess.TimeoutExpired:
-        raise EngineError("synth", f"espeak-ng took longer than {timeout:.0f} s to synthesize the text") from None
-    header, sep, body = proc.stdout.partition(b"\n")
+        raise _too_long(timeout) from None
+    err = proc.stderr.decode("utf-8", "replace").strip().splitlines()
+    return _parse_answer(proc.stdout, f": {err[-1]}" if err else f" (exit {proc.returncode})")
+
+
+def _too_long(timeout: float) -> EngineError:
+    return EngineError("synth", f"espeak-ng took longer than {timeout:.0f} s to synthesize the text")
+
+
+def _parse_answer(data: bytes, why: str) -> tuple[int, bytes, list[WordEvent]]:
+    header, sep, body = data.partition(b"\n")
     try:
         info = json.loads(header.decode("utf-8")) if sep else None
     except ValueError:
         info = None
     if not isinstance(info, dict):
-        err = proc.stderr.decode("utf-8", "replace").strip().splitlines()
-        raise EngineError("synth", "the espeak-ng worker failed" + (f": {err[-1]}" if err else f" (exit {proc.returncode})"))
+        raise EngineError("synth", "the espeak-ng worker failed" + why)
     if not info.get("ok"):
         raise EngineError(info.get("kind", "synth"), info.get("message", "espeak-ng failed"))
     if len(body) != info["nbytes"]:
@@ -270,24 +299,177 @@ def run_synth(text: str, voice: str, rate: int, pitch: int, timeout: float = 120
     return int(info["sample_rate"]), body, events
 
 
-def _worker_main() -> int:
-    import json
-    import sys
+class _ForkServer:
+    """A process (this file run with ``--serve``) holding an initialised engine that has never
+    synthesized; it forks a child per request, so each synthesis starts from the state of a
+    fresh process. One request at a time (:attr:`lock`); it exits when this process closes its
+    input (this process ended, killed or not)."""
 
+    def __init__(self) -> None:
+        import subprocess
+        import sys
+
+        self.lock = threading.Lock()
+        self.proc = subprocess.Popen([sys.executable, "-I", "-S", os.path.abspath(__file__), "--serve"],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                     start_new_session=True)
+        self._pending = b""
+
+    def ask(self, request: bytes, timeout: float) -> bytes | None:
+        """The answer (header line and audio), or None when the server failed (then it is
+        stopped and the caller asks a fresh process). Raises :class:`EngineError` on timeout."""
+        import time
+
+        deadline = time.monotonic() + timeout
+        try:
+            self.proc.stdin.write(request.replace(b"\n", b" ") + b"\n")
+            self.proc.stdin.flush()
+            while b"\n" not in self._pending:
+                self._fill(deadline)
+            header = self._pending[: self._pending.index(b"\n") + 1]
+            info = json.loads(header)
+            size = len(header) + (int(info.get("nbytes", 0)) if isinstance(info, dict) else 0)
+            while len(self._pending) < size:
+                self._fill(deadline)
+            answer, self._pending = self._pending[:size], self._pending[size:]
+            return answer
+        except TimeoutError:
+            self.stop()
+            raise _too_long(timeout) from None
+        except (OSError, ValueError, EOFError):
+            self.stop()
+            return None
+
+    def _fill(self, deadline: float) -> None:
+        """More bytes from the server into the buffer, waiting at most until ``deadline``."""
+        import select
+        import time
+
+        fd = self.proc.stdout.fileno()
+        left = deadline - time.monotonic()
+        if left <= 0 or not select.select([fd], [], [], left)[0]:
+            raise TimeoutError
+        chunk = os.read(fd, 1 << 20)
+        if not chunk:
+            raise EOFError
+        self._pending += chunk
+
+    def stop(self) -> None:
+        import signal
+
+        global _server
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)  # the server and a child synthesizing
+        except OSError:
+            pass
+        self.proc.wait()
+        _server = None
+
+
+_server: _ForkServer | None = None
+_server_pid: int | None = None  # the process that started it (a forked copy of this process starts its own)
+
+
+def _fork_server() -> _ForkServer | None:
+    global _server, _server_pid
+    with _LOCK:
+        if _server is None or _server_pid != os.getpid() or _server.proc.poll() is not None:
+            try:
+                _server, _server_pid = _ForkServer(), os.getpid()
+            except OSError:
+                _server = None
+            else:
+                import atexit
+
+                atexit.register(_close_server, _server)
+        return _server
+
+
+def _close_server(server: _ForkServer) -> None:
+    """At exit: close the server's input (it ends at once) and reap it."""
+    if server.proc.poll() is None and _server_pid == os.getpid():
+        try:
+            server.proc.stdin.close()
+            server.proc.wait(timeout=2)
+        except (OSError, ValueError, TimeoutError):
+            pass
+        except Exception:  # subprocess.TimeoutExpired
+            server.stop()
+
+
+def _answer(eng_or_error, request: bytes) -> bytes:
+    """The answer to one request: a JSON header line, then the audio."""
     try:
-        req = json.loads(sys.stdin.buffer.read().decode("utf-8"))
-        eng = _Engine()
-        raw, events = eng.synth(req["text"], req["voice"], req["rate"], req["pitch"])
-        header = {"ok": True, "sample_rate": eng.sample_rate, "nbytes": len(raw),
+        if isinstance(eng_or_error, EngineError):
+            raise eng_or_error
+        req = json.loads(request.decode("utf-8"))
+        raw, events = eng_or_error.synth(req["text"], req["voice"], req["rate"], req["pitch"])
+        header = {"ok": True, "sample_rate": eng_or_error.sample_rate, "nbytes": len(raw),
                   "events": [[e.char_index, e.length, e.sample] for e in events]}
     except EngineError as e:
-        raw, header = b"", {"ok": False, "kind": e.kind, "message": e.message}
+        raw, header = b"", {"ok": False, "kind": e.kind, "message": e.message, "nbytes": 0}
+    return json.dumps(header).encode("utf-8") + b"\n" + raw
+
+
+def _whole(data: bytes) -> bool:
+    """Whether ``data`` is a whole answer: a JSON header line and as many bytes as it says."""
+    header, sep, body = data.partition(b"\n")
+    try:
+        info = json.loads(header) if sep else None
+        return isinstance(info, dict) and len(body) == int(info.get("nbytes", -1))
+    except (ValueError, TypeError):
+        return False
+
+
+def _new_engine():
+    try:
+        return _Engine()
+    except EngineError as e:
+        return e
+
+
+def _worker_main() -> int:
+    import sys
+
     out = sys.stdout.buffer
-    out.write(json.dumps(header).encode("utf-8") + b"\n")
-    out.write(raw)
+    out.write(_answer(_new_engine(), sys.stdin.buffer.read()))
     out.flush()
     return 0
 
 
+def _serve_main() -> int:
+    """The fork server: one request per input line; each answered by a forked child."""
+    import sys
+
+    eng = _new_engine()  # loaded and initialised once, never used here to synthesize
+    out = sys.stdout.buffer
+    for request in sys.stdin.buffer:
+        read, write = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # the child: the engine as a fresh process has it
+            os.close(read)
+            try:
+                data = _answer(eng, request)
+                view = memoryview(data)
+                while view:
+                    view = view[os.write(write, view):]
+            finally:
+                os._exit(0)
+        os.close(write)
+        chunks = []
+        while chunk := os.read(read, 1 << 20):
+            chunks.append(chunk)
+        os.close(read)
+        _, status = os.waitpid(pid, 0)
+        data = b"".join(chunks)
+        if status != 0 or not _whole(data):  # the child died, or answered half
+            data = _answer(EngineError("synth", f"the espeak-ng worker failed (wait status {status})"), b"")
+        out.write(data)
+        out.flush()
+    return 0
+
+
 if __name__ == "__main__":
-    raise SystemExit(_worker_main())
+    import sys as _sys
+
+    raise SystemExit(_serve_main() if _sys.argv[1:] == ["--serve"] else _worker_main())
