@@ -173,9 +173,11 @@ class HandTrack:
             fingers[:, s] += (other.fingers[:, s] - fingers[:, s]) * w[:, None, None]
         return HandTrack(palm, fingers)
 
+    #: Decimals kept in files: palm directions to 1e-4, finger angles to 0.01 degree.
+    DECIMALS = {"palm": 4, "fingers": 2}
+
     def to_dict(self) -> dict:
-        return {"palm": np.round(self.palm.astype(np.float64), 4).tolist(),
-                "fingers": np.round(self.fingers.astype(np.float64), 2).tolist()}
+        return {key: np.round(getattr(self, key).astype(np.float64), d).tolist() for key, d in self.DECIMALS.items()}
 
     @classmethod
     def from_dict(cls, d) -> HandTrack:

@@ -267,3 +267,20 @@ def test_a_track_or_an_utterance_outside_the_performance_is_refused(tmp_path):
     path.write_text(json.dumps(doc))
     with pytest.raises(MotionFileError, match=r"track 0: poses have shape \(12, 27\), expected \(25, 27\)"):
         load_motion_file(path)
+
+
+@pytest.mark.parametrize("decimals", [0, 2, 4, 5])
+def test_frame_text_reads_back_as_numpy_rounds(decimals):
+    """The numpy writer of frame lines gives the numbers of ``np.round`` (signs, zeros, whole
+    parts of several widths), aligned in columns."""
+    from core.frames_text import frame_lines
+
+    rng = np.random.default_rng(decimals)
+    for scale in (1e-4, 1.0, 37.0, 1e5):
+        x = rng.standard_normal((40, 3, 2)) * scale
+        x[0, 0] = (-0.0, -1e-9)
+        x[1, 0] = (-(10.0 ** -decimals) * 0.6, 10.0 ** -decimals * 0.4)
+        lines = frame_lines(x, decimals)
+        assert len(lines) == 40 and len({len(line) for line in lines}) == 1
+        assert np.array_equal(np.array([json.loads(line) for line in lines]), np.round(x, decimals))
+    assert frame_lines(np.array([[np.nan]]), 2) is None and frame_lines(np.zeros((0, 3)), 2) is None
