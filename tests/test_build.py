@@ -357,3 +357,49 @@ def test_outputs_are_on_the_performance_clock_with_tracks_and_hands_from_the_cac
     a, b = files(env / "a"), files(env / "b")
     a.pop("manifest.json"), b.pop("manifest.json")  # it says which utterances came from the cache
     assert a == b
+
+
+def test_a_rebuild_analyses_only_the_scripts_whose_inputs_changed(env, monkeypatch, capsys):
+    """An unchanged script is taken from the manifest without being parsed again; a change to
+    anything its analysis read (its bytes, a gesture file of its @library folder, a new gesture
+    file there, a recording, the options, SGT_LIBRARY_PATH) analyses it again, and a gesture
+    edited that way regenerates the utterances that use it."""
+    import dsl.compiler
+
+    game = env / "game"
+    (game / "moves").mkdir()
+    spec = (ROOT / "library" / "gestures" / "beat_both.toml").read_text()
+    (game / "moves" / "my_beat.toml").write_text(spec.replace('name = "beat_both"', 'name = "my_beat"'))
+    (game / "act3.sgt").write_text("@library ./moves\nguide: Look [pose:my_beat] at this.\n@gap 1s\n")  # a warning
+    analysed = []
+    real = dsl.compiler.load_script
+    monkeypatch.setattr(dsl.compiler, "load_script", lambda path, **kw: (analysed.append(Path(path).name), real(path, **kw))[1])
+    out = env / "out"
+
+    def rebuild(*extra) -> list[str]:
+        analysed.clear()
+        assert build(game, "-o", out, "-j", "1", *extra) == 0
+        return sorted(set(analysed))
+
+    assert rebuild() == ["act2.sgt", "act3.sgt", "intro.sgt"]
+    capsys.readouterr()
+    assert rebuild() == []  # nothing changed: nothing parsed
+    err = capsys.readouterr().err
+    assert "0 utterances generated, 5 cached, 3 scripts up to date" in err
+    assert "SGT118" in err and "act3.sgt:3" in err  # its warning, shown again from the record
+    (game / "act2.sgt").write_text(ACT2 + "# a comment\n")
+    assert rebuild() == ["act2.sgt"]
+    motion = (out / "act3.json").read_bytes()
+    (game / "moves" / "my_beat.toml").write_text(spec.replace('name = "beat_both"', 'name = "my_beat"')
+                                                 .replace("duration = 0.8", "duration = 1.2"))
+    capsys.readouterr()
+    assert rebuild() == ["act3.sgt"]
+    assert "1 utterance generated" in capsys.readouterr().err and (out / "act3.json").read_bytes() != motion
+    (game / "moves" / "other.toml").write_text(spec.replace('name = "beat_both"', 'name = "other"'))
+    assert rebuild() == ["act3.sgt"]
+    assert rebuild("--seed", "9") == ["act2.sgt", "act3.sgt", "intro.sgt"]
+    assert rebuild("--seed", "9") == []
+    monkeypatch.setenv("SGT_LIBRARY_PATH", str(game / "moves"))
+    assert rebuild("--seed", "9") == ["act2.sgt", "act3.sgt", "intro.sgt"]
+    (out / "act2.json").unlink()  # an output gone: its script is built (and so analysed) again
+    assert rebuild("--seed", "9") == ["act2.sgt"]

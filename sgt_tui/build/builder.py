@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from core.diagnostics import Diagnostic
-from sgt_tui.build import outputs
+from sgt_tui.build import inputs, outputs
 from sgt_tui.build.cache import BuildCache, Entry
 from sgt_tui.build.keys import Settings, file_sha256, utterance_key
 from sgt_tui.build.runners import LocalPool, run_local, run_ray
@@ -73,6 +73,7 @@ class _Script:
     pending: int = 0
     failed: bool = False
     record: dict | None = None
+    inputs: dict | None = None  # the fingerprint of what its analysis read (see .inputs)
 
 
 def find_sources(paths: Sequence[Path | str]) -> list[tuple[Path, str]]:
@@ -144,6 +145,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
             file_hashes[key] = file_sha256(path)
         return file_hashes[key]
 
+    token = inputs.build_token(settings)
     scripts: list[_Script] = []
     records: list[dict] = []
     for path, rel in sources:
@@ -153,6 +155,21 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
             report.errors.append(f"{path}: its motion file would be {out / outputs.MANIFEST}, the build's manifest; "
                                  f"rename the script or move it into a folder")
             records.append({"source": rel, "status": "failed", "errors": 1, "outputs": []})
+            continue
+        before = _read_bytes(path)
+        prev = old_scripts.get(rel)
+        if same_settings and prev and before is not None and _inputs_unchanged(out, prev, before, token, exports, state):
+            # nothing the analysis read has changed, and the outputs are intact: take the record
+            records.append({**prev, "utterances": [{**u, "cached": True} for u in prev["utterances"]]})
+            warnings = prev["inputs"].get("warnings") or []
+            if show and warnings:
+                show([Diagnostic.from_dict(d) for d in warnings], {str(path): before.decode("utf-8", "replace")})
+            n = len(prev["utterances"])
+            report.up_to_date += 1
+            report.cached += n
+            count.total += n
+            count.done += n
+            count.cached += n
             continue
         script, lib, diags = load_script(path)
         errors = [d for d in diags if d.is_error]
@@ -170,6 +187,10 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
             records.append({"source": rel, "status": "failed", "errors": 1, "outputs": []})
             continue
         scripts.append(_Script(rel, path, script, lib, keys))
+        if before is not None and before == _read_bytes(path):  # not edited while it was analysed
+            deps = inputs.dependencies(script, lib)
+            scripts[-1].inputs = {"sha256": inputs.fingerprint(before, deps, token), "deps": deps,
+                                  "warnings": [d.to_dict() for d in diags]}
         count.total += len(keys)
 
     tasks: list[Task] = []
@@ -177,7 +198,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
     for s in scripts:
         prev = old_scripts.get(s.rel)
         if same_settings and prev and _unchanged(out, prev, s, exports, state):
-            s.record = prev
+            s.record = {**prev, "inputs": s.inputs}
             s.record["utterances"] = [{**u, "cached": True} for u in prev["utterances"]]
             report.up_to_date += 1
             report.cached += len(s.keys)
@@ -288,6 +309,26 @@ def _balanced(tasks: list[Task], jobs: int) -> list[Task]:
     return sorted(tasks, key=lambda t: -len(t.keys)) if jobs > 1 else tasks
 
 
+def _read_bytes(path: Path) -> bytes | None:
+    try:
+        return Path(path).read_bytes()
+    except OSError:
+        return None
+
+
+def _inputs_unchanged(out: Path, prev: dict, source: bytes, token: str, exports: tuple[str, ...], state: dict) -> bool:
+    """Whether a script built before can be taken without analysing it (see :mod:`.inputs`)."""
+    recorded = prev.get("inputs")
+    if prev.get("status") != "ok" or not isinstance(recorded, dict) or prev.get("exports") != list(exports):
+        return False
+    deps = recorded.get("deps")
+    if not isinstance(deps, list) or not all(isinstance(d, str) for d in deps):
+        return False
+    if inputs.fingerprint(source, deps, token) != recorded.get("sha256"):
+        return False
+    return all(outputs.intact(out, r, state) for r in prev.get("outputs") or ())
+
+
 def _unchanged(out: Path, prev: dict, s: _Script, exports: tuple[str, ...], state: dict) -> bool:
     utts = prev.get("utterances") or []
     if prev.get("status") != "ok" or [u.get("key") for u in utts] != s.keys:
@@ -328,4 +369,5 @@ def _write(out: Path, s: _Script, exports: tuple[str, ...], settings: Settings) 
         "outputs": records,
         "utterances": [{"index": u.index, "line": u.line, "key": k, "cached": s.cached[u.index]}
                        for u, k in zip(utts, s.keys)],
+        "inputs": s.inputs,
     }
