@@ -186,10 +186,10 @@ def stream_figures() -> None:
         ids, onsets = neural.word_features(words, m)
         offline = postprocess.one_euro(neural.run_windows(runner, np.zeros((m, AUDIO_DIM), np.float32), ids, onsets,
                                                           ControlArrays.empty(m), n))
-        a, b = stream.reshape(-1, 9, 3), offline.reshape(-1, 9, 3)
-        angles.append(float(np.degrees(np.arccos(np.clip((a * b).sum(-1), -1, 1))).mean()))
-        speed.append(np.abs(np.diff(stream, axis=0)).mean() / np.abs(np.diff(offline, axis=0)).mean())
-        jerk.append(np.abs(np.diff(stream, 3, axis=0)).mean() / np.abs(np.diff(offline, 3, axis=0)).mean())
+        angle, fast, jerky = _compare(stream, offline)
+        angles.append(angle)
+        speed.append(fast)
+        jerk.append(jerky)
     per_frame = sorted(s / k for s, k in calls if k)
     print(f"streaming ({runner.kind}): stated lookahead {LOOKAHEAD_S:.3f} s; measured: after each of {len(lags)} messages "
           f"(time advancing a frame at a time, each word sent when it starts) the last decided frame is "
@@ -198,6 +198,73 @@ def stream_figures() -> None:
           f"p99 {per_frame[int(0.99 * (len(per_frame) - 1))] * 1000:.2f} ms (n={len(per_frame)})")
     print(f"  vs the offline engine on the same words ({len(SENTENCES)} sentences): mean angle per bone "
           f"{statistics.mean(angles):.1f} deg, speed x{statistics.mean(speed):.2f}, jerk x{statistics.mean(jerk):.2f}")
+    audio_stream_figures(runner)
+
+
+def _compare(stream, offline) -> tuple[float, float, float]:
+    """Mean angle per bone (degrees), speed and jerk ratios of ``stream`` against ``offline``."""
+    import numpy as np
+
+    a, b = stream.reshape(-1, 9, 3), offline.reshape(-1, 9, 3)
+    angle = float(np.degrees(np.arccos(np.clip((a * b).sum(-1), -1, 1))).mean())
+    speed = np.abs(np.diff(stream, axis=0)).mean() / np.abs(np.diff(offline, axis=0)).mean()
+    jerk = np.abs(np.diff(stream, 3, axis=0)).mean() / np.abs(np.diff(offline, 3, axis=0)).mean()
+    return angle, float(speed), float(jerk)
+
+
+def audio_stream_figures(runner) -> None:
+    """The stream fed espeak-ng's audio in 0.2 s chunks at 22.05 kHz (each with the words that
+    start in it) against the offline engine on the same audio and words, and against the
+    stream of the words alone; the compute per audio chunk."""
+    import numpy as np
+
+    from core.controls import ControlArrays
+    from core.skeleton import FPS
+    from dsl import compile_text
+    from dsl.speech.audio import StreamResampler, read_wav, resample_poly
+    from model import neural, postprocess
+    from model.features import SAMPLE_RATE, audio_features
+    from model.streaming import StreamGenerator
+
+    with_audio, words_only, per_chunk = [], [], []
+    for n, text in enumerate(SENTENCES):
+        u = compile_text(f"guide: {text}").plan.utterances[0]
+        data, rate = read_wav(u.audio_path)
+        x = data[:, 0]
+        words = list(u.words)  # on the audio's clock (the audio starts at the first frame here)
+        gen = StreamGenerator(runner, seed=n)
+        resampler, out, pending = StreamResampler(rate, SAMPLE_RATE), [gen.add_audio(np.zeros(0, np.float32))], list(words)
+        step = int(0.2 * rate)
+        for at in range(0, len(x), step):
+            end = min(len(x), at + step) / rate
+            starting = [w for w in pending if w.start < end]
+            pending = pending[len(starting):]
+            t0 = time.perf_counter()
+            if starting:
+                out.append(gen.add_words(starting))
+            out.append(gen.add_audio(resampler.push(x[at : at + step])))
+            out.append(gen.known_until(end))
+            per_chunk.append(time.perf_counter() - t0)
+        out += [gen.add_audio(resampler.flush()), gen.finish()]
+        stream = np.concatenate(out)
+        m = len(stream)
+        audio16 = resample_poly(x, SAMPLE_RATE, rate).astype(np.float32)
+        ids, onsets = neural.word_features(words, m)
+        offline = postprocess.one_euro(neural.run_windows(runner, audio_features(audio16, m), ids, onsets,
+                                                          ControlArrays.empty(m), n))
+        with_audio.append(_compare(stream, offline))
+        words_gen = StreamGenerator(runner, seed=n)
+        alone = np.concatenate([words_gen.add_words(words), words_gen.finish()])
+        k = min(len(alone), m)
+        words_only.append(_compare(alone[:k], offline[:k]))
+    for name, rows in (("with its audio", with_audio), ("of the words alone", words_only)):
+        angle, speed, jerk = (statistics.mean(r[i] for r in rows) for i in range(3))
+        print(f"  stream {name} vs the offline engine on the same audio ({len(SENTENCES)} espeak-ng sentences, "
+              f"0.2 s chunks at 22.05 kHz): mean angle per bone {angle:.1f} deg, speed x{speed:.2f}, jerk x{jerk:.2f}")
+    per_chunk.sort()
+    print(f"  compute per 0.2 s audio chunk (resampling, features, the frames it decides): median "
+          f"{statistics.median(per_chunk) * 1000:.1f} ms, p99 {per_chunk[int(0.99 * (len(per_chunk) - 1))] * 1000:.1f} ms "
+          f"(n={len(per_chunk)})")
 
 
 def main() -> int:

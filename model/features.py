@@ -101,35 +101,36 @@ def _mel_filters(sr: int = SAMPLE_RATE, n_fft: int = N_FFT, n_mels: int = N_MELS
     return weights * (2.0 / (edges[2:] - edges[:-2]))[:, None]
 
 
-def _frames(y: np.ndarray, length: int, hop: int) -> np.ndarray:
-    """Centred frames (n, length) of ``y`` zero-padded by length // 2 on each side."""
-    y = np.pad(y, (length // 2, length // 2))
-    n = 1 + (len(y) - length) // hop
-    return np.lib.stride_tricks.sliding_window_view(y, length)[::hop][:n]
+def frame_powers(audio: np.ndarray, first: int, count: int) -> np.ndarray:
+    """(count, AUDIO_DIM) float64 powers of motion frames ``first``, ``first + 1``, ... of
+    ``audio`` at SAMPLE_RATE: the mel bands, then the mean square. Frame k is centred on sample
+    ``k * HOP`` and spans ``2 * HOP`` samples (:data:`N_FFT`); samples outside the audio are 0.
+    Any run of frames gives the numbers the whole audio gives them (the stream relies on it)."""
+    y = np.asarray(audio, np.float32)
+    lo, hi = (first - 1) * HOP, (first + count) * HOP
+    segment = np.zeros(hi - lo, np.float32)
+    a, b = max(lo, 0), min(hi, len(y))
+    if b > a:
+        segment[a - lo : b - lo] = y[a:b]
+    frames = np.lib.stride_tricks.sliding_window_view(segment, N_FFT)[::HOP][:count]
+    window, bands = _analysis()
+    power = np.abs(np.fft.rfft(frames * window, axis=1)) ** 2
+    # Each band sums its own bins with numpy's loops, not a BLAS matrix product: BLAS sums
+    # differ with its thread count (measured: 1e-6 between 1 and 2 OpenBLAS threads), and the
+    # features must be the same bits in a worker process, a build and the corpus on any machine.
+    out = np.empty((count, len(bands) + 1), np.float64)
+    for m, (lo_bin, hi_bin, weights) in enumerate(bands):
+        out[:, m] = np.einsum("tf,f->t", power[:, lo_bin:hi_bin], weights)
+    out[:, -1] = np.mean(frames.astype(np.float64) ** 2, axis=1)
+    return out
 
 
 def raw_features(audio: np.ndarray, n_frames: int, offset_frames: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """(mel power (n_frames, N_MELS), frame energy (n_frames,) = mean square) of ``audio`` at
     SAMPLE_RATE placed ``offset_frames`` into the motion; silence before the offset and past
     the end. The same numbers as ``librosa.feature.melspectrogram`` and ``rms ** 2``."""
-    pad = np.zeros(offset_frames * HOP, np.float32)
-    y = np.concatenate([pad, np.asarray(audio, np.float32)])
-    need = n_frames * HOP
-    y = np.pad(y, (0, max(0, need - len(y))))[:need]
-    window, bands = _analysis()
-    power = np.abs(np.fft.rfft(_frames(y, N_FFT, HOP) * window, axis=1)) ** 2
-    # Each band sums its own bins with numpy's loops, not a BLAS matrix product: BLAS sums
-    # differ with its thread count (measured: 1e-6 between 1 and 2 OpenBLAS threads), and the
-    # features must be the same bits in a worker process, a build and the corpus on any machine.
-    mel = np.empty((len(power), len(bands)), np.float64)
-    for m, (lo, hi, weights) in enumerate(bands):
-        mel[:, m] = np.einsum("tf,f->t", power[:, lo:hi], weights)
-    mel = mel[:n_frames]
-    rms2 = np.mean(_frames(y, 2 * HOP, HOP).astype(np.float64) ** 2, axis=1)[:n_frames]
-    if len(mel) < n_frames:
-        mel = np.pad(mel, ((0, n_frames - len(mel)), (0, 0)), mode="edge")
-        rms2 = np.pad(rms2, (0, n_frames - len(rms2)), mode="edge")
-    return mel, rms2
+    powers = frame_powers(audio, -offset_frames, n_frames)
+    return powers[:, :N_MELS], powers[:, N_MELS]
 
 
 #: The speech level of a band: this percentile of its power over the utterance's active frames,
@@ -157,11 +158,14 @@ def speech_level(power: np.ndarray) -> np.ndarray:
     return np.fmax(level, _NO_SIGNAL)
 
 
-def level_features(power: np.ndarray) -> np.ndarray:
+def level_features(power: np.ndarray, level: np.ndarray | None = None) -> np.ndarray:
     """Per column (band): ``10 log10(p / L + 10^(-FLOOR_DB / 10)) / 20 + 1`` with ``L`` the
-    column's :func:`speech_level`. Speech reads about 0 to 1, silence the floor, -2."""
+    column's :func:`speech_level` (of ``power``, or ``level`` when given: a stream knows only
+    the speech so far). Speech reads about 0 to 1, silence the floor, -2."""
     p = np.asarray(power, np.float64)
-    db = 10.0 * np.log10(p / speech_level(p) + 10.0 ** (-FLOOR_DB / 10.0))
+    if level is None:
+        level = speech_level(p)
+    db = 10.0 * np.log10(p / level + 10.0 ** (-FLOOR_DB / 10.0))
     return db / _DB_SCALE + _DB_OFFSET
 
 

@@ -18,9 +18,12 @@ words up to at most ``(STEP + LOOKAHEAD) / FPS`` seconds after it are known (:da
 (benchmarks/bench_serve.py measures it: about 1 ms in onnxruntime).
 
 The network was trained on whole windows, so the stream's motion is not the offline motion:
-benchmarks/bench_serve.py compares the two (docs/serve.md quotes it). Audio features are not
-used (they are normalised over a whole utterance, which a stream does not have yet): the stream
+benchmarks/bench_serve.py compares the two (docs/serve.md quotes it). Without audio the stream
 follows the words, their onsets and the style, as the offline engine does with estimated timing.
+With audio (:meth:`StreamGenerator.add_audio`, the speech as it is played) a frame also waits
+for the audio up to its lookahead, and the network gets the audio features; their levels are
+relative to the speech level of the last :data:`LEVEL_WINDOW_S` seconds of audio so far (the
+offline engine uses the whole utterance's, which a stream does not have yet).
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ import numpy as np
 from core.controls import STYLE_INDEX, STYLE_LIMIT, STYLE_NAMES
 from core.skeleton import FPS, POSE_DIM
 from core.words import TimedWord
-from model.features import silence_features, word_features
+from model.features import AUDIO_DIM, HOP, frame_powers, level_features, silence_features, speech_level, word_features
 from model.postprocess import one_euro
 
 CONTEXT = 45  # frames of words before the decided ones (3 s)
@@ -42,6 +45,9 @@ LOOKAHEAD = 6  # frames of words after the decided ones
 LOOKAHEAD_S = (STEP + LOOKAHEAD) / FPS
 #: Motion after the last word when the stream ends (seconds): the speaker comes to rest.
 TAIL = 0.5
+#: The audio whose speech level the stream's audio features are relative to: the last this
+#: many seconds (bounded work per frame however long the stream).
+LEVEL_WINDOW_S = 30.0
 
 
 class StreamError(ValueError):
@@ -70,6 +76,9 @@ class StreamGenerator:
         self.known = 0.0  # seconds of speech known
         self.done = 0  # frames decided
         self.finished = False
+        self.audio: np.ndarray | None = None  # the speech not yet in ``powers`` (SAMPLE_RATE), once audio is sent
+        self.audio_start = 0  # the sample of ``audio[0]``: a frame's first sample
+        self.powers = np.zeros((0, AUDIO_DIM))  # frame_powers of the frames the audio so far covers
 
     @property
     def last_word_end(self) -> float:
@@ -93,6 +102,33 @@ class StreamGenerator:
             self.words.append(TimedWord(text, float(start), float(end)))
         return self.known_until(max(self.known, self.last_word_end))
 
+    def add_audio(self, samples: np.ndarray) -> np.ndarray:
+        """Append speech audio (float, SAMPLE_RATE, continuing the audio sent so far from time 0);
+        from the first call on, frames also wait for the audio up to their lookahead. Returns
+        the frames that can now be decided."""
+        if self.finished:
+            raise StreamError("the stream has ended")
+        samples = np.asarray(samples, np.float32).reshape(-1)
+        if not np.all(np.isfinite(samples)):
+            raise StreamError("the audio holds values that are not numbers")
+        self.audio = samples if self.audio is None else np.concatenate([self.audio, samples])
+        whole = (self.audio_start + len(self.audio)) // HOP  # frames whose samples have all arrived
+        if whole > len(self.powers):
+            self._add_powers(whole)
+            start = (len(self.powers) - 1) * HOP  # the first sample the next frame reads
+            self.audio, self.audio_start = self.audio[start - self.audio_start :], start
+        return self.known_until(self.known)
+
+    def _add_powers(self, frames: int) -> None:
+        first = len(self.powers)
+        new = frame_powers(self.audio, first - self.audio_start // HOP, frames - first)
+        self.powers = np.concatenate([self.powers, new])
+
+    def _ready_frames(self) -> int:
+        """Frames whose words (and audio, once audio is sent) are known."""
+        known = int(math.floor(self.known * FPS + 1e-6))
+        return known if self.audio is None else min(known, len(self.powers))
+
     def known_until(self, seconds: float) -> np.ndarray:
         """Say that the speech is known up to ``seconds`` (silence after the last word so far);
         returns the frames that can now be decided."""
@@ -101,9 +137,8 @@ class StreamGenerator:
         if not math.isfinite(seconds):
             raise StreamError("the time must be a finite number of seconds")
         self.known = max(self.known, float(seconds))
-        known_frames = int(math.floor(self.known * FPS + 1e-6))
         out = []
-        while self.done + STEP + LOOKAHEAD <= known_frames:
+        while self.done + STEP + LOOKAHEAD <= self._ready_frames():
             out.append(self._step(self.done + STEP + LOOKAHEAD))
         return self._emit(out)
 
@@ -126,11 +161,21 @@ class StreamGenerator:
         recent = [TimedWord(w.word, w.start - t0, w.end - t0) for w in self.words if w.end > t0 - 1.0 / FPS]
         ids, onsets = word_features(recent, n)
         free = np.zeros((n, POSE_DIM), np.float32)
-        y = self.runner.run_window(silence_features(n), ids, onsets, free, np.zeros(n, np.float32),
+        y = self.runner.run_window(self._audio_features(s, e), ids, onsets, free, np.zeros(n, np.float32),
                                    np.repeat(self.style[None], n, 0), np.repeat(self.style_mask[None], n, 0), self.z)
         k = min(STEP, e - a)
         self.done += k
         return y[a - s : a - s + k]
+
+    def _audio_features(self, s: int, e: int) -> np.ndarray:
+        """Features of frames [s, e): silence without audio; with it, levels relative to the
+        speech level of the last LEVEL_WINDOW_S seconds of audio up to frame e."""
+        if self.audio is None:
+            return silence_features(e - s)
+        if e > len(self.powers):  # finishing: frames the audio only partly covers, or past its end
+            self._add_powers(e)
+        recent = self.powers[max(0, e - int(LEVEL_WINDOW_S * FPS)) : e]
+        return level_features(self.powers[s:e], speech_level(recent)).astype(np.float32)
 
     def _emit(self, pieces: list[np.ndarray]) -> np.ndarray:
         if not pieces:

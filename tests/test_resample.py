@@ -47,3 +47,24 @@ def test_other_audio_files_go_to_soundfile(tmp_path):
     assert read_wav(float_wav) is None and np.array_equal(load_audio(float_wav), tone)
     (tmp_path / "mono.wav").write_bytes(wav_bytes(tone, 16000))
     assert np.abs(load_audio(tmp_path / "mono.wav") - tone).max() < 1e-4
+
+
+@pytest.mark.parametrize("rate_in", [8000, 22050, 24000, 44100, 48000, 16000])
+def test_resampling_in_pieces_gives_the_numbers_of_the_whole(rate_in):
+    """A stream's audio chunks (any sizes, one sample included) resampled one by one are the
+    whole audio resampled at once, and the resampler keeps only a bounded tail of the input."""
+    from dsl.speech.audio import StreamResampler
+
+    rng = np.random.default_rng(rate_in)
+    x = rng.standard_normal(rate_in + 777)
+    whole = resample_poly(x, 16000, rate_in)
+    r = StreamResampler(rate_in, 16000)
+    parts, at, kept = [], 0, []
+    while at < len(x):
+        n = int(rng.choice([1, 7, 300, 4000]))
+        parts.append(r.push(x[at : at + n]))
+        kept.append(len(r.buffer))
+        at += n
+    parts.append(r.flush())
+    assert np.array_equal(np.concatenate(parts), whole)
+    assert max(kept) < 5000 + 2 * (r.reach + r.down)

@@ -351,6 +351,50 @@ def test_stream_of_text_as_an_llm_produces_it(api):
     assert replies[-1]["frames"] == sum(len(m["poses"]) for m in frames_of(replies))
 
 
+def test_stream_of_audio_chunks_with_their_words(api):
+    """A TTS's audio at 22.05 kHz in chunks of 0.2 s, each with the words that start in it: the
+    frames are those the generator decides from the same audio and words (resampled in pieces
+    as the whole), never ahead of the audio, and the last one comes at the end."""
+    import base64
+
+    from core.words import TimedWord
+    from dsl.speech.audio import read_wav, resample_poly
+    from model.features import SAMPLE_RATE
+    from model.runtime import load_runner
+    from model.streaming import StreamGenerator
+
+    u = compile_text("guide: Welcome to the mall, the shops are over there.").plan.utterances[0]
+    data, rate = read_wav(u.audio_path)
+    pcm = np.round(data[:, 0] * 32768).clip(-32768, 32767).astype("<i2")
+    words = [w.to_dict(6) for w in u.words]  # the audio starts at the utterance's first frame here
+    chunk = int(0.2 * rate)
+    with api.websocket_connect("/v1/stream") as ws:
+        ws.send_json({"type": "start", "seed": 4})
+        ws.receive_json()
+        pending = list(words)
+        for at in range(0, len(pcm), chunk):
+            end = min(len(pcm), at + chunk) / rate
+            starting = [w for w in pending if w["start"] < end]
+            pending = pending[len(starting):]
+            message = {"type": "audio", "sample_rate": rate,
+                       "pcm16": base64.b64encode(pcm[at : at + chunk].tobytes()).decode("ascii")}
+            ws.send_json({**message, "words": starting} if starting else message)
+        ws.send_json({"type": "end"})
+        replies = receive_until(ws, "done")
+    assert not [m for m in replies if m["type"] == "error"]
+    frames = frames_of(replies)
+    poses = np.concatenate([np.array(f["poses"]) for f in frames])
+    for f in frames[:-1]:  # decided before the end: the audio was known LOOKAHEAD_S past each frame
+        assert (f["start"] + len(f["poses"]) - 1) / 15 + LOOKAHEAD_S <= f["known_until"] + 1e-3
+
+    gen = StreamGenerator(load_runner(None), seed=4)
+    gen.add_audio(resample_poly(pcm.astype(np.float32) / 32768.0, SAMPLE_RATE, rate).astype(np.float32))
+    expected = np.concatenate([gen.add_words([TimedWord(w["word"], w["start"], w["end"]) for w in words]),
+                               gen.known_until(len(pcm) / rate), gen.finish()])
+    assert replies[-1]["frames"] == len(poses) == len(expected)
+    assert np.allclose(poses, expected, atol=2e-5)
+
+
 def test_stream_errors_are_messages_and_the_stream_goes_on(api):
     with api.websocket_connect("/v1/stream") as ws:
         ws.send_json({"type": "words", "words": []})
@@ -372,5 +416,13 @@ def test_stream_errors_are_messages_and_the_stream_goes_on(api):
         assert ws.receive_json()["type"] == "error"
         ws.send_json({"type": "time", "t": 2.0})
         assert frames_of([ws.receive_json()])
+        for bad, why in (({"pcm16": "%%%"}, "base64"), ({"pcm16": "AA=="}, "even number"),
+                         ({"pcm16": "AAAAAA==", "sample_rate": 12345}, "sample_rate"),
+                         ({"pcm16": "AAAAAA==", "gain": 2}, "gain"), ({"pcm16": 5}, "pcm16")):
+            ws.send_json({"type": "audio", **bad})
+            assert why in ws.receive_json()["message"]
+        ws.send_json({"type": "audio", "pcm16": "AAAAAA==", "sample_rate": 22050})
+        ws.send_json({"type": "audio", "pcm16": "AAAAAA==", "sample_rate": 16000})
+        assert "22050 Hz" in ws.receive_json()["message"]
         ws.send_json({"type": "end"})
         assert receive_until(ws, "done")[-1]["type"] == "done"

@@ -90,3 +90,74 @@ def test_bad_input_is_refused_with_a_reason(words):
     gen.finish()
     with pytest.raises(StreamError, match="ended"):
         gen.known_until(99)
+
+
+# -- audio ---------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def speech():
+    """Real speech (espeak-ng) of TEXT at the model's rate, with its word timings."""
+    from dsl.speech.audio import read_wav, resample_poly
+    from model.features import SAMPLE_RATE
+
+    plan = compile_text(TEXT).plan
+    u = plan.utterances[0]
+    data, rate = read_wav(u.audio_path)
+    audio = resample_poly(data[:, 0], SAMPLE_RATE, rate).astype(np.float32)
+    shift = u.audio_offset or 0.0  # word times on the audio's clock
+    return audio, [TimedWord(w.word, w.start - shift, w.end - shift) for w in u.words]
+
+
+def stream_audio(audio, words, chunks, seed=1):
+    """Feed the audio in ``chunks`` random pieces, each with the words that start in it."""
+    from model.features import SAMPLE_RATE
+
+    gen = StreamGenerator(load_runner(None), seed=seed)
+    gen.add_audio(np.zeros(0, np.float32))  # audio from the start: no frame is decided without it
+    cuts = np.sort(np.random.default_rng(chunks).choice(np.arange(1, len(audio)), chunks - 1, replace=False))
+    out, pending = [], list(words)
+    for piece_end, piece in zip([*cuts, len(audio)], np.split(audio, cuts)):
+        t = piece_end / SAMPLE_RATE
+        starting = [w for w in pending if w.start < t]
+        pending = pending[len(starting):]
+        if starting:
+            out.append(gen.add_words(starting))
+        out.append(gen.add_audio(piece))
+        out.append(gen.known_until(t))
+        assert sum(map(len, out)) <= int(t * FPS)  # never ahead of the audio
+    out.append(gen.finish())
+    return np.concatenate(out), gen
+
+
+def test_audio_chunks_give_the_same_frames_however_they_are_cut(speech):
+    audio, words = speech
+    one, gen = stream_audio(audio, words, 1)
+    many, _ = stream_audio(audio, words, 37)
+    assert np.array_equal(one, many)
+    # the features are the offline features of the whole audio (the utterance is shorter than
+    # the level window, so the speech level is the same)
+    from model.features import audio_features
+
+    n = len(gen.powers)
+    assert np.allclose(gen._audio_features(0, n), audio_features(audio, n), atol=1e-6)
+    # and the audio is used: the words alone give other motion
+    words_only, _ = stream(words, 1, seed=1)
+    assert not np.allclose(one[: len(words_only)], words_only[: len(one)], atol=1e-3)
+
+
+def test_with_audio_a_frame_waits_for_the_audio_after_it(speech):
+    """Words known far ahead do not decide a frame: it waits for LOOKAHEAD_S of audio after it."""
+    from model.features import HOP
+
+    audio, words = speech
+    gen = StreamGenerator(load_runner(None))
+    assert len(gen.add_audio(np.zeros(0, np.float32))) == 0
+    assert len(gen.add_words(words)) == 0  # every word known, no audio yet: nothing decided
+    emitted = 0
+    for k in range(1, 40):
+        emitted += len(gen.add_audio(audio[(k - 1) * HOP : k * HOP]))
+        # the audio is known up to k / FPS s; frame f is decided once it is known LOOKAHEAD_S past f / FPS
+        assert emitted == max(0, k - round(LOOKAHEAD_S * FPS) + 1)
+    with pytest.raises(StreamError, match="not numbers"):
+        gen.add_audio(np.array([np.nan], np.float32))

@@ -183,6 +183,49 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
     return out
 
 
+class StreamResampler:
+    """:func:`resample_poly` of audio that arrives in pieces: :meth:`push` each piece and get
+    the output samples that no later input can change; :meth:`flush` at the end gives the rest.
+    All pieces together give the numbers of one :func:`resample_poly` call on the whole audio
+    (to rounding; tests/test_resample.py checks). Memory stays bounded: input is kept only
+    while an output still needs it."""
+
+    def __init__(self, rate_in: int, rate_out: int) -> None:
+        g = math.gcd(int(rate_in), int(rate_out))
+        self.up, self.down = int(rate_out) // g, int(rate_in) // g
+        # how far (input samples) the filter reaches on each side of an output's position
+        self.reach = (10 * max(self.up, self.down)) // self.up + 2
+        self.buffer = np.zeros(0, np.float64)
+        self.base = 0  # input index of buffer[0]; a multiple of ``down``, so outputs stay aligned
+        self.done = 0  # outputs given so far
+        self.total_in = 0
+
+    def push(self, samples) -> np.ndarray:
+        self.buffer = np.concatenate([self.buffer, np.asarray(samples, np.float64)])
+        self.total_in += len(samples)
+        # output j sits at input j * down / up and is final once the input reaches past it by ``reach``
+        final = max(self.done, (self.total_in - self.reach) * self.up // self.down)
+        return self._take(final)
+
+    def flush(self) -> np.ndarray:
+        """The outputs left, up to the length :func:`resample_poly` gives the whole input."""
+        return self._take(-(-self.total_in * self.up // self.down))
+
+    def _take(self, end: int) -> np.ndarray:
+        if end <= self.done:
+            return np.zeros(0, np.float64)
+        if self.up == self.down:
+            out = self.buffer[self.done - self.base : end - self.base].copy()
+        else:
+            first = self.base * self.up // self.down  # the output at buffer[0]
+            out = resample_poly(self.buffer, self.up, self.down)[self.done - first : end - first]
+        self.done = end
+        # keep the input that outputs from ``done`` on read (from reach before the next one)
+        keep = max(self.base, (self.done * self.down // self.up - 2 * self.reach) // self.down * self.down)
+        self.buffer, self.base = self.buffer[keep - self.base :], keep
+        return out
+
+
 #: Voice activity in recordings: a stretch is voice when it rises this far above the noise
 #: floor (dB) and extends while it stays this far above it (hysteresis); see :func:`voice_activity`.
 VOICE_ON_DB, VOICE_OFF_DB = 12.0, 6.0

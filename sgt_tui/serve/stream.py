@@ -7,7 +7,8 @@ tested without a network.
 
 Client messages (``type``): ``start`` (first; optional ``seed``, ``style``, ``rate``,
 ``smoothing``), ``words`` (timed words on the stream's clock, seconds), ``text`` (text as an LLM
-produces it: complete words are timed by the language's estimate at ``rate``), ``time`` (the
+produces it: complete words are timed by the language's estimate at ``rate``), ``audio`` (the
+next chunk of the speech audio, base64 16-bit PCM, with the timed words it holds), ``time`` (the
 speech is known up to ``t``: silence after the last word), ``end``.
 Server messages: ``ready`` (fps, lookahead, joints, bones), ``timed`` (the times given to words
 that came as text), ``frames`` (``start`` frame index, ``poses`` (n, 27), ``positions``
@@ -20,7 +21,7 @@ import re
 
 import numpy as np
 
-from core.skeleton import BONES, FPS, JOINTS, positions_from_pose
+from core.skeleton import BONES, FPS, JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
 from dsl.compiler import compile_text
 from dsl.plain import plain_script
@@ -30,6 +31,10 @@ from model.streaming import LOOKAHEAD_S, StreamError, StreamGenerator
 MAX_SECONDS = 600.0
 #: The most text a stream holds back waiting for the end of a word (characters).
 MAX_PENDING = 2000
+#: The largest audio chunk, in characters of base64 (about 23 s of 16 kHz speech).
+MAX_AUDIO_CHUNK = 1_000_000
+#: The sample rates an audio chunk may have (resampled to the model's).
+AUDIO_RATES = (8000, 11025, 16000, 22050, 24000, 32000, 44100, 48000)
 _DUMMY = "sgtnextword"
 
 
@@ -45,6 +50,9 @@ class StreamSession:
         self.clock: float | None = None  # where the next timed text word starts
         self.sent = 0
         self.closed = False
+        self.resampler = None  # a StreamResampler, from the first audio chunk on
+        self.audio_rate: int | None = None
+        self.audio_samples = 0  # samples received, at audio_rate
 
     def handle(self, message) -> list[dict]:
         """The replies to one client message; protocol errors become ``error`` replies."""
@@ -55,7 +63,7 @@ class StreamSession:
 
     def _handle(self, message) -> list[dict]:
         if not isinstance(message, dict) or not isinstance(message.get("type"), str):
-            raise StreamError('each message is a JSON object with a "type": start, words, text, time or end')
+            raise StreamError('each message is a JSON object with a "type": start, words, text, audio, time or end')
         kind = message["type"]
         if self.closed:
             raise StreamError("the stream has ended")
@@ -67,6 +75,8 @@ class StreamSession:
             return self._frames(self.generator.add_words(self._words(message.get("words"))))
         if kind == "text":
             return self._text(message.get("text"))
+        if kind == "audio":
+            return self._audio(message)
         if kind == "time":
             t = message.get("t")
             if not isinstance(t, (int, float)) or isinstance(t, bool) or not 0 <= t <= MAX_SECONDS:
@@ -74,10 +84,12 @@ class StreamSession:
             return self._frames(self.generator.known_until(float(t)))
         if kind == "end":
             out = self._text(None, final=True) if self.pending.strip() else []
+            if self.resampler is not None:
+                out += self._frames(self.generator.add_audio(self.resampler.flush()))
             out += self._frames(self.generator.finish())
             self.closed = True
             return out + [{"type": "done", "frames": self.sent}]
-        raise StreamError(f"unknown message type '{kind}': use start, words, text, time or end")
+        raise StreamError(f"unknown message type '{kind}': use start, words, text, audio, time or end")
 
     def _start(self, message: dict) -> list[dict]:
         if self.generator is not None:
@@ -99,6 +111,46 @@ class StreamSession:
         self.rate = rate
         return [{"type": "ready", "fps": FPS, "lookahead_s": round(LOOKAHEAD_S, 4), "joints": list(JOINTS),
                  "bones": [list(b) for b in BONES]}]
+
+    def _audio(self, message: dict) -> list[dict]:
+        """The next chunk of the speech audio (and the timed words it holds): afterwards the
+        speech is known up to the chunk's end."""
+        import base64
+        import binascii
+
+        unknown = set(message) - {"type", "pcm16", "sample_rate", "words"}
+        if unknown:
+            raise StreamError(f"unknown audio field(s): {', '.join(sorted(unknown))} (use pcm16, sample_rate, words)")
+        data, rate = message.get("pcm16"), message.get("sample_rate", 16000)
+        if not isinstance(data, str) or len(data) > MAX_AUDIO_CHUNK:
+            raise StreamError(f'"pcm16" must be base64 text of at most {MAX_AUDIO_CHUNK} characters '
+                              "(16-bit little-endian mono samples)")
+        if rate not in AUDIO_RATES or isinstance(rate, bool):
+            raise StreamError(f'"sample_rate" must be one of {", ".join(map(str, AUDIO_RATES))}')
+        if self.audio_rate is not None and rate != self.audio_rate:
+            raise StreamError(f"this stream's audio is at {self.audio_rate} Hz: send every chunk at that rate")
+        try:
+            raw = base64.b64decode(data, validate=True)
+        except (binascii.Error, ValueError):
+            raise StreamError('"pcm16" is not valid base64') from None
+        if len(raw) % 2:
+            raise StreamError('"pcm16" must hold whole 16-bit samples (an even number of bytes)')
+        if (self.audio_samples + len(raw) // 2) / rate > MAX_SECONDS:
+            raise StreamError(f"the stream is longer than {MAX_SECONDS:g} s")
+        words = self._words(message["words"]) if message.get("words") is not None else []
+        if self.resampler is None:
+            from dsl.speech.audio import StreamResampler  # lazy: only streams with audio
+            from model.features import SAMPLE_RATE
+
+            self.resampler, self.audio_rate = StreamResampler(rate, SAMPLE_RATE), rate
+        self.audio_samples += len(raw) // 2
+        self.generator.add_audio(np.zeros(0, np.float32))  # from now on frames wait for the audio
+        out = self.generator.add_words(words) if words else np.zeros((0, POSE_DIM), np.float32)
+        samples = np.frombuffer(raw, "<i2").astype(np.float32) / 32768.0
+        more = self.generator.add_audio(self.resampler.push(samples))
+        end = self.audio_samples / rate
+        last = self.generator.known_until(max(end, self.generator.known))
+        return self._frames(np.concatenate([out, more, last]))
 
     def _words(self, words) -> list[TimedWord]:
         if not isinstance(words, list) or not words or len(words) > 1000:
