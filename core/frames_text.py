@@ -4,8 +4,9 @@ A motion file holds millions of numbers (poses, positions, hands of every uttera
 every speaker's track). Turning each into a Python float and formatting it with ``repr``
 took most of the time of writing a file (2.3 s for the 18 MB file of a 100-utterance
 script). Here every number of an array is written with the same number of decimals and the
-same width, so the text of every frame has the same layout: one template, the digits computed
-for all numbers at once with integer arithmetic, scattered into the template's slots.
+same width, so the text of every frame has the same layout: one template, each number's text
+looked up in tables (its sign and whole part, its decimals) for all numbers at once and
+scattered into the template's slots. Whole parts of more than four digits are left to json.
 
 A number is padded on the left with spaces (JSON allows white space between tokens), so the
 columns of a frame line up in a diff::
@@ -17,9 +18,33 @@ The values read back are those of ``numpy.round(array, decimals)``.
 
 from __future__ import annotations
 
+import json
+import re
+from collections.abc import Callable
+from functools import lru_cache
+
 import numpy as np
 
 _SLOT = 1  # a placeholder byte in a template: never in JSON text
+
+
+#: Whole parts of up to this many digits are looked up in a table (larger: json writes the array).
+_MAX_TABLE_DIGITS = 4
+
+
+@lru_cache(maxsize=8)
+def _digit_texts(decimals: int) -> np.ndarray:
+    """(10**decimals, decimals) bytes: each number's digits, zero-padded."""
+    n = np.arange(10**decimals)
+    return np.stack([(n // 10 ** (decimals - 1 - j)) % 10 + ord("0") for j in range(decimals)], axis=1).astype(np.uint8)
+
+
+@lru_cache(maxsize=8)
+def _whole_texts(digits: int) -> np.ndarray:
+    """(2 * 10**digits, digits + 1) bytes: 0, 1, ... then -0, -1, ..., right-aligned in spaces."""
+    texts = [str(i).rjust(digits + 1) for i in range(10**digits)]
+    texts += [("-" + str(i)).rjust(digits + 1) for i in range(10**digits)]
+    return np.frombuffer("".join(texts).encode("ascii"), dtype=np.uint8).reshape(-1, digits + 1)
 
 
 def _template(shape: tuple[int, ...], width: int) -> str:
@@ -45,25 +70,15 @@ def frame_lines(array, decimals: int) -> list[str] | None:
     magnitude = np.abs(value)
     whole = magnitude // 10**decimals
     int_digits = max(1, len(str(int(whole.max()))))
+    if int_digits > _MAX_TABLE_DIGITS:
+        return None
     width = 1 + int_digits + (1 + decimals if decimals > 0 else 0)  # sign, digits, point, decimals
-
-    text = np.full((frames, per_frame, width), ord(" "), dtype=np.uint8)
-    for j in range(decimals):
-        text[..., width - decimals + j] = (magnitude // 10 ** (decimals - 1 - j)) % 10 + ord("0")
+    text = np.empty((frames, per_frame, width), dtype=np.uint8)
+    # the sign and the whole part, right-aligned, looked up; then the point and the decimals
+    text[..., : 1 + int_digits] = _whole_texts(int_digits)[whole + (value < 0) * 10**int_digits]
     if decimals > 0:
         text[..., 1 + int_digits] = ord(".")
-    shown = np.ones_like(whole)  # how many digits the whole part shows (at least one)
-    for place in range(int_digits - 1, -1, -1):
-        column = 1 + int_digits - 1 - place
-        digit = (whole // 10**place) % 10
-        visible = (whole >= 10**place) | (place == 0)
-        text[..., column] = np.where(visible, digit + ord("0"), ord(" "))
-        if place > 0:
-            shown += whole >= 10**place
-    sign_at = int_digits - shown  # the column just before the first digit
-    negative = value < 0
-    rows, cols = np.nonzero(negative)
-    text[rows, cols, sign_at[negative]] = ord("-")
+        text[..., 2 + int_digits :] = _digit_texts(decimals)[magnitude % 10**decimals]
 
     template = np.frombuffer(_template(a.shape[1:], width).encode("ascii"), dtype=np.uint8)
     slots = np.flatnonzero(template == _SLOT)
@@ -72,3 +87,37 @@ def frame_lines(array, decimals: int) -> list[str] | None:
     joined = lines.tobytes().decode("ascii")
     step = len(template)
     return [joined[i * step : (i + 1) * step] for i in range(frames)]
+
+
+_MARK = re.compile(r'"\\u0000lines(\d+)"')
+
+
+def json_with_lines(doc, lines_of: Callable[[object], list[str] | None], *, ensure_ascii: bool = True) -> str:
+    """``doc`` as JSON indented by one space, except each value for which ``lines_of`` gives a
+    list of JSON texts: an array written one item per line (each item as given). Long arrays of
+    small items (frames, a manifest's utterances) stay readable in a diff, and the json
+    module's C encoder writes each item (``indent`` makes json use its pure-Python encoder)."""
+    blocks: list[list[str]] = []
+
+    def mark(x):
+        lines = lines_of(x)
+        if lines is not None:
+            blocks.append(lines)
+            return f"\0lines{len(blocks) - 1}"
+        if isinstance(x, dict):
+            return {k: mark(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [mark(v) for v in x]
+        return x
+
+    text = json.dumps(mark(doc), indent=1, ensure_ascii=ensure_ascii)
+
+    def expand(m: re.Match) -> str:
+        lines = blocks[int(m.group(1))]
+        if not lines:
+            return "[]"
+        line = text[text.rfind("\n", 0, m.start()) + 1 : m.start()]
+        pad = "\n" + " " * (len(line) - len(line.lstrip(" ")))
+        return "[" + pad + " " + ("," + pad + " ").join(lines) + pad + "]"
+
+    return _MARK.sub(expand, text)

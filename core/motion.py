@@ -41,7 +41,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -50,7 +49,7 @@ import numpy as np
 
 from core.controls import Control
 from core.fileio import atomic_write
-from core.frames_text import frame_lines
+from core.frames_text import frame_lines, json_with_lines
 from core.hands import DIGITS, SIDES, HandTrack
 from core.skeleton import BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
@@ -165,8 +164,7 @@ def _header() -> dict:
 
 
 class _Rows:
-    """An array written one frame per line in a motion JSON file, rounded to ``decimals``
-    (see :func:`_json_text`)."""
+    """An array written one frame per line in a motion JSON file, rounded to ``decimals``."""
 
     def __init__(self, array, decimals: int):
         self.array, self.decimals = np.asarray(array), decimals
@@ -176,41 +174,16 @@ def _hands_rows(hands: HandTrack) -> dict:
     return {key: _Rows(getattr(hands, key), decimals) for key, decimals in HandTrack.DECIMALS.items()}
 
 
-_ROWS_MARK = re.compile(r'"\\u0000rows(\d+)"')
-
-
-def _json_text(doc: dict) -> str:
-    """``doc`` as JSON indented by one space, except each :class:`_Rows` array: one line per
-    frame, written by :func:`core.frames_text.frame_lines`. Files stay easy to read and to
-    diff (a frame is a line, its numbers in columns), and are written in a fraction of the time
-    (``indent=1`` took 15 s for the 44 MB file of a 100-utterance script)."""
-    rows: list[_Rows] = []
-
-    def mark(x):
-        if isinstance(x, _Rows):
-            rows.append(x)
-            return f"\0rows{len(rows) - 1}"
-        if isinstance(x, dict):
-            return {k: mark(v) for k, v in x.items()}
-        if isinstance(x, list):
-            return [mark(v) for v in x]
-        return x
-
-    text = json.dumps(mark(doc), indent=1)
-
-    def expand(m: re.Match) -> str:
-        part = rows[int(m.group(1))]
-        lines = frame_lines(part.array, part.decimals)
-        if lines is None:  # empty, or not finite numbers
-            rounded = np.round(part.array.astype(np.float64), part.decimals).tolist()
-            if not rounded:
-                return "[]"
-            lines = [json.dumps(frame, separators=(",", ":")) for frame in rounded]
-        line = text[text.rfind("\n", 0, m.start()) + 1 : m.start()]
-        pad = "\n" + " " * (len(line) - len(line.lstrip(" ")))
-        return "[" + pad + " " + ("," + pad + " ").join(lines) + pad + "]"
-
-    return _ROWS_MARK.sub(expand, text)
+def _frame_lines(x) -> list[str] | None:
+    """The lines of a :class:`_Rows` array (None for anything else): :func:`frame_lines`, or
+    json's numbers when it cannot write them (an empty array, a value that is not finite)."""
+    if not isinstance(x, _Rows):
+        return None
+    lines = frame_lines(x.array, x.decimals)
+    if lines is None:
+        lines = [json.dumps(frame, separators=(",", ":"))
+                 for frame in np.round(x.array.astype(np.float64), x.decimals).tolist()]
+    return lines
 
 
 def _utterance_meta(c: MotionClip) -> dict:
@@ -274,7 +247,7 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
         ]
         doc["tracks"] = [{"speaker": t.speaker, "poses": _Rows(t.poses, 5), "positions": _Rows(t.positions, 5),
                           "hands": _hands_rows(t.hands)} for t in tracks]
-        data = (_json_text(doc) + "\n").encode("utf-8")
+        data = (json_with_lines(doc, _frame_lines) + "\n").encode("utf-8")
     else:
         doc["utterances"] = [_utterance_meta(c) for c in clips]
         doc["tracks"] = [{"speaker": t.speaker} for t in tracks]

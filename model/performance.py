@@ -165,13 +165,14 @@ def listening_tracks(plan, seed: int = 0) -> dict:
             for k, speaker in enumerate(plan.speakers)}
 
 
-def build_tracks(plan, clips: list[MotionClip], seed: int = 0) -> list[Track]:
+def build_tracks(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None = None) -> list[Track]:
     """One :class:`~core.motion.Track` per speaker of ``plan`` (in order of their first line),
     ``plan.n_frames`` long: its utterances (``clips``, one per planned utterance) in their
-    places, listening motion (:func:`listening_tracks`) everywhere else."""
+    places, listening motion (:func:`listening_tracks`, or ``listening`` computed before from
+    the same plan and seed) everywhere else."""
     n = plan.n_frames
     tracks = []
-    for speaker, listen in listening_tracks(plan, seed).items():
+    for speaker, listen in (listening if listening is not None else listening_tracks(plan, seed)).items():
         poses = listen.copy()
         hands = HandTrack.rest(n)
         own = [(u, c) for u, c in zip(plan.utterances, clips) if u.speaker == speaker]

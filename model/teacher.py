@@ -185,12 +185,19 @@ def limit_velocity(poses: np.ndarray, max_deg: float = MAX_STEP_DEG) -> np.ndarr
     d = np.asarray(poses, np.float64).reshape(len(poses), N_BONES, 3).copy()
     d = _unit(d)
     lim = math.radians(max_deg)
-    for t in range(1, len(d)):
+    # Frames are limited one after another, but a frame left as it was hands the next one its
+    # own input: the loop only visits the frames whose input step is too large, and those after a
+    # frame it changed (the same decisions as visiting all; most of a calm take is skipped).
+    steep = np.flatnonzero((np.arccos(np.clip((d[:-1] * d[1:]).sum(-1), -1.0, 1.0)) > lim).any(-1)) + 1
+    t, k = (int(steep[0]), 1) if len(steep) else (len(d), 0)
+    while t < len(d):
         prev, cur = d[t - 1], d[t]
         cosang = np.clip((prev * cur).sum(-1), -1.0, 1.0)
         ang = np.arccos(cosang)
         over = ang > lim
-        if not over.any():
+        if not over.any():  # this frame keeps its input: go to the next steep one
+            k = int(np.searchsorted(steep, t, side="right"))
+            t = int(steep[k]) if k < len(steep) else len(d)
             continue
         p, c, a = prev[over], cur[over], ang[over]
         perp = c - p * cosang[over][:, None]
@@ -202,6 +209,7 @@ def limit_velocity(poses: np.ndarray, max_deg: float = MAX_STEP_DEG) -> np.ndarr
         perp = _unit(perp)
         step = np.minimum(a, lim)[:, None]
         d[t, over] = p * np.cos(step) + perp * np.sin(step)
+        t += 1
     return d.reshape(len(poses), POSE_DIM)
 
 

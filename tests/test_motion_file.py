@@ -276,11 +276,14 @@ def test_frame_text_reads_back_as_numpy_rounds(decimals):
     from core.frames_text import frame_lines
 
     rng = np.random.default_rng(decimals)
-    for scale in (1e-4, 1.0, 37.0, 1e5):
+    for scale in (1e-4, 1.0, 37.0, 900.0, 1e5):
         x = rng.standard_normal((40, 3, 2)) * scale
         x[0, 0] = (-0.0, -1e-9)
         x[1, 0] = (-(10.0 ** -decimals) * 0.6, 10.0 ** -decimals * 0.4)
         lines = frame_lines(x, decimals)
+        if np.abs(np.round(x, decimals)).max() >= 1e4:  # five digits before the point: left to json
+            assert lines is None
+            continue
         assert len(lines) == 40 and len({len(line) for line in lines}) == 1
         assert np.array_equal(np.array([json.loads(line) for line in lines]), np.round(x, decimals))
     assert frame_lines(np.array([[np.nan]]), 2) is None and frame_lines(np.zeros((0, 3)), 2) is None

@@ -211,3 +211,33 @@ def test_gauss_smooth_is_scipys_gaussian_filter_with_nearest_edges(shape, sigma)
     np.testing.assert_allclose(_gauss_smooth(x, sigma), gaussian_filter1d(x, sigma, axis=0, mode="nearest"),
                                rtol=0, atol=1e-12)
     assert _gauss_smooth(x.astype(np.float32), sigma).dtype == np.float32
+
+
+def test_the_velocity_limit_visits_only_steep_frames_and_decides_as_visiting_all():
+    """limit_velocity skips frames whose input step is within the limit (when the frame before
+    kept its input); it must give the bits of the frame-by-frame loop it replaced."""
+    from model.teacher import _unit, limit_velocity
+
+    def every_frame(poses, max_deg):
+        d = _unit(np.asarray(poses, np.float64).reshape(len(poses), -1, 3).copy())
+        lim = np.radians(max_deg)
+        for t in range(1, len(d)):
+            prev, cur = d[t - 1], d[t]
+            cosang = np.clip((prev * cur).sum(-1), -1.0, 1.0)
+            ang = np.arccos(cosang)
+            over = ang > lim
+            if not over.any():
+                continue
+            p, a = prev[over], ang[over]
+            perp = _unit(cur[over] - p * cosang[over][:, None])
+            step = np.minimum(a, lim)[:, None]
+            d[t, over] = p * np.cos(step) + perp * np.sin(step)
+        return d.reshape(len(poses), -1)
+
+    rng = np.random.default_rng(0)
+    for trial in range(60):
+        x = np.cumsum(rng.standard_normal((int(rng.integers(2, 200)), 27)) * rng.choice([0.01, 0.2, 2.0]), axis=0)
+        if trial % 5 == 0:
+            x[3:] = x[3]  # a still stretch after a jump
+        max_deg = float(rng.choice([3.0, 12.0, 40.0]))
+        assert limit_velocity(x, max_deg).tobytes() == every_frame(x, max_deg).tobytes()

@@ -74,6 +74,7 @@ class _Script:
     failed: bool = False
     record: dict | None = None
     inputs: dict | None = None  # the fingerprint of what its analysis read (see .inputs)
+    prepared: tuple | None = None  # its layout and listening motion (see _prepare)
 
 
 def find_sources(paths: Sequence[Path | str]) -> list[tuple[Path, str]]:
@@ -242,6 +243,21 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
         if s.record is None and s.pending == 0:
             finish(s)
 
+    def prepare_while_waiting() -> None:
+        """With no more tasks than workers (a rebuild after an edit), lay out the scripts being
+        generated while the workers generate; with more, results arrive all along and each
+        script is prepared when its last one does (preparing them all now would synthesize
+        their speech here too, beside the workers)."""
+        from dsl.speech import SpeechError  # lazy: the speech engine
+
+        if len(tasks) > max(1, jobs):
+            return
+        for s in {id(owners[t.number]): owners[t.number] for t in tasks}.values():
+            try:
+                _prepare(s, settings)
+            except (OSError, SpeechError, LayoutError):
+                pass  # reported when the script is finished (prepared again then)
+
     def on_result(result: TaskResult) -> None:
         s = owners[result.number]
         n = len(result.entries)
@@ -273,7 +289,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
         if ray:
             run_ray(tasks, ray if isinstance(ray, str) else None, on_result, jobs=jobs)
         else:
-            run_local(tasks, jobs, on_result, pool)
+            run_local(tasks, jobs, on_result, pool, idle=prepare_while_waiting)
 
     for s in scripts:
         if s.failed or s.record is None:
@@ -340,24 +356,41 @@ def _unchanged(out: Path, prev: dict, s: _Script, exports: tuple[str, ...], stat
     return all(outputs.intact(out, r, state) for r in prev.get("outputs") or ())
 
 
-def _write(out: Path, s: _Script, exports: tuple[str, ...], settings: Settings) -> dict:
-    from dsl.compiler import compile_file  # lazy: lark, numpy, the speech engine
-    from model.performance import build_tracks  # lazy: numpy, the engines' helpers
-
-    utts = s.script.utterances
-    # Where each utterance plays depends on the lines before it (their speech and gaps): lay the
-    # script out on the performance clock now (its speech timing is cached by content).
-    result = compile_file(s.path, source=s.script.source, library=s.library)
-    placed = {u.index: u for u in result.plan.utterances} if result.plan is not None else {}
-    if set(placed) != {u.index for u in utts}:  # its workers compiled it, so this means the speech changed meanwhile
-        errors = [d.message for d in result.diagnostics if d.is_error]
-        raise LayoutError(f"cannot lay the script out on the performance clock: {errors[0] if errors else 'its utterances changed'}")
-    clips = [s.entries[u.index].clip(u.line, u.index, placed[u.index].start, placed[u.index].audio_offset) for u in utts]
+def _prepare(s: _Script, settings: Settings) -> None:
+    """Lay the script out on the performance clock and make its listening motion: everything
+    its outputs need but its utterances' motion (done while workers generate that, when a
+    build has little to generate)."""
+    if s.prepared is not None:
+        return
     from threadpoolctl import threadpool_limits  # lazy: only a build that writes needs it
 
+    from dsl.compiler import compile_file  # lazy: lark, numpy, the speech engine
+    from model.performance import listening_tracks  # lazy: numpy, the engines' helpers
+
+    # Where each utterance plays depends on the lines before it (their speech and gaps); their
+    # speech timing is cached by content.
+    result = compile_file(s.path, source=s.script.source, library=s.library)
+    placed = {u.index: u for u in result.plan.utterances} if result.plan is not None else {}
+    if set(placed) != {u.index for u in s.script.utterances}:  # its workers compiled it, so the speech changed meanwhile
+        errors = [d.message for d in result.diagnostics if d.is_error]
+        raise LayoutError(f"cannot lay the script out on the performance clock: {errors[0] if errors else 'its utterances changed'}")
     seed = result.plan.seed if settings.seed is None else settings.seed
     with threadpool_limits(limits=1):  # the same sums on every machine (see work.one_thread)
-        tracks = build_tracks(result.plan, clips, seed)
+        listening = listening_tracks(result.plan, seed)
+    s.prepared = (result.plan, placed, seed, listening)
+
+
+def _write(out: Path, s: _Script, exports: tuple[str, ...], settings: Settings) -> dict:
+    from threadpoolctl import threadpool_limits  # lazy: only a build that writes needs it
+
+    from model.performance import build_tracks  # lazy: numpy, the engines' helpers
+
+    _prepare(s, settings)
+    plan, placed, seed, listening = s.prepared
+    utts = s.script.utterances
+    clips = [s.entries[u.index].clip(u.line, u.index, placed[u.index].start, placed[u.index].audio_offset) for u in utts]
+    with threadpool_limits(limits=1):
+        tracks = build_tracks(plan, clips, seed, listening)
     records = outputs.write_motion_outputs(out, s.rel, clips, tuple(e for e in exports if e != "wav"), tracks)
     if "wav" in exports:  # the speech the layout was made from
         for u in utts:

@@ -151,14 +151,26 @@ def read_manifest(out: Path) -> dict:
     return doc
 
 
+class _OnePerLine(list):
+    """A list the manifest writes one item per line (a script's utterances)."""
+
+
 def write_manifest(out: Path, settings: dict, scripts: list[dict]) -> None:
+    from core.frames_text import json_with_lines  # lazy: numpy
+
     doc = {"format": MANIFEST_FORMAT, "version": MANIFEST_VERSION, "settings": settings,
-           "scripts": sorted(scripts, key=lambda s: s["source"])}
+           "scripts": [{**s, "utterances": _OnePerLine(s["utterances"])} if "utterances" in s else s
+                       for s in sorted(scripts, key=lambda s: s["source"])]}
+
+    def items(x, ascii_only: bool):
+        if not isinstance(x, _OnePerLine):
+            return None
+        return [json.dumps(u, ensure_ascii=ascii_only, separators=(", ", ": ")) for u in x]
+
     try:
-        text = json.dumps(doc, indent=1, ensure_ascii=False)
-        data = text.encode("utf-8")
+        data = json_with_lines(doc, lambda x: items(x, False), ensure_ascii=False).encode("utf-8")
     except UnicodeEncodeError:  # a file name that is not UTF-8 (Python keeps its bytes as lone surrogates)
-        data = json.dumps(doc, indent=1).encode("ascii")
+        data = json_with_lines(doc, lambda x: items(x, True)).encode("ascii")
     atomic_write(out / MANIFEST, data + b"\n")
 
 

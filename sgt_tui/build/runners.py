@@ -60,9 +60,11 @@ class LocalPool:
         self.pool.shutdown(wait=True, cancel_futures=True)
 
 
-def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: LocalPool | None = None) -> None:
+def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: LocalPool | None = None,
+              idle: Callable[[], None] | None = None) -> None:
     """Run ``tasks`` on ``pool`` (closed after), or on a new one; one task or one job without a
-    pool runs in this process."""
+    pool runs in this process. ``idle`` is called once the tasks are handed to the workers,
+    before waiting for them."""
     workers = min(jobs, len(tasks))
     if pool is None and workers <= 1:
         for task in tasks:
@@ -74,6 +76,8 @@ def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: Local
     pool = pool or LocalPool(workers, tasks[0].settings)
     try:
         futures = {pool.pool.submit(run_task, task): task for task in tasks}
+        if idle:
+            idle()
         for future in as_completed(futures):
             try:
                 result = future.result()
