@@ -137,7 +137,8 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
     old_scripts = {s.get("source"): s for s in old.get("scripts") or () if isinstance(s, dict)}
     described = settings.describe()
     same_settings = old.get("settings") == described
-    state = outputs.read_state(out)
+    state, old_inputs = outputs.read_state(out)
+    new_inputs: dict[str, dict] = {}
     file_hashes: dict[str, str] = {}
 
     def files(path) -> str:
@@ -159,10 +160,13 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
             continue
         before = _read_bytes(path)
         prev = old_scripts.get(rel)
-        if same_settings and prev and before is not None and _inputs_unchanged(out, prev, before, token, exports, state):
+        recorded = old_inputs.get(rel)
+        if (same_settings and prev and before is not None
+                and _inputs_unchanged(out, prev, recorded, before, token, exports, state)):
             # nothing the analysis read has changed, and the outputs are intact: take the record
             records.append({**prev, "utterances": [{**u, "cached": True} for u in prev["utterances"]]})
-            warnings = prev["inputs"].get("warnings") or []
+            new_inputs[rel] = recorded
+            warnings = recorded.get("warnings") or []
             if show and warnings:
                 show([Diagnostic.from_dict(d) for d in warnings], {str(path): before.decode("utf-8", "replace")})
             n = len(prev["utterances"])
@@ -199,7 +203,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
     for s in scripts:
         prev = old_scripts.get(s.rel)
         if same_settings and prev and _unchanged(out, prev, s, exports, state):
-            s.record = {**prev, "inputs": s.inputs}
+            s.record = dict(prev)
             s.record["utterances"] = [{**u, "cached": True} for u in prev["utterances"]]
             report.up_to_date += 1
             report.cached += len(s.keys)
@@ -297,11 +301,13 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
             records.append({"source": s.rel, "status": "failed", "errors": 1, "outputs": []})
         else:
             records.append(s.record)
+            if s.inputs is not None:
+                new_inputs[s.rel] = s.inputs
     report.failed.sort()
     keep = {r["path"] for rec in records for r in rec.get("outputs") or ()}
     outputs.remove_stale(out, old, keep)
     outputs.write_manifest(out, described, records)
-    outputs.write_state(out, records)
+    outputs.write_state(out, records, new_inputs)
     return report
 
 
@@ -332,9 +338,10 @@ def _read_bytes(path: Path) -> bytes | None:
         return None
 
 
-def _inputs_unchanged(out: Path, prev: dict, source: bytes, token: str, exports: tuple[str, ...], state: dict) -> bool:
-    """Whether a script built before can be taken without analysing it (see :mod:`.inputs`)."""
-    recorded = prev.get("inputs")
+def _inputs_unchanged(out: Path, prev: dict, recorded, source: bytes, token: str, exports: tuple[str, ...],
+                      state: dict) -> bool:
+    """Whether a script built before (``prev``, its manifest record; ``recorded``, its inputs)
+    can be taken without analysing it (see :mod:`.inputs`)."""
     if prev.get("status") != "ok" or not isinstance(recorded, dict) or prev.get("exports") != list(exports):
         return False
     deps = recorded.get("deps")
@@ -402,5 +409,4 @@ def _write(out: Path, s: _Script, exports: tuple[str, ...], settings: Settings) 
         "outputs": records,
         "utterances": [{"index": u.index, "line": u.line, "key": k, "cached": s.cached[u.index]}
                        for u, k in zip(utts, s.keys)],
-        "inputs": s.inputs,
     }

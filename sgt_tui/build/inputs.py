@@ -27,12 +27,12 @@ import json
 import os
 from pathlib import Path
 
+from core.paths import LIBRARY_PATH_VAR, config_files
+from sgt_tui.build import keys
+
 
 def build_token(settings) -> str:
     """The part of every fingerprint that does not depend on the script."""
-    from core.paths import LIBRARY_PATH_VAR, config_files
-    from sgt_tui.build import keys
-
     doc = {
         "code": keys.CODE_VERSION,
         "settings": settings.describe(),

@@ -81,25 +81,34 @@ def intact(out: Path, record: dict, state: dict | None = None) -> bool:
     return ok
 
 
-def read_state(out: Path) -> dict:
+def read_state(out: Path) -> tuple[dict, dict]:
+    """What the last build recorded beside the manifest (not part of the result): each output's
+    size, time and sha256, and each script's inputs fingerprint (see :mod:`.inputs`)."""
     try:
         state = json.loads((out / STATE).read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return {}
-    return state if isinstance(state, dict) else {}
+        return {}, {}
+    if not isinstance(state, dict):
+        return {}, {}
+    if not isinstance(state.get("outputs"), dict):  # the first format: outputs only
+        return state, {}
+    inputs = state.get("inputs")
+    return state["outputs"], inputs if isinstance(inputs, dict) else {}
 
 
-def write_state(out: Path, records: list[dict]) -> None:
-    """Size and time of every output listed in ``records`` (the manifest's scripts)."""
-    state = {}
+def write_state(out: Path, records: list[dict], inputs: dict[str, dict]) -> None:
+    """Size and time of every output listed in ``records`` (the manifest's scripts), and the
+    ``inputs`` fingerprint of each script built (by source path)."""
+    sizes = {}
     for script in records:
         for r in script.get("outputs") or ():
             try:
                 st = os.stat(out / r["path"])
             except OSError:
                 continue
-            state[r["path"]] = [st.st_size, st.st_mtime_ns, r["sha256"]]
-    atomic_write(out / STATE, json.dumps(state, separators=(",", ":")).encode("utf-8"))
+            sizes[r["path"]] = [st.st_size, st.st_mtime_ns, r["sha256"]]
+    state = {"outputs": sizes, "inputs": inputs}
+    atomic_write(out / STATE, json.dumps(state, separators=(",", ":"), ensure_ascii=True).encode("ascii"))
 
 
 def write_motion_outputs(out: Path, rel: str, clips: list, exports: tuple[str, ...], tracks=()) -> list[dict]:
