@@ -17,6 +17,8 @@ that came as text), ``frames`` (``start`` frame index, ``poses`` (n, 27), ``posi
 
 from __future__ import annotations
 
+import base64
+import binascii
 import re
 
 import numpy as np
@@ -25,6 +27,8 @@ from core.skeleton import BONES, FPS, JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
 from dsl.compiler import compile_text
 from dsl.plain import plain_script
+from dsl.speech.audio import StreamResampler
+from model.features import SAMPLE_RATE
 from model.streaming import LOOKAHEAD_S, StreamError, StreamGenerator
 
 #: The longest stream, in seconds of motion: a word or time past it is refused.
@@ -115,9 +119,6 @@ class StreamSession:
     def _audio(self, message: dict) -> list[dict]:
         """The next chunk of the speech audio (and the timed words it holds): afterwards the
         speech is known up to the chunk's end."""
-        import base64
-        import binascii
-
         unknown = set(message) - {"type", "pcm16", "sample_rate", "words"}
         if unknown:
             raise StreamError(f"unknown audio field(s): {', '.join(sorted(unknown))} (use pcm16, sample_rate, words)")
@@ -137,11 +138,8 @@ class StreamSession:
             raise StreamError('"pcm16" must hold whole 16-bit samples (an even number of bytes)')
         if (self.audio_samples + len(raw) // 2) / rate > MAX_SECONDS:
             raise StreamError(f"the stream is longer than {MAX_SECONDS:g} s")
-        words = self._words(message["words"]) if message.get("words") is not None else []
+        words = self._words(message["words"]) if message.get("words") else []
         if self.resampler is None:
-            from dsl.speech.audio import StreamResampler  # lazy: only streams with audio
-            from model.features import SAMPLE_RATE
-
             self.resampler, self.audio_rate = StreamResampler(rate, SAMPLE_RATE), rate
         self.audio_samples += len(raw) // 2
         self.generator.add_audio(np.zeros(0, np.float32))  # from now on frames wait for the audio
