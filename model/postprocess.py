@@ -183,16 +183,105 @@ SMOOTHERS = ("one_euro", "moving_average", "none")
 
 
 def finish(raw: np.ndarray, pose: np.ndarray, mask: np.ndarray, *, smoothing: str = "one_euro",
-           blend: bool = True, ramp: int = 6, bones: np.ndarray | None = None) -> np.ndarray:
+           blend: bool = True, ramp: int = 6, bones: np.ndarray | None = None, words=None) -> np.ndarray:
     """The post-processing chain of the neural engine: ``smoothing`` (one of :data:`SMOOTHERS`),
-    then, if ``blend``, the exact pose-control blend of ``pose``/``mask`` (per bone with ``bones``)."""
+    with timed ``words`` the pauses between them calmed (:func:`calm_pauses`), then, if
+    ``blend``, the exact pose-control blend of ``pose``/``mask`` (per bone with ``bones``)."""
     if smoothing == "one_euro":
         raw = one_euro(raw)
     elif smoothing == "moving_average":
         raw = moving_average(raw)
     elif smoothing != "none":
         raise ValueError(f"unknown smoothing '{smoothing}' (use one of {', '.join(SMOOTHERS)})")
+    if words is not None:
+        raw = calm_pauses(raw, words)
     if blend:
         raw = blend_pose_controls(raw, pose, mask, ramp, bones=bones)
     return np.asarray(raw, np.float32)
+
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
+
+
+def limit_velocity(poses: np.ndarray, max_deg) -> np.ndarray:
+    """Rotate each bone towards its target by at most ``max_deg`` degrees per frame: a number,
+    or one per frame (the limit on the step into that frame). (T, 27) -> (T, 27) float64."""
+    d = _unit(np.asarray(poses, np.float64).reshape(len(poses), N_BONES, 3).copy())
+    lim = np.radians(np.broadcast_to(np.asarray(max_deg, np.float64), (len(d),)))
+    # Frames are limited one after another, but a frame left as it was hands the next one its
+    # own input: the loop only visits the frames whose input step is too large, and those after a
+    # frame it changed (the same decisions as visiting all; most of a calm take is skipped).
+    steps = np.arccos(np.clip((d[:-1] * d[1:]).sum(-1), -1.0, 1.0))
+    steep = np.flatnonzero((steps > lim[1:, None]).any(-1)) + 1
+    t = int(steep[0]) if len(steep) else len(d)
+    while t < len(d):
+        prev, cur = d[t - 1], d[t]
+        cosang = np.clip((prev * cur).sum(-1), -1.0, 1.0)
+        ang = np.arccos(cosang)
+        over = ang > lim[t]
+        if not over.any():  # this frame keeps its input: go to the next steep one
+            k = int(np.searchsorted(steep, t, side="right"))
+            t = int(steep[k]) if k < len(steep) else len(d)
+            continue
+        p, c, a = prev[over], cur[over], ang[over]
+        perp = c - p * cosang[over][:, None]
+        pn = np.linalg.norm(perp, axis=-1, keepdims=True)
+        # exactly opposite: pick any perpendicular axis
+        fallback = np.cross(p, np.array([0.0, 0.0, 1.0]))
+        fallback = np.where(np.linalg.norm(fallback, axis=-1, keepdims=True) < 1e-6, np.cross(p, [1.0, 0.0, 0.0]), fallback)
+        perp = np.where(pn < 1e-9, fallback, perp)
+        perp = _unit(perp)
+        step = np.minimum(a, lim[t])[:, None]
+        d[t, over] = p * np.cos(step) + perp * np.sin(step)
+        t += 1
+    return d.reshape(len(poses), 3 * N_BONES)
+
+
+#: The largest per-frame rotation of any bone direction the engines let through, degrees (the
+#: teacher's own limit; its corpus never moves faster).
+MAX_STEP_DEG = 22.0
+#: A silence between two words at least this long is a pause, where the body settles.
+PAUSE_MIN_S = 0.4
+#: How much of a pause holds the pose the speaker paused in (the rest: the network's motion),
+#: and over how many frames at each end of the pause the hold eases in and out (chosen by
+#: measurement: docs/model.md, "Pauses").
+PAUSE_HOLD = 0.8
+PAUSE_EASE = 6
+
+
+def pause_frames(words, n_frames: int) -> np.ndarray:
+    """(n_frames,) bool: the frames strictly inside a silence of at least PAUSE_MIN_S between
+    two consecutive words (seconds on the motion timeline)."""
+    quiet = np.zeros(n_frames, bool)
+    for (_, _, end), (_, start, _) in zip(words, list(words)[1:]):
+        if start - end >= PAUSE_MIN_S:
+            first, last = math.floor(end * FPS) + 1, math.ceil(start * FPS) - 1
+            quiet[max(0, first) : max(0, min(n_frames, last + 1))] = True
+    return quiet
+
+
+def calm_pauses(poses: np.ndarray, words, hold: float | None = None, ease: int | None = None) -> np.ndarray:
+    """``poses`` held, inside each pause (:func:`pause_frames`), towards the pose at the
+    pause's start by ``hold`` (easing in and out over ``ease`` frames at its ends): the speaker
+    stays in the pose it paused in and keeps a damped share of the network's motion, where its
+    teacher (and so the network) makes fast moves to rest and back."""
+    hold = PAUSE_HOLD if hold is None else hold
+    ease = PAUSE_EASE if ease is None else ease
+    quiet = pause_frames(words, len(poses))
+    if not quiet.any():
+        return poses
+    g = np.asarray(poses, np.float32)
+    target = g.copy()
+    weight = np.zeros(len(g), np.float32)
+    for a, b in _spans(quiet):
+        target[a:b] = g[max(0, a - 1)]
+        k = np.arange(b - a)
+        edge = np.minimum(k + 1, b - a - k) / (ease + 1)  # 1/(ease+1) ... 1 ... from both ends
+        weight[a:b] = hold * smoothstep(np.minimum(edge, 1.0))
+    out = g.copy()  # frames outside pauses keep their bits
+    out[quiet] = _nlerp(g[quiet], target[quiet], weight[quiet, None])
+    return out
+
 

@@ -42,10 +42,9 @@ from core.skeleton import (
 )
 from library import load_library
 from model.features import HOP, SAMPLE_RATE, load_audio
-from model.postprocess import blend_pose_controls, smoothstep
+from model import postprocess
+from model.postprocess import MAX_STEP_DEG, blend_pose_controls, smoothstep
 
-#: The largest per-frame rotation of any bone direction in the teacher's output, degrees.
-MAX_STEP_DEG = 22.0
 
 # -- words ----------------------------------------------------------------------------------
 
@@ -180,37 +179,10 @@ def _slerp_dirs(a: np.ndarray, b: np.ndarray, w) -> np.ndarray:
     return out / np.maximum(n, 1e-9)
 
 
-def limit_velocity(poses: np.ndarray, max_deg: float = MAX_STEP_DEG) -> np.ndarray:
-    """Rotate each bone towards its target by at most ``max_deg`` per frame (T, 27) -> (T, 27)."""
-    d = np.asarray(poses, np.float64).reshape(len(poses), N_BONES, 3).copy()
-    d = _unit(d)
-    lim = math.radians(max_deg)
-    # Frames are limited one after another, but a frame left as it was hands the next one its
-    # own input: the loop only visits the frames whose input step is too large, and those after a
-    # frame it changed (the same decisions as visiting all; most of a calm take is skipped).
-    steep = np.flatnonzero((np.arccos(np.clip((d[:-1] * d[1:]).sum(-1), -1.0, 1.0)) > lim).any(-1)) + 1
-    t, k = (int(steep[0]), 1) if len(steep) else (len(d), 0)
-    while t < len(d):
-        prev, cur = d[t - 1], d[t]
-        cosang = np.clip((prev * cur).sum(-1), -1.0, 1.0)
-        ang = np.arccos(cosang)
-        over = ang > lim
-        if not over.any():  # this frame keeps its input: go to the next steep one
-            k = int(np.searchsorted(steep, t, side="right"))
-            t = int(steep[k]) if k < len(steep) else len(d)
-            continue
-        p, c, a = prev[over], cur[over], ang[over]
-        perp = c - p * cosang[over][:, None]
-        pn = np.linalg.norm(perp, axis=-1, keepdims=True)
-        # exactly opposite: pick any perpendicular axis
-        fallback = np.cross(p, np.array([0.0, 0.0, 1.0]))
-        fallback = np.where(np.linalg.norm(fallback, axis=-1, keepdims=True) < 1e-6, np.cross(p, [1.0, 0.0, 0.0]), fallback)
-        perp = np.where(pn < 1e-9, fallback, perp)
-        perp = _unit(perp)
-        step = np.minimum(a, lim)[:, None]
-        d[t, over] = p * np.cos(step) + perp * np.sin(step)
-        t += 1
-    return d.reshape(len(poses), POSE_DIM)
+def limit_velocity(poses: np.ndarray, max_deg=MAX_STEP_DEG) -> np.ndarray:
+    """Rotate each bone towards its target by at most ``max_deg`` per frame (T, 27) -> (T, 27)
+    (:func:`model.postprocess.limit_velocity` with the teacher's limit by default)."""
+    return postprocess.limit_velocity(poses, max_deg)
 
 
 def _gauss_smooth(x: np.ndarray, sigma: float) -> np.ndarray:

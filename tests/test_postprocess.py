@@ -180,3 +180,30 @@ def test_the_network_is_left_free_on_partly_controlled_frames():
     whole = ControlArrays.empty(t)
     whole.set_pose(40, request)
     assert not np.array_equal(neural.run_windows(net, audio, ids, onsets, whole, seed=3), raw_free)
+
+
+def test_a_pause_holds_the_pose_the_speaker_paused_in_and_controls_stay_exact():
+    """calm_pauses: frames outside pauses are untouched; inside a pause the motion keeps only
+    a damped share of its movement around the pose at the pause's start; a pose control inside
+    the pause is still followed exactly after the blend."""
+    from core.skeleton import FPS, REST_POSE, normalize_pose
+    from core.words import TimedWord
+
+    rng = np.random.default_rng(3)
+    n = 60
+    wave = np.sin(np.arange(n) / 2.0)[:, None] * rng.standard_normal((1, 27)) * 0.5
+    raw = normalize_pose(REST_POSE[None] + wave).astype(np.float32)
+    words = [TimedWord("one", 0.2, 0.9), TimedWord("two", 2.9, 3.4)]  # a 2 s pause
+    quiet = postprocess.pause_frames(words, n)
+    assert quiet.sum() == int(np.ceil(2.9 * FPS) - 1 - (np.floor(0.9 * FPS) + 1) + 1) and not quiet[:14].any()
+    calm = postprocess.calm_pauses(raw, words)
+    assert np.array_equal(calm[~quiet], raw[~quiet])
+    inside = np.flatnonzero(quiet)[8:-8]  # away from the eases
+    held = raw[np.flatnonzero(quiet)[0] - 1]
+    assert np.abs(calm[inside] - held).max() < 0.3 * np.abs(raw[inside] - held).max()
+    assert np.abs(np.diff(calm[inside], axis=0)).mean() < 0.3 * np.abs(np.diff(raw[inside], axis=0)).mean()
+    pose = np.zeros_like(raw)
+    mask = np.zeros(n, np.float32)
+    pose[25:30], mask[25:30] = normalize_pose(REST_POSE[None] + 0.4), 1.0
+    out = postprocess.finish(raw, pose, mask, smoothing="none", words=words)
+    assert np.allclose(out[25:30], pose[25:30], atol=1e-6)
