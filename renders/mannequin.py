@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.hands import DIGITS, HAND_JOINTS, SIDES, HandTrack, hand_positions, local_hand_joints
+from core.interrupts import interrupts_deferred
 from core.skeleton import BONE_LENGTHS
 from core.skeleton import JOINT_INDEX as J
 from renders import gl
@@ -196,7 +197,10 @@ class Mannequin:
     def render(self, positions: np.ndarray, hands: np.ndarray | None = None) -> np.ndarray:
         """An image of joint ``positions`` (10, 3) and hand joints ``hands`` (2, 20, 3)."""
         self.pose(positions, hands)
-        color, _ = self.renderer.render(self.scene)
+        # PyOpenGL drops exceptions raised inside its argument conversion, KeyboardInterrupt
+        # included (a Ctrl-C landing there was lost and the render ran on): hold it for the frame.
+        with interrupts_deferred():
+            color, _ = self.renderer.render(self.scene)
         return np.ascontiguousarray(color[:, :, :3])
 
     def close(self) -> None:

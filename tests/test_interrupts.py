@@ -129,3 +129,31 @@ def test_ctrl_c_at_any_moment_of_render_start_up_exits_130(tmp_path, delay):
     assert "interrupted" in err and "Traceback" not in err
     assert waited < 10, f"took {waited:.1f} s to stop"
     assert not gif.exists()
+
+
+def test_ctrl_c_while_a_frame_renders_is_not_swallowed_by_pyopengl():
+    """PyOpenGL drops exceptions raised inside its argument conversion: a Ctrl-C landing there
+    (seen: `sgt render` ran on to the end and exited 0) must still stop the render. Here the
+    renderer itself receives the SIGINT and swallows what it raises, as PyOpenGL did."""
+    from core.skeleton import REST_POSE, positions_from_pose
+    from renders.mannequin import Mannequin
+
+    m = Mannequin(64, 64)
+    try:
+        real = m.renderer.render
+
+        def swallowing(scene):
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)  # the handler runs here
+            except BaseException:  # noqa: BLE001 - what PyOpenGL's conversion does
+                pass
+            return real(scene)
+
+        m.renderer.render = swallowing
+        with pytest.raises(KeyboardInterrupt):
+            m.render(positions_from_pose(REST_POSE[None])[0])
+        m.renderer.render = real
+        assert m.render(positions_from_pose(REST_POSE[None])[0]).shape == (64, 64, 3)
+    finally:
+        m.close()
