@@ -55,6 +55,29 @@ def _template(shape: tuple[int, ...], width: int) -> str:
     return "[" + ",".join([inner] * shape[0]) + "]"
 
 
+@lru_cache(maxsize=64)
+def _layout(shape: tuple[int, ...], width: int) -> tuple[np.ndarray, np.ndarray]:
+    """The template of a frame (bytes) and where its numbers' bytes go."""
+    template = np.frombuffer(_template(shape, width).encode("ascii"), dtype=np.uint8)
+    return template, np.flatnonzero(template == _SLOT)
+
+
+def frame_lines_of_many(arrays, decimals: int) -> list[list[str] | None]:
+    """:func:`frame_lines` of each of ``arrays`` (all with the same shape after the first axis),
+    formatted together (one pass, one column width for all); None for an array that
+    :func:`frame_lines` cannot write on its own (then no array of the batch is formatted
+    together)."""
+    arrays = [np.asarray(a) for a in arrays]
+    lengths = [len(a) for a in arrays]
+    if not arrays or 0 in lengths or len({a.shape[1:] for a in arrays}) != 1:
+        return [frame_lines(a, decimals) for a in arrays]
+    lines = frame_lines(np.concatenate(arrays), decimals)
+    if lines is None:
+        return [frame_lines(a, decimals) for a in arrays]
+    bounds = np.cumsum([0] + lengths)
+    return [lines[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+
+
 def frame_lines(array, decimals: int) -> list[str] | None:
     """The JSON text of each frame (first axis) of ``array``, every number rounded to
     ``decimals``; None when the array holds a value that is not a finite number (the caller
@@ -80,8 +103,7 @@ def frame_lines(array, decimals: int) -> list[str] | None:
         text[..., 1 + int_digits] = ord(".")
         text[..., 2 + int_digits :] = _digit_texts(decimals)[magnitude % 10**decimals]
 
-    template = np.frombuffer(_template(a.shape[1:], width).encode("ascii"), dtype=np.uint8)
-    slots = np.flatnonzero(template == _SLOT)
+    template, slots = _layout(a.shape[1:], width)
     lines = np.tile(template, (frames, 1))
     lines[:, slots] = text.reshape(frames, per_frame * width)
     joined = lines.tobytes().decode("ascii")

@@ -49,7 +49,7 @@ import numpy as np
 
 from core.controls import Control
 from core.fileio import atomic_write
-from core.frames_text import frame_lines, json_with_lines
+from core.frames_text import frame_lines_of_many, json_with_lines
 from core.hands import DIGITS, SIDES, HandTrack
 from core.skeleton import BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
@@ -174,16 +174,34 @@ def _hands_rows(hands: HandTrack) -> dict:
     return {key: _Rows(getattr(hands, key), decimals) for key, decimals in HandTrack.DECIMALS.items()}
 
 
-def _frame_lines(x) -> list[str] | None:
-    """The lines of a :class:`_Rows` array (None for anything else): :func:`frame_lines`, or
-    json's numbers when it cannot write them (an empty array, a value that is not finite)."""
-    if not isinstance(x, _Rows):
-        return None
-    lines = frame_lines(x.array, x.decimals)
-    if lines is None:
-        lines = [json.dumps(frame, separators=(",", ":"))
-                 for frame in np.round(x.array.astype(np.float64), x.decimals).tolist()]
-    return lines
+def _batched_lines(doc: dict):
+    """A ``lines_of`` for :func:`json_with_lines`: the frame lines of every :class:`_Rows` in
+    ``doc``, formatted in one pass per kind of array (poses, positions, palm, fingers), or
+    json's numbers for an array the fast writer cannot write (empty, not finite)."""
+    found: list[_Rows] = []
+
+    def collect(x):
+        if isinstance(x, _Rows):
+            found.append(x)
+        elif isinstance(x, dict):
+            for v in x.values():
+                collect(v)
+        elif isinstance(x, list):
+            for v in x:
+                collect(v)
+
+    collect(doc)
+    groups: dict[tuple, list[_Rows]] = {}
+    for r in found:
+        groups.setdefault((r.decimals, r.array.shape[1:]), []).append(r)
+    lines: dict[int, list[str]] = {}
+    for (decimals, _), rows in groups.items():
+        for r, got in zip(rows, frame_lines_of_many([r.array for r in rows], decimals)):
+            if got is None:
+                got = [json.dumps(frame, separators=(",", ":"))
+                       for frame in np.round(r.array.astype(np.float64), decimals).tolist()]
+            lines[id(r)] = got
+    return lambda x: lines[id(x)] if isinstance(x, _Rows) else None
 
 
 def _utterance_meta(c: MotionClip) -> dict:
@@ -247,7 +265,7 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
         ]
         doc["tracks"] = [{"speaker": t.speaker, "poses": _Rows(t.poses, 5), "positions": _Rows(t.positions, 5),
                           "hands": _hands_rows(t.hands)} for t in tracks]
-        data = (json_with_lines(doc, _frame_lines) + "\n").encode("utf-8")
+        data = (json_with_lines(doc, _batched_lines(doc)) + "\n").encode("utf-8")
     else:
         doc["utterances"] = [_utterance_meta(c) for c in clips]
         doc["tracks"] = [{"speaker": t.speaker} for t in tracks]

@@ -74,9 +74,13 @@ def listening(n_frames: int, accent_times, rng: np.random.Generator) -> np.ndarr
     dirs = teach([], n_frames, rng=rng).astype(np.float64).reshape(n_frames, N_BONES, 3)
     t = np.arange(n_frames) / FPS
     pitch = np.zeros(n_frames)
+    # a nod's bell is exactly 0.0 in float64 beyond 38.6 widths of its centre: add it where it is not
+    reach = int(math.ceil(38.7 * NOD_WIDTH * FPS)) + 1
     for a in accent_times:
         if rng.random() < NOD_CHANCE:
-            pitch += math.radians(NOD_DEG) * np.exp(-0.5 * ((t - a - NOD_DELAY) / NOD_WIDTH) ** 2)
+            c = int(round((a + NOD_DELAY) * FPS))
+            near = slice(max(0, c - reach), max(0, min(n_frames, c + reach)))
+            pitch[near] += math.radians(NOD_DEG) * np.exp(-0.5 * ((t[near] - a - NOD_DELAY) / NOD_WIDTH) ** 2)
     pitch = np.minimum(pitch, math.radians(1.5 * NOD_DEG))  # nods in a row do not add up to a bow
     c, s = np.cos(pitch), np.sin(pitch)
     for bone in ("nose", "head_top"):  # a positive pitch about +x turns the face (+z) down
