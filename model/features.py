@@ -23,7 +23,6 @@ on the first call of every process.
 
 from __future__ import annotations
 
-import warnings
 
 import zlib
 from functools import lru_cache
@@ -152,10 +151,25 @@ def speech_level(power: np.ndarray) -> np.ndarray:
     p = np.asarray(power, np.float64)
     top = np.maximum(p.max(axis=0, keepdims=True), _NO_SIGNAL)
     active = np.where(p >= top * 10.0 ** (-ACTIVE_DB / 10.0), p, np.nan)
-    with warnings.catch_warnings():  # a column of digital silence has no active frame: NaN, then the floor
-        warnings.simplefilter("ignore", RuntimeWarning)
-        level = np.nanpercentile(active, LEVEL_PERCENTILE, axis=0, keepdims=True)
-    return np.fmax(level, _NO_SIGNAL)
+    # a column of digital silence has no active frame: NaN, then the floor
+    return np.fmax(nan_percentile(active, LEVEL_PERCENTILE), _NO_SIGNAL)
+
+
+def nan_percentile(values: np.ndarray, q: float) -> np.ndarray:
+    """(1, columns): ``np.nanpercentile(values, q, axis=0, keepdims=True)`` (linear), the same
+    bits (tests/test_features.py compares them), NaN for a column without numbers; vectorised
+    (numpy's runs a Python function per column: 4 ms a call, which a stream makes per frame)."""
+    ordered = np.sort(values, axis=0)  # NaN last
+    n = np.count_nonzero(~np.isnan(values), axis=0)
+    index = (n - 1) * (q / 100.0)
+    lo = np.floor(index).astype(np.int64).clip(0)
+    hi = np.minimum(lo + 1, np.maximum(n - 1, 0))
+    t = index - lo
+    columns = np.arange(values.shape[1])
+    a, b = ordered[lo, columns], ordered[hi, columns]
+    diff = b - a
+    out = np.where(t >= 0.5, b - diff * (1 - t), a + diff * t)  # numpy's _lerp
+    return np.where(n > 0, out, np.nan)[None]
 
 
 def level_features(power: np.ndarray, level: np.ndarray | None = None) -> np.ndarray:

@@ -32,3 +32,20 @@ def test_features_are_the_same_bits_with_one_or_two_blas_threads():
         with threadpool_limits(limits=threads):
             got.append(audio_features(speechlike.astype(np.float32), 320, 10))
     assert got[0].tobytes() == got[1].tobytes()
+
+
+def test_nan_percentile_is_numpys_bits():
+    import warnings
+
+    from model.features import nan_percentile
+
+    rng = np.random.default_rng(1)
+    for trial in range(400):
+        values = rng.random((int(rng.integers(1, 300)), int(rng.integers(1, 35)))) ** 4
+        values[rng.random(values.shape) < rng.random()] = np.nan
+        if trial % 7 == 0:
+            values[:, 0] = np.nan  # a column of silence
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            expected = np.nanpercentile(values, 90.0, axis=0, keepdims=True)
+        assert np.array_equal(nan_percentile(values, 90.0), expected, equal_nan=True)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import io
 import math
 import wave
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -145,6 +146,28 @@ def read_wav(path) -> tuple[np.ndarray, int] | None:
     return (data.astype(np.float32) / 32768.0).reshape(-1, channels), rate
 
 
+@lru_cache(maxsize=8)
+def _polyphase(up: int, down: int) -> tuple[np.ndarray, int, int]:
+    """scipy's resample_poly filter for ``up / down`` (reduced) as a bank: (bank (up, per_phase),
+    first, per_phase), bank[phase, -1 - l] = h[phase + l up]."""
+    max_rate = max(up, down)
+    half_len = 10 * max_rate
+    taps = 2 * half_len + 1
+    m = np.arange(taps) - half_len
+    h = np.sinc(m / max_rate) / max_rate * np.kaiser(taps, 5.0)
+    h = h / h.sum() * up
+    pre = down - half_len % down  # scipy's alignment: zeros before the filter, then whole outputs dropped
+    h = np.concatenate([np.zeros(pre), h])
+    first = (half_len + pre) // down
+    per_phase = -(-len(h) // up)
+    bank = np.pad(h, (0, per_phase * up - len(h))).reshape(per_phase, up).T[:, ::-1]
+    return np.ascontiguousarray(bank), first, per_phase
+
+
+#: Outputs computed per block (bounds the memory of the gathered inputs: 64k x 28 x 8 bytes).
+_BLOCK = 1 << 16
+
+
 def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
     """Resample by ``up / down`` with a polyphase filter: the same numbers as
     ``scipy.signal.resample_poly(x, up, down)`` with its defaults (a Kaiser-windowed sinc with
@@ -157,29 +180,18 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
         return x.copy()
     n_in = len(x)
     n_out = -(-n_in * up // down)
-    max_rate = max(up, down)
-    half_len = 10 * max_rate
-    taps = 2 * half_len + 1
-    m = np.arange(taps) - half_len
-    h = np.sinc(m / max_rate) / max_rate * np.kaiser(taps, 5.0)
-    h = h / h.sum() * up
-    pre = down - half_len % down  # scipy's alignment: zeros before the filter, then whole outputs dropped
-    h = np.concatenate([np.zeros(pre), h])
-    first = (half_len + pre) // down
-    per_phase = -(-len(h) // up)
+    bank, first, per_phase = _polyphase(up, down)
     # Output k is input sample (k + first) * down // up filtered by the phase (k + first) * down % up
-    # of the filter; outputs k, k + up, k + 2 up... share their phase and step ``down`` inputs, so each
-    # of the ``up`` phases is one matrix product over a strided (no copy) view of the input.
-    bank = np.pad(h, (0, per_phase * up - len(h))).reshape(per_phase, up).T[:, ::-1]  # bank[phase, -1 - l] = h[phase + l up]
+    # of the filter: each output is one row of inputs times one row of the bank, summed by
+    # numpy in the same order whatever the length (the stream resamples in pieces with it).
     last = (n_out - 1 + first) * down // up + per_phase  # one past the last input any output reads
     xp = np.concatenate([np.zeros(per_phase - 1), x, np.zeros(max(0, last - n_in - per_phase + 1))])
     out = np.empty(n_out)
-    step = xp.strides[0]
-    for r in range(min(up, n_out)):
-        p = (r + first) * down
-        count = len(range(r, n_out, up))
-        rows = np.lib.stride_tricks.as_strided(xp[p // up :], (count, per_phase), (down * step, step))
-        out[r::up] = rows @ bank[p % up]
+    taps = np.arange(per_phase)
+    for a in range(0, n_out, _BLOCK):
+        pos = (np.arange(a, min(n_out, a + _BLOCK)) + first) * down
+        rows = xp[(pos // up)[:, None] + taps]
+        out[a : a + len(pos)] = np.einsum("kl,kl->k", rows, bank[pos % up])
     return out
 
 

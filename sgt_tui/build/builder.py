@@ -148,6 +148,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
         return file_hashes[key]
 
     token = inputs.build_token(settings)
+    looked: dict = {}  # each gesture folder or recording looked at once (inputs.fingerprint)
     scripts: list[_Script] = []
     records: list[dict] = []
     for path, rel in sources:
@@ -162,7 +163,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
         prev = old_scripts.get(rel)
         recorded = old_inputs.get(rel)
         if (same_settings and prev and before is not None
-                and _inputs_unchanged(out, prev, recorded, before, token, exports, state)):
+                and _inputs_unchanged(out, prev, recorded, before, token, exports, state, looked)):
             # nothing the analysis read has changed, and the outputs are intact: take the record
             records.append({**prev, "utterances": [{**u, "cached": True} for u in prev["utterances"]]})
             new_inputs[rel] = recorded
@@ -194,7 +195,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
         scripts.append(_Script(rel, path, script, lib, keys))
         if before is not None and before == _read_bytes(path):  # not edited while it was analysed
             deps = inputs.dependencies(script, lib)
-            scripts[-1].inputs = {"sha256": inputs.fingerprint(before, deps, token), "deps": deps,
+            scripts[-1].inputs = {"sha256": inputs.fingerprint(before, deps, token, looked), "deps": deps,
                                   "warnings": [d.to_dict() for d in diags]}
         count.total += len(keys)
 
@@ -339,7 +340,7 @@ def _read_bytes(path: Path) -> bytes | None:
 
 
 def _inputs_unchanged(out: Path, prev: dict, recorded, source: bytes, token: str, exports: tuple[str, ...],
-                      state: dict) -> bool:
+                      state: dict, looked: dict) -> bool:
     """Whether a script built before (``prev``, its manifest record; ``recorded``, its inputs)
     can be taken without analysing it (see :mod:`.inputs`)."""
     if prev.get("status") != "ok" or not isinstance(recorded, dict) or prev.get("exports") != list(exports):
@@ -347,7 +348,7 @@ def _inputs_unchanged(out: Path, prev: dict, recorded, source: bytes, token: str
     deps = recorded.get("deps")
     if not isinstance(deps, list) or not all(isinstance(d, str) for d in deps):
         return False
-    if inputs.fingerprint(source, deps, token) != recorded.get("sha256"):
+    if inputs.fingerprint(source, deps, token, looked) != recorded.get("sha256"):
         return False
     return all(outputs.intact(out, r, state) for r in prev.get("outputs") or ())
 

@@ -55,11 +55,16 @@ def dependencies(script, library) -> list[str]:
     return sorted(set(deps))
 
 
-def fingerprint(source: bytes, deps: list[str], token: str) -> str:
+def fingerprint(source: bytes, deps: list[str], token: str, seen: dict | None = None) -> str:
+    """``seen`` keeps the look at each dependency for the build (scripts share gesture folders)."""
+    seen = {} if seen is None else seen
+    for d in deps:
+        if d not in seen:
+            seen[d] = _stat(Path(d))
     h = hashlib.sha256()
     h.update(token.encode("ascii"))
     h.update(hashlib.sha256(source).digest())
-    h.update(json.dumps([[d, _stat(Path(d))] for d in deps]).encode("utf-8"))
+    h.update(json.dumps([[d, seen[d]] for d in deps]).encode("utf-8"))
     return h.hexdigest()
 
 
