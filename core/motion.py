@@ -170,33 +170,16 @@ class _Rows:
         self.array, self.decimals = np.asarray(array), decimals
 
 
-def _hands_rows(hands: HandTrack) -> dict:
-    return {key: _Rows(getattr(hands, key), decimals) for key, decimals in HandTrack.DECIMALS.items()}
-
-
-def _batched_lines(doc: dict):
-    """A ``lines_of`` for :func:`json_with_lines`: the frame lines of every :class:`_Rows` in
-    ``doc``, formatted in one pass per kind of array (poses, positions, palm, fingers), or
-    json's numbers for an array the fast writer cannot write (empty, not finite)."""
-    found: list[_Rows] = []
-
-    def collect(x):
-        if isinstance(x, _Rows):
-            found.append(x)
-        elif isinstance(x, dict):
-            for v in x.values():
-                collect(v)
-        elif isinstance(x, list):
-            for v in x:
-                collect(v)
-
-    collect(doc)
+def _frame_lines(rows: list[_Rows]):
+    """A ``lines_of`` for :func:`json_with_lines`: the frame lines of ``rows`` (every array of
+    the document), formatted in one pass per kind of array (poses, positions, palm, fingers),
+    or json's numbers for an array the fast writer cannot write (empty, not finite)."""
     groups: dict[tuple, list[_Rows]] = {}
-    for r in found:
+    for r in rows:
         groups.setdefault((r.decimals, r.array.shape[1:]), []).append(r)
     lines: dict[int, list[str]] = {}
-    for (decimals, _), rows in groups.items():
-        for r, got in zip(rows, frame_lines_of_many([r.array for r in rows], decimals)):
+    for (decimals, _), group in groups.items():
+        for r, got in zip(group, frame_lines_of_many([r.array for r in group], decimals)):
             if got is None:
                 got = [json.dumps(frame, separators=(",", ":"))
                        for frame in np.round(r.array.astype(np.float64), decimals).tolist()]
@@ -258,14 +241,17 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
     frames = max([c.start_frame + c.n_frames for c in clips] + [t.n_frames for t in tracks] + [0])
     doc = {**_header(), "frames": frames, "source": _source_text(source, path)}
     if kind == "json":
-        doc["utterances"] = [
-            {**_utterance_meta(c), "poses": _Rows(c.poses, 5), "positions": _Rows(c.positions, 5),
-             "hands": _hands_rows(c.hands)}
-            for c in clips
-        ]
-        doc["tracks"] = [{"speaker": t.speaker, "poses": _Rows(t.poses, 5), "positions": _Rows(t.positions, 5),
-                          "hands": _hands_rows(t.hands)} for t in tracks]
-        data = (json_with_lines(doc, _batched_lines(doc)) + "\n").encode("utf-8")
+        rows: list[_Rows] = []
+
+        def arrays(part) -> dict:
+            got = {"poses": _Rows(part.poses, 5), "positions": _Rows(part.positions, 5),
+                   "hands": {key: _Rows(getattr(part.hands, key), d) for key, d in HandTrack.DECIMALS.items()}}
+            rows.extend([got["poses"], got["positions"], *got["hands"].values()])
+            return got
+
+        doc["utterances"] = [{**_utterance_meta(c), **arrays(c)} for c in clips]
+        doc["tracks"] = [{"speaker": t.speaker, **arrays(t)} for t in tracks]
+        data = (json_with_lines(doc, _frame_lines(rows)) + "\n").encode("utf-8")
     else:
         doc["utterances"] = [_utterance_meta(c) for c in clips]
         doc["tracks"] = [{"speaker": t.speaker} for t in tracks]

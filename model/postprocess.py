@@ -201,14 +201,15 @@ def finish(raw: np.ndarray, pose: np.ndarray, mask: np.ndarray, *, smoothing: st
 
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
+def unit_vectors(v: np.ndarray) -> np.ndarray:
+    """``v`` (..., 3) scaled to unit length along the last axis (zero vectors stay near zero)."""
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
 
 
 def limit_velocity(poses: np.ndarray, max_deg) -> np.ndarray:
     """Rotate each bone towards its target by at most ``max_deg`` degrees per frame: a number,
     or one per frame (the limit on the step into that frame). (T, 27) -> (T, 27) float64."""
-    d = _unit(np.asarray(poses, np.float64).reshape(len(poses), N_BONES, 3).copy())
+    d = unit_vectors(np.asarray(poses, np.float64).reshape(len(poses), N_BONES, 3).copy())
     lim = np.radians(np.broadcast_to(np.asarray(max_deg, np.float64), (len(d),)))
     # Frames are limited one after another, but a frame left as it was hands the next one its
     # own input: the loop only visits the frames whose input step is too large, and those after a
@@ -232,7 +233,7 @@ def limit_velocity(poses: np.ndarray, max_deg) -> np.ndarray:
         fallback = np.cross(p, np.array([0.0, 0.0, 1.0]))
         fallback = np.where(np.linalg.norm(fallback, axis=-1, keepdims=True) < 1e-6, np.cross(p, [1.0, 0.0, 0.0]), fallback)
         perp = np.where(pn < 1e-9, fallback, perp)
-        perp = _unit(perp)
+        perp = unit_vectors(perp)
         step = np.minimum(a, lim[t])[:, None]
         d[t, over] = p * np.cos(step) + perp * np.sin(step)
         t += 1

@@ -43,7 +43,7 @@ from core.skeleton import (
 from library import load_library
 from model.features import HOP, SAMPLE_RATE, load_audio
 from model import postprocess
-from model.postprocess import MAX_STEP_DEG, blend_pose_controls, smoothstep
+from model.postprocess import MAX_STEP_DEG, blend_pose_controls, smoothstep, unit_vectors
 
 
 # -- words ----------------------------------------------------------------------------------
@@ -136,22 +136,18 @@ def _at(track: np.ndarray, frame: float) -> float:
 # -- geometry -------------------------------------------------------------------------------
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
-
-
 def _upper_arm(side: float, abd, flex) -> np.ndarray:
     """Upper-arm direction: hanging, raised forward by ``flex`` and outward by ``abd`` (radians)."""
     abd, flex = np.asarray(abd), np.asarray(flex)
     d = np.stack([side * np.sin(abd), -np.cos(abd) * np.cos(flex), np.cos(abd) * np.sin(flex)], -1)
-    return _unit(d)
+    return unit_vectors(d)
 
 
 def _forearm(side: float, elev, azim) -> np.ndarray:
     """Forearm direction: forward (+z), raised by ``elev``, turned outward by ``azim`` (radians)."""
     elev, azim = np.asarray(elev), np.asarray(azim)
     d = np.stack([side * np.cos(elev) * np.sin(azim), np.sin(elev), np.cos(elev) * np.cos(azim)], -1)
-    return _unit(d)
+    return unit_vectors(d)
 
 
 def _rot(yaw, pitch, roll) -> np.ndarray:
@@ -519,7 +515,7 @@ def _finish(dirs: np.ndarray, c: _Clip, talk: np.ndarray, torso: np.ndarray) -> 
     for side, ub, fb in ((1.0, "left_elbow", "left_wrist"), (-1.0, "right_elbow", "right_wrist")):
         dirs[:, BONE_INDEX[ub], 0] += side * 0.08 * c.space
         dirs[:, BONE_INDEX[fb], 0] += side * 0.22 * c.space * (0.4 + 0.6 * talk)
-    dirs = _unit(dirs)
+    dirs = unit_vectors(dirs)
     dirs = np.einsum("tij,tbj->tbi", torso, dirs)
     poses = dirs.reshape(c.n, POSE_DIM)
     poses = _gauss_smooth(poses, 0.7)

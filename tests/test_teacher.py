@@ -216,7 +216,8 @@ def test_gauss_smooth_is_scipys_gaussian_filter_with_nearest_edges(shape, sigma)
 def test_the_velocity_limit_visits_only_steep_frames_and_decides_as_visiting_all():
     """limit_velocity skips frames whose input step is within the limit (when the frame before
     kept its input); it must give the bits of the frame-by-frame loop it replaced."""
-    from model.teacher import _unit, limit_velocity
+    from model.postprocess import unit_vectors as _unit
+    from model.teacher import limit_velocity
 
     def every_frame(poses, max_deg):
         d = _unit(np.asarray(poses, np.float64).reshape(len(poses), -1, 3).copy())

@@ -283,13 +283,19 @@ def _too_long(timeout: float) -> EngineError:
     return EngineError("synth", f"espeak-ng took longer than {timeout:.0f} s to synthesize the text")
 
 
-def _parse_answer(data: bytes, why: str) -> tuple[int, bytes, list[WordEvent]]:
+def _split_answer(data: bytes) -> tuple[dict | None, bytes]:
+    """(the JSON header of an answer, the bytes after it); None for a header that is not one."""
     header, sep, body = data.partition(b"\n")
     try:
         info = json.loads(header.decode("utf-8")) if sep else None
     except ValueError:
         info = None
-    if not isinstance(info, dict):
+    return (info if isinstance(info, dict) else None), body
+
+
+def _parse_answer(data: bytes, why: str) -> tuple[int, bytes, list[WordEvent]]:
+    info, body = _split_answer(data)
+    if info is None:
         raise EngineError("synth", "the espeak-ng worker failed" + why)
     if not info.get("ok"):
         raise EngineError(info.get("kind", "synth"), info.get("message", "espeak-ng failed"))
@@ -363,7 +369,8 @@ class _ForkServer:
         except OSError:
             pass
         self.proc.wait()
-        _server = None
+        if _server is self:
+            _server = None
 
 
 _server: _ForkServer | None = None
@@ -387,13 +394,15 @@ def _fork_server() -> _ForkServer | None:
 
 def _close_server(server: _ForkServer) -> None:
     """At exit: close the server's input (it ends at once) and reap it."""
+    import subprocess
+
     if server.proc.poll() is None and _server_pid == os.getpid():
         try:
             server.proc.stdin.close()
             server.proc.wait(timeout=2)
-        except (OSError, ValueError, TimeoutError):
+        except OSError:
             pass
-        except Exception:  # subprocess.TimeoutExpired
+        except subprocess.TimeoutExpired:
             server.stop()
 
 
@@ -413,12 +422,8 @@ def _answer(eng_or_error, request: bytes) -> bytes:
 
 def _whole(data: bytes) -> bool:
     """Whether ``data`` is a whole answer: a JSON header line and as many bytes as it says."""
-    header, sep, body = data.partition(b"\n")
-    try:
-        info = json.loads(header) if sep else None
-        return isinstance(info, dict) and len(body) == int(info.get("nbytes", -1))
-    except (ValueError, TypeError):
-        return False
+    info, body = _split_answer(data)
+    return info is not None and len(body) == info.get("nbytes", -1)
 
 
 def _new_engine():

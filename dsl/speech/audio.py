@@ -198,8 +198,8 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
 class StreamResampler:
     """:func:`resample_poly` of audio that arrives in pieces: :meth:`push` each piece and get
     the output samples that no later input can change; :meth:`flush` at the end gives the rest.
-    All pieces together give the numbers of one :func:`resample_poly` call on the whole audio
-    (to rounding; tests/test_resample.py checks). Memory stays bounded: input is kept only
+    All pieces together give exactly the numbers of one :func:`resample_poly` call on the whole
+    audio (tests/test_resample.py checks). Memory stays bounded: input is kept only
     while an output still needs it."""
 
     def __init__(self, rate_in: int, rate_out: int) -> None:
@@ -226,11 +226,8 @@ class StreamResampler:
     def _take(self, end: int) -> np.ndarray:
         if end <= self.done:
             return np.zeros(0, np.float64)
-        if self.up == self.down:
-            out = self.buffer[self.done - self.base : end - self.base].copy()
-        else:
-            first = self.base * self.up // self.down  # the output at buffer[0]
-            out = resample_poly(self.buffer, self.up, self.down)[self.done - first : end - first]
+        first = self.base * self.up // self.down  # the output at buffer[0]
+        out = resample_poly(self.buffer, self.up, self.down)[self.done - first : end - first]
         self.done = end
         # keep the input that outputs from ``done`` on read (from reach before the next one)
         keep = max(self.base, (self.done * self.down // self.up - 2 * self.reach) // self.down * self.down)

@@ -2,8 +2,9 @@
 
 Keying a script's utterances means parsing it, loading its gesture library and describing
 every utterance: about 35 ms for a script of 100 lines, 3.5 s for 10,000 lines, which a
-rebuild with one line changed would pay for every unchanged script. Instead the manifest
-records, per built script, a fingerprint of everything its keys were computed from:
+rebuild with one line changed would pay for every unchanged script. Instead the build's state
+file (beside the manifest) records, per built script, a fingerprint of everything its keys
+were computed from:
 
 - the script's bytes (sha256);
 - the build's token: the code's format version, the settings (with the weights' hashes), the
@@ -78,7 +79,7 @@ def _stat(path: Path):
         return [st.st_size, st.st_mtime_ns, st.st_ino]
     try:
         with os.scandir(path) as entries:
-            return sorted([e.name, *(lambda s: (s.st_size, s.st_mtime_ns))(e.stat())]
-                          for e in entries if e.name.endswith(".toml") and not e.name.startswith("."))
+            gestures = [e for e in entries if e.name.endswith(".toml") and not e.name.startswith(".")]
+            return sorted([e.name, e.stat().st_size, e.stat().st_mtime_ns] for e in gestures)
     except OSError:
         return None

@@ -126,7 +126,7 @@ class StreamSession:
         if not isinstance(data, str) or len(data) > MAX_AUDIO_CHUNK:
             raise StreamError(f'"pcm16" must be base64 text of at most {MAX_AUDIO_CHUNK} characters '
                               "(16-bit little-endian mono samples)")
-        if rate not in AUDIO_RATES or isinstance(rate, bool):
+        if not isinstance(rate, int) or isinstance(rate, bool) or rate not in AUDIO_RATES:
             raise StreamError(f'"sample_rate" must be one of {", ".join(map(str, AUDIO_RATES))}')
         if self.audio_rate is not None and rate != self.audio_rate:
             raise StreamError(f"this stream's audio is at {self.audio_rate} Hz: send every chunk at that rate")
@@ -141,8 +141,8 @@ class StreamSession:
         words = self._words(message["words"]) if message.get("words") else []
         if self.resampler is None:
             self.resampler, self.audio_rate = StreamResampler(rate, SAMPLE_RATE), rate
+            self.generator.add_audio(np.zeros(0, np.float32))  # from now on frames wait for the audio
         self.audio_samples += len(raw) // 2
-        self.generator.add_audio(np.zeros(0, np.float32))  # from now on frames wait for the audio
         out = self.generator.add_words(words) if words else np.zeros((0, POSE_DIM), np.float32)
         samples = np.frombuffer(raw, "<i2").astype(np.float32) / 32768.0
         more = self.generator.add_audio(self.resampler.push(samples))
