@@ -12,10 +12,11 @@ JSON data.
 from __future__ import annotations
 
 import difflib
-import json
 import unicodedata
 from dataclasses import asdict, dataclass, field
 from typing import Iterable, Sequence
+
+from core.fileio import json_text
 
 ERROR = "error"
 WARNING = "warning"
@@ -277,4 +278,4 @@ def format_json(diags: Sequence[Diagnostic], max_per_file: int | None = None) ->
     }
     if left:
         data["omitted"] = left
-    return json.dumps(data, indent=2, ensure_ascii=False)
+    return json_text(data, indent=2)

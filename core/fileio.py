@@ -26,6 +26,7 @@ Standard library only: the ``sgt`` command imports this module to report its err
 
 from __future__ import annotations
 
+import json
 import os
 import stat
 from pathlib import Path
@@ -71,6 +72,24 @@ def atomic_write(path: Path | str | BinaryIO, data: bytes) -> None:
 
 def atomic_write_text(path: Path | str | BinaryIO, text: str) -> None:
     atomic_write(path, text.encode("utf-8"))
+
+
+def json_text(doc, **options) -> str:
+    """``doc`` as JSON text that is always valid UTF-8: other languages' letters as themselves,
+    unless some value holds bytes that are not UTF-8 (a file name from a command line or a
+    folder listing, which Python keeps as lone surrogates); then the whole text uses ``\\u``
+    escapes, which load back to the same name. ``options`` go to :func:`json.dumps`."""
+    text = json.dumps(doc, ensure_ascii=False, **options)
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return json.dumps(doc, ensure_ascii=True, **options)
+    return text
+
+
+def json_bytes(doc, **options) -> bytes:
+    """:func:`json_text` encoded, for :func:`atomic_write`."""
+    return json_text(doc, **options).encode("utf-8")
 
 
 def check_output(path: Path | str) -> None:

@@ -16,7 +16,6 @@ arrays the generator consumes (layout owned by :mod:`core.controls`). Both are w
 from __future__ import annotations
 
 import io
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from core.controls import STYLE_NAMES, Control, ControlArrays
-from core.fileio import atomic_write
+from core.fileio import atomic_write, json_text
 from core.hands import HandTrack
 from core.skeleton import FPS
 from core.words import TimedWord
@@ -177,7 +176,7 @@ class Plan:
         }
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2, ensure_ascii=False) + "\n"
+        return json_text(self.to_dict(), indent=2) + "\n"
 
     def save_json(self, path) -> None:
         """Write :meth:`to_json` to ``path`` (or a binary stream) by :mod:`core.fileio`'s rules."""

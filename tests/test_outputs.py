@@ -327,3 +327,27 @@ def test_an_unreadable_script_is_status_1(inputs, shared_dir):
     lines = as_unprivileged(attempts)
     assert all(line.startswith("1 ") and "cannot read" in line for line in lines), lines
     assert not (shared / "p.json").exists()
+
+
+def test_file_names_that_are_not_utf8_are_written_into_json_and_load_back(tmp_path, capsys):
+    """A script and an output named with bytes that are not UTF-8 (Python holds them as lone
+    surrogates): every JSON that names a file stays valid UTF-8 and gives the name back."""
+    odd = os.fsdecode(b"\x80x")  # "\udc80x"
+    script = tmp_path / f"{odd}.sgt"
+    script.write_text("guide: Hello [pose:wave] there.\nvisitor: Hi [pose:nope].\n")
+    fixed = tmp_path / f"{odd}ok.sgt"
+    fixed.write_text(SCRIPT)
+
+    assert main(["check", "--format", "json", str(script)]) == 1
+    report = json.loads(capsys.readouterr().out.encode("utf-8"))
+    assert {d["file"] for d in report["diagnostics"]} == {str(script)}
+
+    plan = tmp_path / "plan.json"
+    assert main(["compile", str(fixed), "--estimate", "-o", str(plan)]) == 0
+    assert json.loads(plan.read_bytes().decode("utf-8"))["source"] == str(fixed)
+
+    bvh = tmp_path / f"{odd}.bvh"
+    assert main(["export", str(fixed), "--engine", "keyframe", "-o", str(bvh)]) == 0
+    sidecar = json.loads((tmp_path / f"{odd}.timeline.json").read_bytes().decode("utf-8"))
+    assert [tmp_path / name for name in sidecar["files"].values()] == [bvh]
+    assert bvh.read_bytes().startswith(b"HIERARCHY")

@@ -6,7 +6,7 @@ import hashlib
 import json
 from pathlib import Path
 
-from core.fileio import atomic_write
+from core.fileio import atomic_write, json_bytes
 from core.paths import cache_dir
 
 #: Bump when the timing algorithm changes so that old cache entries are not reused.
@@ -44,4 +44,4 @@ def read_json(path: Path) -> dict | None:
 
 
 def write_json(path: Path, data: dict) -> None:
-    atomic_write(path, json.dumps(data, ensure_ascii=False, indent=1).encode("utf-8"))
+    atomic_write(path, json_bytes(data, indent=1))

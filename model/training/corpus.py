@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from core.controls import STYLE_LIMIT, STYLE_NAMES
-from core.fileio import atomic_write, atomic_write_text
+from core.fileio import atomic_write, atomic_write_text, json_text
 from core.skeleton import FPS, frame_count, mirror_pose
 from core.words import TimedWord
 from dsl.parser import WORD_RE
@@ -553,7 +553,7 @@ def build_corpus(out, *, hours: float = 2.0, seed: int = 0, jobs: int = 1, clips
     target = int(math.ceil(hours * 3600 * FPS))
     shards, kept = _build_shards(out, config, sentences, voices, target, jobs, progress)
     manifest = _manifest(out, shards, hours=hours, seed=seed, config=config, n_sentences=len(sentences), voices=voices)
-    atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1, ensure_ascii=False) + "\n")
+    atomic_write_text(out / "manifest.json", json_text(manifest, indent=1) + "\n")
     if log:
         total = manifest["total_frames"]
         log(f"{len(manifest['clips'])} clips, {total} frames ({total / FPS / 3600:.2f} h) in {len(shards)} shards"

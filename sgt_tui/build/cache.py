@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from core.controls import Control
-from core.fileio import atomic_write
+from core.fileio import atomic_write, json_bytes
 from core.hands import HandTrack
 from core.motion import MotionClip
 from core.paths import cache_dir
@@ -68,7 +68,7 @@ class Entry:
         hands = self.hands or HandTrack.rest(poses.shape[0])
         meta = {"format": _FORMAT, "key": key, "frames": int(poses.shape[0]), "speaker": self.speaker,
                 "text": self.text, "words": self.words, "controls": self.controls}
-        head = json.dumps(meta, ensure_ascii=False, sort_keys=True, separators=(",", ":")).encode("utf-8")
+        head = json_bytes(meta, sort_keys=True, separators=(",", ":"))
         body = [poses, np.ascontiguousarray(hands.palm, dtype="<f4"), np.ascontiguousarray(hands.fingers, dtype="<f4")]
         return struct.pack("<I", len(head)) + head + b"".join(a.tobytes() for a in body)
 

@@ -227,8 +227,11 @@ def is_stdout(target) -> bool:
 
 
 def shown(target) -> str:
-    """An output's name for messages."""
-    return "standard output" if is_stdout(target) else str(target)
+    """An output's name for messages (bytes that are not UTF-8 as ``\\x..`` escapes, so any
+    stream can print it)."""
+    if is_stdout(target):
+        return "standard output"
+    return str(target).encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
 def _isatty(stream) -> bool:

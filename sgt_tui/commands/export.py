@@ -144,10 +144,9 @@ def _write(target, clip, rig: str, fmt: str, frames) -> str:
 def _write_timeline(path, clips, files, tracked: bool) -> None:
     """The sidecar: per utterance its speaker, text, first frame, frames, start and audio
     offset on the exported files' clock, and which file holds each speaker."""
-    import json
     from pathlib import Path
 
-    from core.fileio import atomic_write
+    from core.fileio import atomic_write, json_bytes
     from core.skeleton import FPS
     from renders.clips import speaker_name
 
@@ -159,4 +158,4 @@ def _write_timeline(path, clips, files, tracked: bool) -> None:
                      "start_frame": start, "frames": c.n_frames, "start": round(start / FPS, 6),
                      "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6)})
     doc = {"fps": FPS, "files": {speaker_name(s): Path(str(p)).name for p, s in files}, "utterances": rows}
-    atomic_write(path, (json.dumps(doc, indent=1, ensure_ascii=False) + "\n").encode("utf-8"))
+    atomic_write(path, json_bytes(doc, indent=1) + b"\n")

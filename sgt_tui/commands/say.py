@@ -28,10 +28,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import json
     from pathlib import Path
 
-    from core.fileio import atomic_write
+    from core.fileio import atomic_write, json_text
     from dsl.compiler import compile_file
     from sgt_tui.commands.common import (
         STDOUT,
@@ -82,7 +81,7 @@ def run(args) -> int:
         if args.mix == STDOUT:
             return exit_code(result.diagnostics)
     if args.json:
-        print(json.dumps(report, indent=2, ensure_ascii=False))
+        print(json_text(report, indent=2))
         return exit_code(result.diagnostics)
     for r in report:
         who = f"{r['speaker']}: " if r["speaker"] else ""

@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.fileio import atomic_write
+from core.fileio import atomic_write, json_bytes
 from core.paths import cache_dir
 
 FORMAT = "sgt-recovery"
@@ -61,13 +61,13 @@ class RecoveryFile:
 
     def __init__(self, script: Path | str, directory: Path | None = None) -> None:
         self.script = Path(script).resolve()
-        key = hashlib.sha256(str(self.script).encode("utf-8")).hexdigest()[:16]
+        key = hashlib.sha256(str(self.script).encode("utf-8", "surrogateescape")).hexdigest()[:16]
         self.path = (directory or recovery_dir()) / f"{self.script.name}.{key}.json"
         self.written_version: int | None = None
 
     def write(self, text: str, version: int | None = None) -> None:
         blob = {"format": FORMAT, "version": VERSION, "path": str(self.script), "saved_at": time.time(), "text": text}
-        atomic_write(self.path, json.dumps(blob, ensure_ascii=False).encode("utf-8"))
+        atomic_write(self.path, json_bytes(blob))
         self.written_version = version
 
     def load(self) -> Recovered | None:
