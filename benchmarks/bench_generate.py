@@ -3,7 +3,10 @@
     python benchmarks/bench_generate.py [--weights PATH] [--repeat 7]
 
 Prints
-1. model time for 20 s of speech after loading (sliding windows + post-processing; target < 100 ms),
+1. model time for 20 s of speech after loading (sliding windows + post-processing; budget 50 ms),
+   for each way the network runs: onnxruntime on one thread (what `sgt generate`, `sgt build`
+   and the service run when the shipped export is fresh) and PyTorch on one and two threads
+   (training, evaluation, weights without an export),
 2. where the wall time of a whole `sgt generate` of one utterance goes: interpreter and
    imports, speech synthesis (cold cache), audio features, model, post-processing, writing,
 3. peak memory (RSS) of generating 1, 5 and 10 minutes of speech, to show it does not grow with
@@ -75,26 +78,33 @@ def model_time(weights, repeat: int) -> None:
         what = "untrained default-size network (no weights file)"
     import torch
 
-    torch.set_num_threads(2)
+    from model.runtime import TorchRunner, fresh_export
+
     n = 20 * FPS
     arrays = ControlArrays.empty(n)
     rng = np.random.default_rng(0)
     audio = rng.normal(size=(n, AUDIO_DIM)).astype(np.float32)
     ids = rng.integers(1, 4096, n)
     onsets = (rng.random(n) < 0.1).astype(np.float32)
-    neural.run_windows(model, audio, ids, onsets, arrays, 0)  # warm-up
-    times, post = [], []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        raw = neural.run_windows(model, audio, ids, onsets, arrays, 0)
-        t1 = time.perf_counter()
-        postprocess.blend_pose_controls(postprocess.one_euro(raw), arrays.pose, arrays.pose_mask)
-        t2 = time.perf_counter()
-        times.append(t1 - t)
-        post.append(t2 - t1)
     print(f"model: {what}; {sum(p.numel() for p in model.parameters()):,} parameters")
-    print(f"20 s of speech ({n} frames): network median {statistics.median(times) * 1000:.1f} ms, "
-          f"post-processing median {statistics.median(post) * 1000:.1f} ms (n={repeat}, 2 threads)")
+    runners = [(f"PyTorch, {t} thread{'s' if t > 1 else ''}", TorchRunner(model), t) for t in (1, 2)]
+    export = fresh_export(weights) if weights and Path(weights).exists() else None
+    if export is not None:  # what `sgt generate` and the service run
+        runners.insert(0, ("onnxruntime (what sgt generate runs), 1 thread", export, 1))
+    for name, runner, threads in runners:
+        torch.set_num_threads(threads)
+        neural.run_windows(runner, audio, ids, onsets, arrays, 0)  # warm-up
+        times, post = [], []
+        for _ in range(repeat):
+            t = time.perf_counter()
+            raw = neural.run_windows(runner, audio, ids, onsets, arrays, 0)
+            t1 = time.perf_counter()
+            postprocess.blend_pose_controls(postprocess.one_euro(raw), arrays.pose, arrays.pose_mask)
+            t2 = time.perf_counter()
+            times.append(t1 - t)
+            post.append(t2 - t1)
+        print(f"20 s of speech ({n} frames), {name}: network median {statistics.median(times) * 1000:.1f} ms "
+              f"(min {min(times) * 1000:.1f}), post-processing median {statistics.median(post) * 1000:.1f} ms (n={repeat})")
 
 
 def generate_breakdown(weights) -> None:

@@ -119,7 +119,8 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     arrays = _seeded(inputs)
     raw = run_windows(model, audio, ids, onsets, arrays, seed)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
-                              blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words)
+                              blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words,
+                              style=arrays.style, style_mask=arrays.style_mask)
 
 
 def _seeded(inputs):

@@ -15,7 +15,7 @@ Markdown table, a column per run and mean ± sd (sample standard deviation) over
 validation score of each run's kept epoch (the model card's decision rule: the run with the
 lowest PCS/0.014 + SCS/0.249 is shipped) and writes everything to ``--summary``:
 
-    python scripts/final_eval.py runs/final_s0 runs/final_s1 runs/final_s2 [--summary runs/final_summary.json]
+    python scripts/final_eval.py runs/final_s0 runs/final_s1 runs/final_s2 [--corpus data/corpus] [--summary runs/final_summary.json]
 """
 
 from __future__ import annotations
@@ -45,14 +45,15 @@ def _run(argv: list[str], log: Path) -> None:
         raise SystemExit(f"failed ({rc}): {' '.join(argv)}; see {log}")
 
 
-def evaluate_run(run: Path, *, split: str, seeds: int, force: bool) -> dict:
+def evaluate_run(run: Path, *, split: str, seeds: int, force: bool, corpus: str) -> dict:
     weights = run / "generator.pt"
     if not weights.exists():
         raise SystemExit(f"{weights}: no such file (is the run finished?)")
     py = sys.executable
     jobs = {
         "eval": (run / f"eval_{split}.json",
-                 [py, "-m", "sgt_tui.cli", "eval", "--split", split, "--weights", str(weights), "-o", str(run / f"eval_{split}.json")]),
+                 [py, "-m", "sgt_tui.cli", "eval", "--corpus", corpus, "--split", split, "--weights", str(weights),
+                  "-o", str(run / f"eval_{split}.json")]),
         "real": (run / "real_speech.json",
                  [py, "scripts/real_speech_check.py", "--weights", str(weights), "--seeds", str(seeds),
                   "--out", str(run / "real_speech"), "--json", str(run / "real_speech.json")]),
@@ -118,12 +119,15 @@ def fmt(v: float) -> str:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", nargs="+", help="run folders made by sgt train -o")
+    ap.add_argument("--corpus", default="data/corpus",
+                    help="the corpus the runs were trained on (default data/corpus)")
     ap.add_argument("--split", default="test", choices=("test", "val"))
     ap.add_argument("--seeds", type=int, default=5, help="takes per condition for the real-speech and pause checks")
     ap.add_argument("--force", action="store_true", help="rerun every evaluation")
     ap.add_argument("--summary", default="runs/final_summary.json", help="JSON of every figure (default runs/final_summary.json)")
     args = ap.parse_args()
-    results = [evaluate_run(Path(r), split=args.split, seeds=args.seeds, force=args.force) for r in args.runs]
+    results = [evaluate_run(Path(r), split=args.split, seeds=args.seeds, force=args.force,
+                            corpus=str(Path(args.corpus).resolve())) for r in args.runs]
     per_run = [figures(r) for r in results]
     names = list(dict.fromkeys(k for f in per_run for k in f))
     stats = {}

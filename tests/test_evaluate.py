@@ -171,8 +171,9 @@ def test_sgt_eval_writes_the_rows(corpus, tmp_path, capsys):
 
 
 def test_style_following_is_the_style_of_the_requested_motion(clips, model):
-    """Achieved style: the style statistics of the neural engine's output with only that
-    dimension requested, at that value, on every frame, averaged over the speaking frames."""
+    """Achieved style: the style statistics of the neural engine's output (with its speed
+    correction) with only that dimension requested, at that value, on every frame, averaged
+    over the speaking frames."""
     got = E.style_following(clips[:2], model, seed=3, levels=(-1.0, 2.0))
     for k, name in enumerate(("speed", "space", "handedness")):
         for value, achieved in zip((-1.0, 2.0), got[name]["achieved"]):
@@ -182,7 +183,8 @@ def test_style_following_is_the_style_of_the_requested_motion(clips, model):
                 arrays.set_style(0, len(clip["poses"]), {name: value})
                 raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, 3 + i)
                 words = clip["word_ids"] > 0
-                per_clip.append(style(postprocess.finish(raw, arrays.pose, arrays.pose_mask))[words, k])
+                engine = postprocess.finish(raw, arrays.pose, arrays.pose_mask, style=arrays.style, style_mask=arrays.style_mask)
+                per_clip.append(style(engine)[words, k])
             assert achieved == pytest.approx(float(np.concatenate(per_clip).mean()), rel=1e-6)
         assert got[name]["slope"] == pytest.approx((got[name]["achieved"][1] - got[name]["achieved"][0]) / 3.0)
 

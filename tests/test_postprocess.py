@@ -207,3 +207,62 @@ def test_a_pause_holds_the_pose_the_speaker_paused_in_and_controls_stay_exact():
     pose[25:30], mask[25:30] = normalize_pose(REST_POSE[None] + 0.4), 1.0
     out = postprocess.finish(raw, pose, mask, smoothing="none", words=words)
     assert np.allclose(out[25:30], pose[25:30], atol=1e-6)
+
+
+def _swinging(n=120, seed=1):
+    """A motion that gestures at about the corpus's mean speed: every coordinate of the rest
+    pose swings at its own rate (periods of 0.5 to 1.3 s)."""
+    from core.skeleton import REST_POSE
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(n)[:, None]
+    wobble = 0.025 * np.sin(2 * np.pi * t / rng.uniform(8, 20, size=(1, 27)) + rng.uniform(0, 6, size=(1, 27)))
+    return normalize_pose(np.asarray(REST_POSE, np.float64)[None] + wobble).astype(np.float32)
+
+
+def _requested(n, lo, hi, value):
+    style = np.zeros((n, 3), np.float32)
+    mask = np.zeros((n, 3), np.float32)
+    style[lo:hi, 0], mask[lo:hi, 0] = value, 1.0
+    return style, mask
+
+
+@pytest.mark.parametrize("value", [-1.5, -0.5, 0.5, 2.0])
+def test_follow_speed_meets_the_requested_speed_where_it_is_requested(value):
+    from model.style import style
+
+    poses = _swinging()
+    n = len(poses)
+    lo, hi = 30, 90
+    req, mask = _requested(n, lo, hi, value)
+    out = postprocess.follow_speed(poses, req, mask)
+    inner = slice(lo + 15, hi - 15)  # the whole 2 s style window inside the request
+    before = style(poses)[inner, 0]
+    after = style(out)[inner, 0]
+    assert np.abs(after - value).mean() < 0.5 * np.abs(before - value).mean()
+    assert np.abs(after - value).mean() < 0.3
+    assert np.allclose(np.linalg.norm(out.reshape(n, N_BONES, 3), axis=-1), 1.0, atol=1e-5)
+    far = np.r_[0:lo - 20, hi + 20:n]  # beyond the low-pass, the gain average and their sum
+    assert np.allclose(out[far], poses[far], atol=1e-6)
+
+
+def test_follow_speed_without_a_speed_request_changes_nothing():
+    poses = _swinging(60, seed=1)
+    req, mask = _requested(60, 0, 60, 2.0)
+    mask[:, 0] = 0.0
+    mask[:, 1] = 1.0  # space is requested, speed is not
+    assert np.array_equal(postprocess.follow_speed(poses, req, mask), poses)
+    assert np.array_equal(postprocess.finish(poses, np.zeros_like(poses), np.zeros(60), smoothing="none", blend=False,
+                                             style=req, style_mask=mask), poses)
+
+
+def test_follow_speed_keeps_the_timing_of_the_strokes():
+    """Strokes stay where they were: the frames where the motion is slowest do not move."""
+    from model.training.metrics import joint_speeds
+
+    poses = _swinging(150, seed=2)
+    req, mask = _requested(150, 0, 150, 2.0)
+    out = postprocess.follow_speed(poses, req, mask)
+    a, b = joint_speeds(poses).sum(axis=1), joint_speeds(out).sum(axis=1)
+    assert b.mean() > 1.3 * a.mean()
+    assert np.corrcoef(a, b)[0, 1] > 0.9

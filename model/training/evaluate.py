@@ -43,7 +43,8 @@ RULES_SEED = 10_000
 
 def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
     raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
-    return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing, blend=blend)
+    return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing, blend=blend,
+                              style=arrays.style, style_mask=arrays.style_mask)
 
 
 def _rules(clip, seed):
