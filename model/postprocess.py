@@ -2,7 +2,8 @@
 
 - :func:`one_euro`: the 1-euro filter (Casiez et al. 2012), speed-adaptive low-pass: little lag
   on fast strokes, strong smoothing when the motion is slow (Kucherenko et al. 6: smoothing
-  changes what people perceive more than the model does).
+  changes what people perceive more than the model does). The offline engine runs it both
+  ways (:func:`one_euro_zero_phase`, no lag); the streaming service runs it causally.
 - :func:`moving_average`: a centred moving average (the simpler smoother Kucherenko et al. use).
 - :func:`blend_pose_controls`: the exact pose-control blend. Where a pose is requested the
   output *is* that pose; in ``ramp`` frames before and after each controlled span the output
@@ -33,10 +34,14 @@ def moving_average(poses: np.ndarray, window: int = 5) -> np.ndarray:
     return normalize_pose(window_mean(p.T, window).T)
 
 
-#: 1-euro settings of the shipped engine, chosen on the validation split with
-#: scripts/tune_smoothing.py (jerk within 25% of the reference while keeping style; docs/model.md).
+#: 1-euro settings of the causal filter (the streaming service), chosen on the validation split
+#: with scripts/tune_smoothing.py (jerk within 25% of the reference while keeping style; docs/model.md).
 ONE_EURO_MIN_CUTOFF = 4.0
 ONE_EURO_BETA = 0.5
+#: The offline engine runs the filter forwards and backwards (:func:`one_euro_zero_phase`): no
+#: lag; at this cutoff the result is as smooth (jerk) as the causal filter at 4 Hz. Chosen on the
+#: validation split over three training seeds (docs/model.md, "Choosing the post-filter").
+ZERO_PHASE_MIN_CUTOFF = 8.0
 
 
 def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: float = ONE_EURO_BETA,
@@ -70,6 +75,15 @@ def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: f
     if state is not None:
         state.update(out=prev, dx=dx_prev)
     return normalize_pose(out)
+
+
+def one_euro_zero_phase(poses: np.ndarray, min_cutoff: float = ZERO_PHASE_MIN_CUTOFF,
+                        beta: float = ONE_EURO_BETA) -> np.ndarray:
+    """The 1-euro filter run forwards, then backwards over its output (as a filtfilt): the lag
+    of each pass cancels the other's, so strokes stay on their frames (a causal filter delays
+    them by up to a frame). For whole takes; a stream needs :func:`one_euro`."""
+    forward = one_euro(poses, min_cutoff, beta)
+    return np.ascontiguousarray(one_euro(forward[::-1], min_cutoff, beta)[::-1])
 
 
 def smoothstep(x):
@@ -194,7 +208,7 @@ def finish(raw: np.ndarray, pose: np.ndarray, mask: np.ndarray, *, smoothing: st
     (:func:`calm_pauses`), then, if ``blend``, the exact pose-control blend of ``pose``/``mask``
     (per bone with ``bones``). ``blend=False`` leaves control following to the network."""
     if smoothing == "one_euro":
-        raw = one_euro(raw)
+        raw = one_euro_zero_phase(raw)
     elif smoothing == "moving_average":
         raw = moving_average(raw)
     elif smoothing != "none":

@@ -266,3 +266,25 @@ def test_follow_speed_keeps_the_timing_of_the_strokes():
     a, b = joint_speeds(poses).sum(axis=1), joint_speeds(out).sum(axis=1)
     assert b.mean() > 1.3 * a.mean()
     assert np.corrcoef(a, b)[0, 1] > 0.9
+
+
+def test_zero_phase_smoothing_keeps_strokes_on_their_frames():
+    """A bell of motion: the causal 1-euro filter moves its peak later; run both ways it stays."""
+    from core.skeleton import REST_POSE
+
+    t = np.arange(90)
+    bell = np.exp(-0.5 * ((t - 45) / 4.0) ** 2)
+    poses = np.repeat(np.asarray(REST_POSE, np.float64)[None], len(t), axis=0)
+    poses[:, 0] += 0.5 * bell  # one coordinate swings out and back
+    poses = normalize_pose(poses)
+    peak = int(np.argmax(poses[:, 0]))
+    causal = postprocess.one_euro(poses)
+    both = postprocess.one_euro_zero_phase(poses)
+    assert int(np.argmax(causal[:, 0])) > peak
+    assert int(np.argmax(both[:, 0])) == peak
+    assert both[:, 0].max() < poses[:, 0].max()  # it still smooths
+    # the definition: the filter over the reversed output of the filter
+    again = postprocess.one_euro(postprocess.one_euro(poses, postprocess.ZERO_PHASE_MIN_CUTOFF)[::-1],
+                                 postprocess.ZERO_PHASE_MIN_CUTOFF)[::-1]
+    assert np.allclose(both, again, atol=1e-6)
+    assert np.array_equal(postprocess.finish(poses, poses, np.zeros(len(t)), blend=False), both.astype(np.float32))

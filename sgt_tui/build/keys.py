@@ -32,7 +32,7 @@ from pathlib import Path
 
 #: Bump when a change to the compiler, the speech timing, the engines or the post-processing
 #: changes the motion of an utterance whose inputs did not change.
-CODE_VERSION = 4  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed)
+CODE_VERSION = 5  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed); 5: zero-phase smoothing
 
 #: Engines whose output does not depend on the seed.
 _SEEDLESS = frozenset({"keyframe"})

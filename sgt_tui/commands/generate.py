@@ -34,7 +34,7 @@ def register(sub) -> None:
     p.add_argument("--engine", choices=ENGINE_CHOICES, default=None, help=ENGINE_HELP)
     p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
     add_seed_option(p, "random seed (default: the script's @seed); another seed, another take")
-    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0], help="post-filter of the neural engine (default one_euro)")
+    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0], help="post-filter of the neural engine (default one_euro: the 1-euro filter forwards and backwards, no lag)")
     p.add_argument("--no-blend", action="store_true", help="neural engine: leave control following to the network (no exact pose blend, no speed correction)")
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
     add_threads_option(p)
