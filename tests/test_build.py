@@ -125,6 +125,33 @@ def test_one_line_changed_regenerates_one_utterance(env, capsys):
     assert [c.line for c in clips[0].controls if c.kind == "pose"] == [3]
 
 
+def test_an_edit_is_generated_by_the_warm_worker_alone(env, monkeypatch, capsys):
+    """One utterance to regenerate with --jobs 2: the build waits for the worker it started
+    while reading the scripts instead of starting a second one (whose imports would share the
+    two cores with it and with the build), and the result is the same as with one job."""
+    from sgt_tui.build import runners
+
+    out = env / "out"
+    assert build(env / "game", "-o", out, "-j", "1") == 0
+    started = []
+    close = runners.LocalPool.close
+
+    def counting_close(self, wait=True):
+        started.append(len(self.pool._processes or {}))  # the executor's worker processes
+        close(self, wait)
+
+    monkeypatch.setattr(runners.LocalPool, "close", counting_close)
+    (env / "game" / "act1" / "intro.sgt").write_text(ACT1.replace("over [pose", "right over [pose"))
+    capsys.readouterr()
+    assert build(env / "game", "-o", out, "-j", "2") == 0
+    assert "1 utterance generated, 3 cached" in capsys.readouterr().err
+    assert started[0] == 1  # (build() closes the pool again afterwards: nothing left to count)
+    two = (out / "act1" / "intro.json").read_bytes()
+    monkeypatch.setenv("SGT_CACHE_DIR", str(env / "cache2"))
+    assert build(env / "game", "-o", env / "one", "-j", "1") == 0
+    assert (env / "one" / "act1" / "intro.json").read_bytes() == two
+
+
 def test_builds_are_byte_identical_across_folders_caches_and_worker_counts(env, monkeypatch):
     assert build(env / "game", "-o", env / "a", "--bvh", "--glb", "--wav", "-j", "1") == 0
     # a clean cache, two worker processes, another output folder

@@ -46,11 +46,40 @@ class LocalPool:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
+        self.jobs = jobs
         self.pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
                                         initializer=warm_up, initargs=(settings,))
+        self.warming = None  # the warm-up's future, while :meth:`warm` has started one worker
 
     def warm(self) -> None:
-        self.pool.submit(int)
+        self.warming = self.pool.submit(int)
+
+    def submit_when_warm(self, tasks: Sequence[Task], idle: Callable[[], None] | None) -> dict:
+        """Hand ``tasks`` (fewer than the workers) to the warm worker once it is ready, calling
+        ``idle`` meanwhile: submitted earlier, they would make the pool start a second worker
+        (nothing is idle yet), whose imports take a core from this process and the first one
+        (an edit's rebuild waits for them). Returns {future: task}."""
+        import threading
+
+        futures: dict = {}
+        failed: list[BaseException] = []
+
+        def hand_over() -> None:
+            try:
+                self.warming.result()
+            except BaseException as exc:  # noqa: BLE001 - re-raised below, in the build's thread
+                failed.append(exc)
+                return
+            futures.update({self.pool.submit(run_task, task): task for task in tasks})
+
+        thread = threading.Thread(target=hand_over, name="sgt-hand-over", daemon=True)
+        thread.start()
+        if idle:
+            idle()
+        thread.join()
+        if failed:
+            raise failed[0]
+        return futures
 
     def close(self, wait: bool = True) -> None:
         """Stop the workers; without ``wait``, at once (a warm-up that turned out useless)."""
@@ -75,9 +104,12 @@ def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: Local
 
     pool = pool or LocalPool(workers, tasks[0].settings)
     try:
-        futures = {pool.pool.submit(run_task, task): task for task in tasks}
-        if idle:
-            idle()
+        if pool.warming is not None and len(tasks) < pool.jobs:
+            futures = pool.submit_when_warm(tasks, idle)
+        else:
+            futures = {pool.pool.submit(run_task, task): task for task in tasks}
+            if idle:
+                idle()
         for future in as_completed(futures):
             try:
                 result = future.result()
