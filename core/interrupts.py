@@ -5,6 +5,12 @@ SIGINT that lands while they run raises :class:`KeyboardInterrupt` inside the ``
 is caught and dropped, and the command runs on to the end. Inside :func:`interrupts_deferred`
 a SIGINT is only recorded; when the block ends it is delivered (``KeyboardInterrupt``).
 
+The same holds an optional import that is tried with ``except ImportError``: a SIGINT while a
+C extension initialises (onnxruntime's pybind11 module, measured) comes out of the import as
+an ImportError, which such code takes for a missing package (the neural engine fell back to
+PyTorch and `sgt render` ran on). Import optional packages inside :func:`interrupts_deferred`.
+:func:`caused_by_interrupt` tells an error that carries a KeyboardInterrupt in its chain.
+
 Standard library only.
 """
 
@@ -37,3 +43,17 @@ def interrupts_deferred():
         signal.signal(signal.SIGINT, previous)
         if received:
             previous(signal.SIGINT, None)
+
+
+def caused_by_interrupt(exc: BaseException | None) -> bool:
+    """Whether ``exc`` is Ctrl-C in disguise: a KeyboardInterrupt, or an error whose cause or
+    context chain holds one (Python 3.11 turns a KeyboardInterrupt raised while a class body
+    sets up its fields, ``__set_name__``, into a RuntimeError caused by it; libraries wrap what
+    they catch the same way)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False

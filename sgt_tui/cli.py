@@ -91,23 +91,12 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         return _fail(command, f"{where}{exc.strerror or exc}", 1)
     except Exception as exc:
-        if not _interrupted(exc):
+        from core.interrupts import caused_by_interrupt
+
+        if not caused_by_interrupt(exc):
             raise
         print("interrupted", file=sys.stderr)
         return 130
-
-
-def _interrupted(exc: BaseException) -> bool:
-    """Whether ``exc`` is Ctrl-C in disguise: Python 3.11 turns a KeyboardInterrupt raised while
-    a class body sets up its fields (``__set_name__``, e.g. a dataclass being imported) into a
-    RuntimeError caused by it; libraries wrap what they catch the same way."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
 
 
 def _fail(command: str, message, code: int) -> int:

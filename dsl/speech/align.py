@@ -19,6 +19,8 @@ import re
 
 import numpy as np
 
+from core.interrupts import interrupts_deferred
+
 from . import audio
 from .audio import resample_poly
 from .types import SpeechError
@@ -90,7 +92,8 @@ def normalise_for_dict(word: str) -> str:
 class _Aligner:
     def __init__(self) -> None:
         try:
-            import pocketsphinx
+            with interrupts_deferred():  # a Ctrl-C while it loads must not read as "not installed"
+                import pocketsphinx
         except ImportError as e:  # pragma: no cover - dependency is declared
             raise SpeechError(f"pocketsphinx is not installed ({e}); supply a TextGrid or JSON timings file") from None
         self.ps = pocketsphinx
