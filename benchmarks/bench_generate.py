@@ -99,7 +99,7 @@ def model_time(weights, repeat: int) -> None:
             t = time.perf_counter()
             raw = neural.run_windows(runner, audio, ids, onsets, arrays, 0)
             t1 = time.perf_counter()
-            postprocess.blend_pose_controls(postprocess.one_euro(raw), arrays.pose, arrays.pose_mask)
+            postprocess.finish(raw, arrays.pose, arrays.pose_mask, style=arrays.style, style_mask=arrays.style_mask)
             t2 = time.perf_counter()
             times.append(t1 - t)
             post.append(t2 - t1)

@@ -8,7 +8,7 @@ a SIGINT is only recorded; when the block ends it is delivered (``KeyboardInterr
 The same holds an optional import that is tried with ``except ImportError``: a SIGINT while a
 C extension initialises (onnxruntime's pybind11 module, measured) comes out of the import as
 an ImportError, which such code takes for a missing package (the neural engine fell back to
-PyTorch and `sgt render` ran on). Import optional packages inside :func:`interrupts_deferred`.
+PyTorch and `sgt render` ran on). Import optional packages with :func:`import_optional`.
 :func:`caused_by_interrupt` tells an error that carries a KeyboardInterrupt in its chain.
 
 Standard library only.
@@ -19,6 +19,7 @@ from __future__ import annotations
 import signal
 import threading
 from contextlib import contextmanager
+from importlib import import_module
 
 
 @contextmanager
@@ -43,6 +44,13 @@ def interrupts_deferred():
         signal.signal(signal.SIGINT, previous)
         if received:
             previous(signal.SIGINT, None)
+
+
+def import_optional(name: str):
+    """``import name`` for a package that may be missing (the caller catches ImportError), with
+    SIGINT held while it loads: a Ctrl-C then arrives as itself, never as "not installed"."""
+    with interrupts_deferred():
+        return import_module(name)
 
 
 def caused_by_interrupt(exc: BaseException | None) -> bool:

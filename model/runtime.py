@@ -25,7 +25,7 @@ import numpy as np
 
 from core.controls import STYLE_NAMES
 from core.fileio import atomic_write
-from core.interrupts import interrupts_deferred
+from core.interrupts import import_optional
 from core.skeleton import POSE_DIM
 from model.features import AUDIO_DIM
 from model.weights import DEFAULT_WEIGHTS, WeightsError, check_info, file_hash, load_weights
@@ -93,8 +93,7 @@ def as_runner(model):
 def read_export(path: Path | str):
     """(onnxruntime session, the export's metadata dict) of an ONNX export; raises
     ``ImportError`` without onnxruntime, ``WeightsError`` for a file that is not an export."""
-    with interrupts_deferred():  # a Ctrl-C while it loads must not read as "not installed"
-        import onnxruntime as ort
+    ort = import_optional("onnxruntime")
 
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = ORT_THREADS

@@ -20,7 +20,7 @@ from typing import Iterable
 import numpy as np
 
 from core.fileio import atomic_write
-from core.interrupts import interrupts_deferred
+from core.interrupts import import_optional
 from core.skeleton import FPS
 
 #: H.264 quality: constant rate factor (lower is better; 23 is x264's default).
@@ -41,8 +41,7 @@ def encode_mp4(frames: Iterable, *, audio: np.ndarray | None = None, sample_rate
     starting with frame 0. The audio is cut or padded with silence to the video's length, so
     both streams end together."""
     try:
-        with interrupts_deferred():  # a Ctrl-C while it loads must not read as "not installed"
-            import av  # lazy: PyAV (FFmpeg) is only needed for videos
+        av = import_optional("av")  # lazy: PyAV (FFmpeg) is only needed for videos
     except ImportError as exc:  # a broken install: say what to install
         raise VideoError(f"MP4 needs PyAV: pip install av ({exc})") from None
     buf = io.BytesIO()

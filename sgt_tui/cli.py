@@ -16,6 +16,7 @@ import importlib
 import sys
 
 from core.fileio import OutputError, OutputPathError
+from core.interrupts import caused_by_interrupt
 from sgt_tui.errors import InputError, UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
@@ -91,8 +92,6 @@ def main(argv: list[str] | None = None) -> int:
         where = f"{exc.filename}: " if exc.filename else ""
         return _fail(command, f"{where}{exc.strerror or exc}", 1)
     except Exception as exc:
-        from core.interrupts import caused_by_interrupt
-
         if not caused_by_interrupt(exc):
             raise
         print("interrupted", file=sys.stderr)

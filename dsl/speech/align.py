@@ -19,7 +19,7 @@ import re
 
 import numpy as np
 
-from core.interrupts import interrupts_deferred
+from core.interrupts import import_optional
 
 from . import audio
 from .audio import resample_poly
@@ -92,8 +92,7 @@ def normalise_for_dict(word: str) -> str:
 class _Aligner:
     def __init__(self) -> None:
         try:
-            with interrupts_deferred():  # a Ctrl-C while it loads must not read as "not installed"
-                import pocketsphinx
+            pocketsphinx = import_optional("pocketsphinx")
         except ImportError as e:  # pragma: no cover - dependency is declared
             raise SpeechError(f"pocketsphinx is not installed ({e}); supply a TextGrid or JSON timings file") from None
         self.ps = pocketsphinx

@@ -19,7 +19,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from core.fileio import atomic_write
-from core.interrupts import interrupts_deferred
+from core.interrupts import import_optional
 from sgt_tui.build.keys import weights_hash
 from sgt_tui.build.work import Task, TaskResult, run_task, warm_up
 
@@ -158,8 +158,7 @@ def _ray_task(task: Task, weights: tuple | None) -> TaskResult:
 
 def run_ray(tasks: Sequence[Task], address: str | None, on_result: OnResult, *, jobs: int | None = None) -> None:
     try:
-        with interrupts_deferred():  # a Ctrl-C while it loads must not read as "not installed"
-            import ray  # lazy: ray
+        ray = import_optional("ray")  # lazy: ray
     except ImportError:
         raise RunnerError("--ray needs Ray: pip install -e '.[ray]' (or pip install 'ray>=2.40')") from None
     started = not ray.is_initialized()

@@ -24,7 +24,7 @@ work on Ray (a local instance, or a cluster at ADDRESS; pip install -e '.[ray]')
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import ENGINE_CHOICES, SMOOTHING_CHOICES, add_seed_option, positive_int
+    from sgt_tui.commands.common import ENGINE_CHOICES, add_post_options, add_seed_option, positive_int
     from sgt_tui.commands.generate import ENGINE_HELP
 
     p = sub.add_parser("build", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -39,8 +39,7 @@ def register(sub) -> None:
     p.add_argument("--cache", metavar="DIR", help="the utterance cache (default: build/ in the sgt cache, $SGT_CACHE_DIR)")
     p.add_argument("--engine", choices=ENGINE_CHOICES, default="neural", help=ENGINE_HELP)
     add_seed_option(p, "random seed for every script (default: each script's @seed)")
-    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0], help="post-filter of the neural engine (default one_euro: the 1-euro filter forwards and backwards, no lag)")
-    p.add_argument("--no-blend", action="store_true", help="neural engine: leave control following to the network (no exact pose blend, no speed correction)")
+    add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no warnings, no summary: only errors")
     p.set_defaults(run=run)

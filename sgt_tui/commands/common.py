@@ -116,6 +116,14 @@ def text(value: str, option: str) -> str:
     return value
 
 
+def add_post_options(p) -> None:
+    """``--smoothing`` and ``--no-blend``: the neural engine's post-processing (generate, build)."""
+    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0],
+                   help="post-filter of the neural engine (default one_euro: the 1-euro filter forwards and backwards, no lag)")
+    p.add_argument("--no-blend", action="store_true",
+                   help="neural engine: leave control following to the network (no exact pose blend, no speed correction)")
+
+
 def add_seed_option(p, help_text: str) -> None:
     p.add_argument("--seed", type=seed, metavar="N", help=f"{help_text} (0 to {SEED_MAX})")
 

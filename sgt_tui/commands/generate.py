@@ -24,7 +24,7 @@ ENGINE_HELP = "neural (default: the trained generator), keyframe (splines throug
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import ENGINE_CHOICES, SMOOTHING_CHOICES, add_seed_option, utterance_number
+    from sgt_tui.commands.common import ENGINE_CHOICES, add_post_options, add_seed_option, utterance_number
 
     p = sub.add_parser("generate", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
@@ -34,8 +34,7 @@ def register(sub) -> None:
     p.add_argument("--engine", choices=ENGINE_CHOICES, default=None, help=ENGINE_HELP)
     p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
     add_seed_option(p, "random seed (default: the script's @seed); another seed, another take")
-    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0], help="post-filter of the neural engine (default one_euro: the 1-euro filter forwards and backwards, no lag)")
-    p.add_argument("--no-blend", action="store_true", help="neural engine: leave control following to the network (no exact pose blend, no speed correction)")
+    add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
     add_threads_option(p)
     p.set_defaults(run=run)
