@@ -40,6 +40,7 @@ from dsl.plan import Plan
 from model.hands import motion_hands
 from model.performance import SEED_FRAMES, build_tracks, listening_tracks
 from model.runtime import load_runner
+from model.take_posture import speaker_key
 from model.weights import WeightsError
 
 #: Engine name -> module with ``generate(inputs, *, seed, ...)``.
@@ -62,14 +63,18 @@ class EngineInputs:
     #: (k, 27) poses of the speaker's track where the utterance starts (its listening motion):
     #: engines that take seed poses (neural) start from them, so the utterance joins its track.
     start_poses: np.ndarray | None = None
+    #: the take's draw key (:func:`model.take_posture.speaker_key`): one posture per speaker of a
+    #: performance; None: the engine's seed draws it.
+    take_key: tuple | None = None
 
     @property
     def n_frames(self) -> int:
         return self.arrays.n_frames
 
     @classmethod
-    def from_plan(cls, u, start_poses=None) -> "EngineInputs":
-        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in, start_poses)
+    def from_plan(cls, u, start_poses=None, base_seed: int | None = None) -> "EngineInputs":
+        key = None if base_seed is None else speaker_key(base_seed, u.speaker)
+        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in, start_poses, key)
 
 
 class GenerateError(Exception):
@@ -156,7 +161,7 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
         start_poses = listening[u.speaker][u.start_frame : u.start_frame + SEED_FRAMES] if listening else None
         layers: list = []  # an engine's own gesture hands (the rules engine's), then the pose controls'
         extra = {"hands_out": layers} if "hands_out" in inspect.signature(fn).parameters else {}
-        poses = fn(EngineInputs.from_plan(u, start_poses), seed=base_seed + u.index, **extra)
+        poses = fn(EngineInputs.from_plan(u, start_poses, base_seed), seed=base_seed + u.index, **extra)
         hands = motion_hands(poses, [*layers, u.hands])
         clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=list(u.words),
                                 controls=list(u.controls), hands=hands, index=u.index, start=u.start,

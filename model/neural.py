@@ -24,7 +24,7 @@ import numpy as np
 
 from core.controls import network_pose_controls
 from core.skeleton import FPS, POSE_DIM
-from model import postprocess
+from model import postprocess, take_posture
 from model.features import audio_features, load_audio, silence_features, word_features
 from model.runtime import as_runner, load_runner
 
@@ -45,6 +45,7 @@ class Options:
     ramp: int = 6  # frames of easing into and out of a controlled span
     weights: str | None = None  # path; None = the shipped weights
     threads: int | None = None  # torch threads; None = DEFAULT_THREADS
+    take_posture: bool = True  # draw the take's posture from the weights' training takes (model.take_posture)
 
 
 def speech_inputs(inputs, n_frames: int):
@@ -118,9 +119,23 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     audio, ids, onsets = speech_inputs(inputs, n)
     arrays = _seeded(inputs)
     raw = run_windows(model, audio, ids, onsets, arrays, seed)
+    raw = take_posture.with_posture(raw, drawn_posture(model, _take_key(inputs, seed), opts.take_posture),
+                                    take_posture.posture_weight(arrays))
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
                               blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words,
                               style=arrays.style, style_mask=arrays.style_mask)
+
+
+def drawn_posture(runner, key, enabled: bool = True):
+    """The posture of the training take drawn with ``key`` from the runner's weights
+    (:mod:`model.take_posture`); None when ``enabled`` is false or the weights carry no takes."""
+    return take_posture.draw(getattr(as_runner(runner), "takes", None), key) if enabled else None
+
+
+def _take_key(inputs, seed: int):
+    """The take's draw key: the speaker's within a performance, else the engine's seed."""
+    key = getattr(inputs, "take_key", None)
+    return seed if key is None else key
 
 
 def _seeded(inputs):

@@ -28,12 +28,12 @@ from core.fileio import atomic_write
 from core.interrupts import import_optional
 from core.skeleton import POSE_DIM
 from model.features import AUDIO_DIM
-from model.weights import DEFAULT_WEIGHTS, WeightsError, check_info, file_hash, load_weights
+from model.weights import DEFAULT_WEIGHTS, WeightsError, check_info, file_hash, load_weights, takes_of
 
 #: The network's inputs, in the order of :meth:`model.net.GestureNet.forward`.
 INPUTS = ("audio", "word_ids", "onsets", "pose", "pose_mask", "style", "style_mask", "z")
 #: Keys of the weights file recorded in the export (what :func:`model.weights.check_info` reads).
-_INFO_KEYS = ("format", "version", "layout", "config", "style_stats")
+_INFO_KEYS = ("format", "version", "layout", "config", "style_stats", "takes")
 #: Threads of one onnxruntime session: the network is small (about 1 ms a window), so more
 #: threads only add hand-over cost, and the service runs several sessions' calls side by side.
 ORT_THREADS = 1
@@ -49,9 +49,11 @@ class TorchRunner:
 
     kind = "torch"
 
-    def __init__(self, net) -> None:
+    def __init__(self, net, takes=None) -> None:
         self.net = net
         self.noise_dim = int(net.config["noise_dim"])
+        #: the training takes (:class:`model.take_posture.Takes`), None for weights without them
+        self.takes = takes
 
     def run_window(self, audio, ids, onsets, pose, pose_mask, style, style_mask, z) -> np.ndarray:
         import torch
@@ -74,6 +76,7 @@ class OnnxRunner:
         self.session = session
         self.info = info
         self.noise_dim = int(info["config"]["noise_dim"])
+        self.takes = None  # the training takes; load_runner reads them from ``info``
 
     def run_window(self, audio, ids, onsets, pose, pose_mask, style, style_mask, z) -> np.ndarray:
         f32 = np.float32
@@ -134,13 +137,15 @@ def load_runner(weights: str | None = None):
         runner = fresh_export(path)
         if runner is not None:
             check_info(path, runner.info)
+            runner.takes = takes_of(path, runner.info)
             return runner
-    return TorchRunner(load_weights(path)[0])
+    net, info = load_weights(path)
+    return TorchRunner(net, takes_of(path, info))
 
 
 def export_onnx(weights: Path | str | None = None, out: Path | str | None = None) -> Path:
     """Export a weights file's network to ONNX (default: beside it), recording the weights'
-    SHA-256 and their format, layout, config and style statistics. Needs torch and onnx."""
+    SHA-256 and their format, layout, config, style statistics and training takes. Needs torch and onnx."""
     import io
     import warnings
 

@@ -35,6 +35,7 @@ import numpy as np
 from core.controls import STYLE_INDEX, STYLE_LIMIT, STYLE_NAMES
 from core.skeleton import FPS, POSE_DIM
 from core.words import TimedWord
+from model import take_posture
 from model.features import AUDIO_DIM, HOP, frame_powers, level_features, silence_features, speech_level, word_features
 from model.postprocess import one_euro
 
@@ -70,6 +71,9 @@ class StreamGenerator:
             if not isinstance(value, (int, float)) or not -STYLE_LIMIT <= value <= STYLE_LIMIT:
                 raise StreamError(f"style {name} must be a number from -{STYLE_LIMIT} to {STYLE_LIMIT}")
             self.style[STYLE_INDEX[name]], self.style_mask[STYLE_INDEX[name]] = value, 1.0
+        # the take's posture (model.take_posture), unless the client asks for space or handedness
+        asked = any(self.style_mask[STYLE_INDEX[n]] for n in take_posture.YIELDS_TO_STYLES)
+        self.posture = None if asked else take_posture.draw(getattr(runner, "takes", None), seed)
         self.smoothing = smoothing
         self.filter_state: dict = {}
         self.words: list[TimedWord] = []
@@ -165,7 +169,7 @@ class StreamGenerator:
                                    np.repeat(self.style[None], n, 0), np.repeat(self.style_mask[None], n, 0), self.z)
         k = min(STEP, e - a)
         self.done += k
-        return y[a - s : a - s + k]
+        return take_posture.with_posture(y[a - s : a - s + k], self.posture)
 
     def _audio_features(self, s: int, e: int) -> np.ndarray:
         """Features of frames [s, e): silence without audio; with it, levels relative to the

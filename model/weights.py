@@ -3,8 +3,9 @@
 A weights file is a ``torch.save`` dict: ``format`` ("sgt-generator"), ``version``, the
 ``layout`` it was trained for (fps, pose and audio dimensions, word buckets, style names, the
 control vector of :data:`core.controls.CONTROL_LAYOUT`), the network ``config``, its
-``state_dict``, the style normalisation ``style_stats`` it was trained with and free-form
-``meta`` (training command, data, metrics). A file for another layout or version, or trained
+``state_dict``, the style normalisation ``style_stats`` it was trained with, the styles of
+its training takes ``takes`` (their postures, :mod:`model.take_posture`; files from before
+them have none) and free-form ``meta`` (training command, data, metrics). A file for another layout or version, or trained
 with other style statistics than ``model/style_stats.json`` (its style values would mean
 something else), is refused with a message that says how to fix it, never misread.
 """
@@ -22,6 +23,7 @@ from core.fileio import atomic_write
 from core.skeleton import FPS, JOINTS, POSE_DIM
 from model.features import AUDIO_DIM, AUDIO_FEATURES, N_MELS, SAMPLE_RATE, WORD_BUCKETS
 from model.style import STATS_PATH, load_stats
+from model.take_posture import Takes, TakesError
 
 FORMAT = "sgt-generator"
 VERSION = 1
@@ -75,7 +77,9 @@ def _fmt(values) -> str:
         return repr(values)
 
 
-def save_weights(path: Path | str, model, meta: dict | None = None) -> None:
+def save_weights(path: Path | str, model, meta: dict | None = None, takes=None) -> None:
+    """Write ``model`` with its format, layout, config and style statistics (atomically);
+    ``takes``: its training takes (:class:`model.take_posture.Takes`)."""
     import torch
 
     stats = load_stats()
@@ -85,6 +89,8 @@ def save_weights(path: Path | str, model, meta: dict | None = None) -> None:
         "style_stats": {"mean": list(stats.mean), "std": list(stats.std), "source": stats.source},
         "meta": meta or {},
     }
+    if takes is not None:
+        blob["takes"] = takes.as_dict()
     buf = io.BytesIO()
     torch.save(blob, buf)
     atomic_write(path, buf.getvalue())
@@ -104,6 +110,31 @@ def check_info(path: Path, blob) -> None:
     problem = _stats_problem(path, blob.get("style_stats"))
     if problem:
         raise WeightsError(problem)
+    takes_of(path, blob)
+
+
+def takes_of(path: Path, blob) -> Takes | None:
+    """The training takes a weights file (or an export's copy of its dict) carries; None for
+    files from before they were recorded; :class:`WeightsError` for damaged ones."""
+    if blob.get("takes") is None:
+        return None
+    try:
+        return Takes.from_dict(blob["takes"])
+    except TakesError as exc:
+        raise WeightsError(f"{path} holds damaged training takes ({exc}); {FIX}") from None
+
+
+def set_takes(path: Path | str, takes: Takes) -> None:
+    """Record the training takes in an existing weights file (everything else kept; atomic)."""
+    import torch
+
+    path = Path(path)
+    load_weights(path)  # refuse what cannot be read, with the usual message
+    blob = torch.load(str(path), map_location="cpu", weights_only=True)
+    blob["takes"] = takes.as_dict()
+    buf = io.BytesIO()
+    torch.save(blob, buf)
+    atomic_write(path, buf.getvalue())
 
 
 def file_hash(path: Path | str) -> str:

@@ -134,7 +134,8 @@ def test_the_speech_engine_build_invalidates_synthesized_speech_only(folder, mon
     (Settings(seed=7), {0, 1, 2}),
     (Settings(smoothing="none"), {0, 1, 2}),
     (Settings(blend=False), {0, 1, 2}),
-], ids=["engine", "--seed", "smoothing", "blend"])
+    (Settings(take_posture=False), {0, 1, 2}),
+], ids=["engine", "--seed", "smoothing", "blend", "take-posture"])
 def test_generator_settings_invalidate_everything(folder, settings, expected):
     assert changed(keys(folder), keys(folder, settings=settings)) == expected
 

@@ -22,6 +22,7 @@ from model.teacher import teach  # noqa: E402
 from model.training import evaluate as E  # noqa: E402
 from model.training import metrics as M  # noqa: E402
 from model.training.corpus import build_corpus, load_corpus  # noqa: E402
+from model import take_posture  # noqa: E402
 from model.weights import load_weights  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -47,7 +48,12 @@ def clips(corpus):
 
 @pytest.fixture(scope="module")
 def model():
-    return load_weights()[0]
+    """The shipped network with its training takes, as evaluate_corpus runs it."""
+    from model.runtime import TorchRunner
+    from model.weights import DEFAULT_WEIGHTS, takes_of
+
+    net, info = load_weights()
+    return TorchRunner(net, takes_of(DEFAULT_WEIGHTS, info))
 
 
 @pytest.fixture(scope="module")
@@ -95,9 +101,11 @@ def test_every_condition_is_what_the_model_card_says(clips, model, motions):
         style_ctl = motions["model+style"][2][i]
         assert np.allclose(style_ctl.style, style(ref), atol=1e-6) and style_ctl.style_mask.all()
         assert style_ctl.style.std(axis=0).max() > 0.05
-        # the free model: the neural engine with no controls and clip i's seed (3 + i)
+        # the free model: the neural engine with no controls, clip i's seed (3 + i) and the
+        # posture of the training take that seed draws
         empty = ControlArrays.empty(len(ref))
         raw_free = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], empty, 3 + i)
+        raw_free = take_posture.with_posture(raw_free, take_posture.draw(model.takes, 3 + i))
         assert np.array_equal(motions["model"][1][i], postprocess.finish(raw_free, empty.pose, empty.pose_mask))
         # keyframe: splines through the same pose control, the mean pose at the ends
         key = motions["keyframe"][1][i]
@@ -138,6 +146,11 @@ def test_table_rows_are_the_metrics_of_the_conditions(corpus, clips, model):
     by = {r["name"]: r for r in rows}
     assert by["model+pose"]["pcs"] < 1e-6 and by["keyframe"]["pcs"] < 1e-6 < by["model+pose raw"]["pcs"]
     assert by["model+pose raw"]["pcs"] < by["mean pose"]["pcs"]
+    # --no-take-posture: the network alone; the style row requests space and handedness on
+    # every frame, so it holds no posture either way
+    plain = {r["name"]: r for r in E.evaluate_corpus(corpus, split="train", seed=3, limit=3, takes=False)}
+    assert plain["model"]["fgd"] != pytest.approx(by["model"]["fgd"], rel=1e-3)
+    assert plain["model+style"]["fgd"] == pytest.approx(by["model+style"]["fgd"], rel=1e-9)
     for name in ("model", "rules"):
         assert np.isnan(by[name]["pcs"]) and np.isnan(by[name]["scs"])
     assert np.isnan(by["model+style"]["pcs"]) and by["model+style"]["scs"] < by["mean pose"]["scs"]
@@ -182,6 +195,8 @@ def test_style_following_is_the_style_of_the_requested_motion(clips, model):
                 arrays = ControlArrays.empty(len(clip["poses"]))
                 arrays.set_style(0, len(clip["poses"]), {name: value})
                 raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, 3 + i)
+                if name == "speed":  # a speed request leaves the take's posture on
+                    raw = take_posture.with_posture(raw, take_posture.draw(model.takes, 3 + i))
                 words = clip["word_ids"] > 0
                 engine = postprocess.finish(raw, arrays.pose, arrays.pose_mask, style=arrays.style, style_mask=arrays.style_mask)
                 per_clip.append(style(engine)[words, k])

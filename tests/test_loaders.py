@@ -249,4 +249,5 @@ def test_sgt_train_on_a_bvh_folder(tmp_path):
     assert rc == 0
     model, info = load_weights(out / "generator.pt")
     assert info["meta"]["epochs_done"] == 1
+    assert len(info["takes"]["postures"]) == 2  # the training takes (one of three is held out)
     assert main(["train", "--data", str(tmp_path / "Audio"), "-o", str(out)]) == 1  # no .bvh there: an error, no traceback

@@ -161,3 +161,25 @@ def test_with_audio_a_frame_waits_for_the_audio_after_it(speech):
         assert emitted == max(0, k - round(LOOKAHEAD_S * FPS) + 1)
     with pytest.raises(StreamError, match="not numbers"):
         gen.add_audio(np.array([np.nan], np.float32))
+
+
+def test_the_stream_holds_a_take_posture_that_gives_way_to_the_clients_space_and_handedness(words):
+    """model/take_posture.py in the stream, as offline."""
+    runner = load_runner(None)
+    assert runner.takes is not None
+
+    class Plain:  # the same network without takes
+        noise_dim, takes = runner.noise_dim, None
+        run_window = staticmethod(runner.run_window)
+
+    def run(r, seed, **kw):
+        gen = StreamGenerator(r, seed=seed, **kw)
+        return np.concatenate([gen.add_words(words), gen.finish()])
+
+    for seed in (2, 5):
+        with_take, without = run(runner, seed), run(Plain, seed)
+        assert np.abs(with_take.mean(0) - without.mean(0)).max() > 0.05  # the posture moves the take
+        assert np.allclose(np.linalg.norm(with_take.reshape(-1, N_BONES, 3), axis=-1), 1.0, atol=1e-4)
+        for style in ({"space": 1.0}, {"handedness": -0.5}):  # asked for: the network alone
+            assert np.array_equal(run(runner, seed, style=style), run(Plain, seed, style=style))
+        assert not np.array_equal(run(runner, seed, style={"speed": 1.0}), run(Plain, seed, style={"speed": 1.0}))

@@ -30,19 +30,23 @@ import numpy as np
 from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
-from model import keyframe, neural, postprocess
+from model import keyframe, neural, postprocess, take_posture
+from model.runtime import TorchRunner
 from model.style import style as style_of
 from model.teacher import teach
 from model.training import metrics
 from model.training.corpus import load_corpus
-from model.weights import load_weights
+from model.weights import DEFAULT_WEIGHTS, load_weights, takes_of
 
 #: The ``rules`` condition's teacher seeds: ``RULES_SEED + seed + i`` for clip ``i`` (not the corpus's).
 RULES_SEED = 10_000
 
 
 def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
+    """The neural engine on one clip: the network, the posture of the take drawn with the
+    clip's seed (when the runner ``model`` carries training takes), then post-processing."""
     raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
+    raw = take_posture.with_posture(raw, neural.drawn_posture(model, seed), take_posture.posture_weight(arrays))
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing, blend=blend,
                               style=arrays.style, style_mask=arrays.style_mask)
 
@@ -152,17 +156,20 @@ def format_style_following(result: dict) -> str:
 
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
                     progress=None, limit: int | None = None, smoothing: str = "one_euro",
-                    with_style: bool = False) -> list[dict] | tuple[list[dict], dict]:
+                    with_style: bool = False, takes: bool = True) -> list[dict] | tuple[list[dict], dict]:
     """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``,
     then the ``shuffled audio`` row; with ``with_style`` also :func:`style_following`, as
     ``(rows, style)``.
 
     ``smoothing`` is the neural engine's post-filter for the model rows (``model+pose raw`` is
-    always unsmoothed and unblended: the network's own pose following)."""
+    always unsmoothed and unblended: the network's own pose following). ``takes``: draw
+    each clip's take posture from the weights' training takes, as generation does
+    (:mod:`model.take_posture`); false: the network alone."""
     clips = load_corpus(corpus, split)
     if limit:
         clips = clips[:limit]
-    model, _ = load_weights(weights)
+    net, info = load_weights(weights)
+    model = TorchRunner(net, takes_of(weights or DEFAULT_WEIGHTS, info) if takes else None)
     conditions = condition_motions(clips, model, mean_pose(load_corpus(corpus, "train")), seed=seed,
                                    smoothing=smoothing, progress=progress)
     audio = [c["audio_clean"] for c in clips]

@@ -30,6 +30,7 @@ from core.controls import STYLE_NAMES
 from core.fileio import atomic_write
 from model.style import style as style_of
 from model.training.metrics import pcs_frames
+from model.training.takes import record_takes
 from model.training.train_config import WINDOW, TrainConfig  # noqa: F401  (re-exported)
 from model.weights import save_weights
 
@@ -392,4 +393,7 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
             log(f"time budget of {cfg.minutes} min reached after epoch {epoch + 1}")
             break
     dist.close()
+    if dist.main and (out_dir / "generator.pt").exists():
+        log("measuring the training takes' postures for generator.pt")
+        record_takes(out_dir / "generator.pt", train_clips, progress=progress)
     return model

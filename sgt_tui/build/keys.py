@@ -13,9 +13,10 @@ The key is the sha256 of a canonical JSON rendering of:
   recording the sha256 of the audio file and of its timings file (or the aligner that
   times it, when there is none);
 - the generator: the engine; for ``neural`` the sha256 of the weights, the smoothing and the
-  pose-control blend; the seed the engine receives (``--seed`` or ``@seed``, plus the
-  utterance's number, as :func:`model.generate.clips_from_plan` seeds it; the keyframe engine
-  uses none);
+  pose-control blend, and the seed its speaker's take posture is drawn with (the script's
+  seed, none with ``--no-take-posture``); the seed the engine receives (``--seed`` or ``@seed``, plus
+  the utterance's number, as :func:`model.generate.clips_from_plan` seeds it; the keyframe
+  engine uses none);
 - :data:`CODE_VERSION`, bumped whenever code changes what an utterance generates.
 
 Not in it: the script's path or name, the utterance's line number, comments, other
@@ -32,7 +33,7 @@ from pathlib import Path
 
 #: Bump when a change to the compiler, the speech timing, the engines or the post-processing
 #: changes the motion of an utterance whose inputs did not change.
-CODE_VERSION = 5  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed); 5: zero-phase smoothing
+CODE_VERSION = 6  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed); 5: zero-phase smoothing; 6: the take's posture
 
 #: Engines whose output does not depend on the seed.
 _SEEDLESS = frozenset({"keyframe"})
@@ -47,17 +48,19 @@ class Settings:
     smoothing: str = "one_euro"
     blend: bool = True
     weights: str | None = None  # None: the shipped weights
+    take_posture: bool = True  # the neural engine draws each speaker's take posture (model.take_posture)
 
     def options(self):
         from model.neural import Options  # lazy: numpy, the engine
 
-        return Options(smoothing=self.smoothing, blend=self.blend, weights=self.weights)
+        return Options(smoothing=self.smoothing, blend=self.blend, weights=self.weights, take_posture=self.take_posture)
 
     def describe(self) -> dict:
         """The settings as the manifest records them."""
         out: dict = {"engine": self.engine, "seed": self.seed}
         if self.engine == "neural":
-            out.update(smoothing=self.smoothing, blend=self.blend, weights_sha256=weights_hash(self.weights))
+            out.update(smoothing=self.smoothing, blend=self.blend, take_posture=self.take_posture,
+                       weights_sha256=weights_hash(self.weights))
         return out
 
 
@@ -159,7 +162,9 @@ def utterance_payload(utt, lib, base_seed: int, settings: Settings, files=None) 
     if settings.engine not in _SEEDLESS:
         payload["seed"] = (base_seed if settings.seed is None else settings.seed) + utt.index
     if settings.engine == "neural":
-        payload.update(weights=weights_hash(settings.weights), smoothing=settings.smoothing, blend=settings.blend)
+        payload.update(weights=weights_hash(settings.weights), smoothing=settings.smoothing, blend=settings.blend,
+                       # the speaker's take posture is drawn with the script's seed, not the utterance's
+                       take_posture=(base_seed if settings.seed is None else settings.seed) if settings.take_posture else None)
     return payload
 
 

@@ -57,7 +57,8 @@ def run(args) -> int:
     out = output_folder(args.output)
     cache = BuildCache(output_folder(args.cache, "--cache") if args.cache else None)
     weights = str(existing_file(args.weights).resolve()) if args.weights else None
-    settings = Settings(engine=args.engine, seed=args.seed, smoothing=args.smoothing, blend=not args.no_blend, weights=weights)
+    settings = Settings(engine=args.engine, seed=args.seed, smoothing=args.smoothing, blend=not args.no_blend, weights=weights,
+                        take_posture=not args.no_take_posture)
     exports = [name for name in ("bvh", "glb", "wav") if getattr(args, name)]
     if args.ray is not None and args.jobs is not None and args.ray:
         raise UsageError("--jobs sets the workers of a local build or a local Ray instance; a Ray cluster has its own")

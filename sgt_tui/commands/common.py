@@ -122,6 +122,15 @@ def add_post_options(p) -> None:
                    help="post-filter of the neural engine (default one_euro: the 1-euro filter forwards and backwards, no lag)")
     p.add_argument("--no-blend", action="store_true",
                    help="neural engine: leave control following to the network (no exact pose blend, no speed correction)")
+    add_take_posture_option(p)
+
+
+def add_take_posture_option(p) -> None:
+    """``--no-take-posture``: the neural engine draws no take posture (model/take_posture.py; generate, build, eval)."""
+    p.add_argument("--no-take-posture", action="store_true",
+                   help="neural engine: no take posture (by default each speaker holds the posture of one of the "
+                        "weights' training takes, chosen by the seed, except where the script requests a pose, space "
+                        "or handedness; docs/model.md)")
 
 
 def add_seed_option(p, help_text: str) -> None:

@@ -18,7 +18,7 @@ docs/metrics.md."""
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import SMOOTHING_CHOICES, positive_int, seed
+    from sgt_tui.commands.common import SMOOTHING_CHOICES, add_take_posture_option, positive_int, seed
 
     p = sub.add_parser("eval", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
@@ -32,6 +32,7 @@ def register(sub) -> None:
     p.add_argument("--no-style", action="store_true", help="skip the requested-versus-achieved style table")
     p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0],
                    help="the neural engine's post-filter for the model rows (default one_euro, as sgt generate)")
+    add_take_posture_option(p)
     p.set_defaults(run=run)
 
 
@@ -60,7 +61,8 @@ def run(args) -> int:
     try:
         result = evaluate_corpus(args.corpus, split=args.split, weights=weights, extractor=extractor,
                                  seed=args.seed, progress=ProgressBar("eval"), limit=args.limit,
-                                 smoothing=args.smoothing, with_style=not args.no_style)
+                                 smoothing=args.smoothing, with_style=not args.no_style,
+                                 takes=not args.no_take_posture)
     except (WeightsError, ExtractorError, CorpusError) as exc:
         raise InputError(str(exc)) from None
     except (FileNotFoundError, ValueError) as exc:

@@ -57,7 +57,8 @@ def run(args) -> int:
     fmt = output_format(args.output, args.format, ("json", "npz"))
     out = output_file(args.output, binary=fmt == "npz")
     weights = str(existing_file(args.weights)) if args.weights else None
-    options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=weights, threads=args.threads)
+    options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=weights, threads=args.threads,
+                      take_posture=not args.no_take_posture)
     take = generate_script(path, engine=args.engine, utterances=args.utterance, seed=args.seed, options=options)
     take.save(out, format=fmt)
     frames = take.plan.n_frames

@@ -36,6 +36,8 @@ def register(sub) -> None:
     p.add_argument("--threads", type=positive_int, default=TrainConfig.threads, help=f"CPU threads (default {TrainConfig.threads})")
     p.add_argument("--minutes", type=positive_float, help="stop after this much time (at the end of an epoch)")
     p.add_argument("--no-gan", action="store_true", help="switch the adversarial term off")
+    p.add_argument("--gan-weight", type=non_negative_float, default=TrainConfig.beta,
+                   help=f"weight of the adversarial term (default {TrainConfig.beta:g}; --no-gan sets 0)")
     p.add_argument("--ctrl-weight", type=non_negative_float, default=TrainConfig.ctrl,
                    help=f"weight of the L1 term on pose-controlled frames, 0 = off (default {TrainConfig.ctrl:g})")
     p.add_argument("--style-weight", type=non_negative_float, default=TrainConfig.gamma,
@@ -95,7 +97,7 @@ def run(args) -> int:
         except (CorpusError, OSError, ValueError) as exc:
             raise InputError(f"cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}") from None
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
-                      beta=0.0 if args.no_gan else TrainConfig.beta, seed=args.seed,
+                      beta=0.0 if args.no_gan else args.gan_weight, seed=args.seed,
                       threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight,
                       kl=args.kl, p_prior=args.p_prior, p_restyle=args.restyle, window=args.window, device=args.device,
                       net={"hidden": args.hidden, "gru": not args.no_gru, "smooth": args.smooth})

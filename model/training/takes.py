@@ -1,0 +1,44 @@
+"""Measuring the training takes' postures that weights carry (:mod:`model.take_posture`).
+
+For each training clip (a random subset of :data:`~model.take_posture.MAX_TAKES` when there are
+more): the mean of its reference poses minus the mean of the network's raw output on the
+clip's own speech with no controls. The posture is what the network leaves out of the take's
+mean pose, so it depends on the weights: ``sgt train`` measures it at the end of training for
+the weights it keeps.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.controls import ControlArrays
+from model import take_posture
+
+
+def measure_takes(model, clips, *, seed: int = 0, progress=None) -> take_posture.Takes:
+    """The :class:`~model.take_posture.Takes` of ``clips`` for ``model`` (a runner or a GestureNet)."""
+    from model.neural import run_windows  # lazy: the engine
+
+    chosen = list(range(len(clips)))
+    if len(chosen) > take_posture.MAX_TAKES:
+        chosen = sorted(np.random.default_rng(seed).choice(len(clips), take_posture.MAX_TAKES, replace=False).tolist())
+    postures = []
+    for n, i in enumerate(chosen):
+        if progress:
+            progress(n, len(chosen), "")
+        clip = clips[i]
+        raw = run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], ControlArrays.empty(len(clip["poses"])), seed + i)
+        postures.append(np.asarray(clip["poses"], np.float64).mean(axis=0) - raw.astype(np.float64).mean(axis=0))
+    if progress:
+        progress(len(chosen), len(chosen), "")
+    limit = take_posture.POSTURE_LIMIT
+    return take_posture.Takes(np.clip(np.asarray(postures, np.float32).reshape(-1, 27), -limit, limit))
+
+
+def record_takes(weights, clips, *, progress=None) -> take_posture.Takes:
+    """Measure ``clips``' takes with the network of the weights file ``weights`` and record them in it."""
+    from model.weights import load_weights, set_takes  # lazy: torch
+
+    takes = measure_takes(load_weights(weights)[0], clips, progress=progress)
+    set_takes(weights, takes)
+    return takes
