@@ -1,7 +1,7 @@
 """The take's posture: how a speaker holds the body when the script asks for nothing in particular.
 
 Takes differ in ways no word or sound reveals: one speaker keeps the hands low and close,
-another holds them high and wide, one leans a little to the left. A network trained to regress
+another holds them high and wide, one favours one arm. A network trained to regress
 its data averages those takes out and makes the same middle-of-the-road posture every time,
 whatever its noise vector says (model card, "What we compared"). So weights carry the postures
 of their training takes (:class:`Takes`, measured by :func:`model.training.takes.measure_takes`:
@@ -16,7 +16,8 @@ Chosen by measurement on the val split over three training seeds (model card, "T
 posture"): it cut FGD without controls to less than half and left jerk, speed histograms and
 beat alignment as they were. Drawing the take's space and handedness style as well, fed to the
 network as style controls, lowered the Hellinger distance a little but made the motion
-smoother and less aligned with the speech (below shuffled audio in two seeds): not taken.
+smoother and less aligned with the speech (on the test split, below shuffled audio in two
+seeds): not taken.
 """
 
 from __future__ import annotations

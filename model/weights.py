@@ -3,10 +3,10 @@
 A weights file is a ``torch.save`` dict: ``format`` ("sgt-generator"), ``version``, the
 ``layout`` it was trained for (fps, pose and audio dimensions, word buckets, style names, the
 control vector of :data:`core.controls.CONTROL_LAYOUT`), the network ``config``, its
-``state_dict``, the style normalisation ``style_stats`` it was trained with, the styles of
-its training takes ``takes`` (their postures, :mod:`model.take_posture`; files from before
-them have none) and free-form ``meta`` (training command, data, metrics). A file for another layout or version, or trained
-with other style statistics than ``model/style_stats.json`` (its style values would mean
+``state_dict``, the style normalisation ``style_stats`` it was trained with, the postures of
+its training takes ``takes`` (:mod:`model.take_posture`; files from before them have none)
+and free-form ``meta`` (training command, data, metrics). A file for another layout or
+version, or trained with other style statistics than ``model/style_stats.json`` (its style values would mean
 something else), is refused with a message that says how to fix it, never misread.
 """
 
@@ -77,9 +77,9 @@ def _fmt(values) -> str:
         return repr(values)
 
 
-def save_weights(path: Path | str, model, meta: dict | None = None, takes=None) -> None:
-    """Write ``model`` with its format, layout, config and style statistics (atomically);
-    ``takes``: its training takes (:class:`model.take_posture.Takes`)."""
+def save_weights(path: Path | str, model, meta: dict | None = None) -> None:
+    """Write ``model`` with its format, layout, config and style statistics (atomically); its
+    training takes are added afterwards by :func:`set_takes`."""
     import torch
 
     stats = load_stats()
@@ -89,8 +89,6 @@ def save_weights(path: Path | str, model, meta: dict | None = None, takes=None) 
         "style_stats": {"mean": list(stats.mean), "std": list(stats.std), "source": stats.source},
         "meta": meta or {},
     }
-    if takes is not None:
-        blob["takes"] = takes.as_dict()
     buf = io.BytesIO()
     torch.save(blob, buf)
     atomic_write(path, buf.getvalue())

@@ -14,9 +14,9 @@ The key is the sha256 of a canonical JSON rendering of:
   times it, when there is none);
 - the generator: the engine; for ``neural`` the sha256 of the weights, the smoothing and the
   pose-control blend, and the seed its speaker's take posture is drawn with (the script's
-  seed, none with ``--no-take-posture``); the seed the engine receives (``--seed`` or ``@seed``, plus
-  the utterance's number, as :func:`model.generate.clips_from_plan` seeds it; the keyframe
-  engine uses none);
+  seed, none with ``--no-take-posture``); the seed the engine receives (``--seed`` or
+  ``@seed``, plus the utterance's number, as :func:`model.generate.clips_from_plan` seeds it;
+  the keyframe engine uses none);
 - :data:`CODE_VERSION`, bumped whenever code changes what an utterance generates.
 
 Not in it: the script's path or name, the utterance's line number, comments, other
