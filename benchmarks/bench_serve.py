@@ -184,8 +184,8 @@ def stream_figures() -> None:
         stream = np.concatenate(frames)
         m = len(stream)
         ids, onsets = neural.word_features(words, m)
-        offline = postprocess.one_euro(_with_take(runner, neural.run_windows(runner, np.zeros((m, AUDIO_DIM), np.float32), ids,
-                                                                             onsets, ControlArrays.empty(m), n), n))
+        offline = postprocess.calm_pauses(postprocess.one_euro(_with_take(
+            runner, neural.run_windows(runner, np.zeros((m, AUDIO_DIM), np.float32), ids, onsets, ControlArrays.empty(m), n), n)), words)
         angle, fast, jerky = _compare(stream, offline)
         angles.append(angle)
         speed.append(fast)
@@ -257,8 +257,8 @@ def audio_stream_figures(runner) -> None:
         m = len(stream)
         audio16 = resample_poly(x, SAMPLE_RATE, rate).astype(np.float32)
         ids, onsets = neural.word_features(words, m)
-        offline = postprocess.one_euro(_with_take(runner, neural.run_windows(runner, audio_features(audio16, m), ids, onsets,
-                                                                             ControlArrays.empty(m), n), n))
+        offline = postprocess.calm_pauses(postprocess.one_euro(_with_take(
+            runner, neural.run_windows(runner, audio_features(audio16, m), ids, onsets, ControlArrays.empty(m), n), n)), words)
         with_audio.append(_compare(stream, offline))
         words_gen = StreamGenerator(runner, seed=n)
         alone = np.concatenate([words_gen.add_words(words), words_gen.finish()])

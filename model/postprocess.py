@@ -338,11 +338,28 @@ def calm_pauses(poses: np.ndarray, words, hold: float | None = None, ease: int |
     weight = np.zeros(len(g), np.float32)
     for a, b in _spans(quiet):
         target[a:b] = g[max(0, a - 1)]
-        k = np.arange(b - a)
-        edge = np.minimum(k + 1, b - a - k) / (ease + 1)  # 1/(ease+1) ... 1 ... from both ends
-        weight[a:b] = hold * smoothstep(np.minimum(edge, 1.0))
-    out = g.copy()  # frames outside pauses keep their bits
-    out[quiet] = _nlerp(g[quiet], target[quiet], weight[quiet, None])
+        weight[a:b] = pause_hold_weight(np.arange(b - a), b - a, hold, ease)
+    return hold_pose(g, target, weight)
+
+
+def pause_hold_weight(k, length, hold: float | None = None, ease: int | None = None) -> np.ndarray:
+    """The hold of :func:`calm_pauses` on frame ``k`` (an array) of a pause ``length`` frames long
+    (``math.inf``: its end not yet known, so no easing out): ``hold`` times a smoothstep that
+    eases in and out over ``ease`` frames at the pause's ends."""
+    hold = PAUSE_HOLD if hold is None else hold
+    ease = PAUSE_EASE if ease is None else ease
+    k = np.asarray(k)
+    edge = np.minimum(k + 1, length - k) / (ease + 1)  # 1/(ease+1) ... 1 ... from both ends
+    return (hold * smoothstep(np.minimum(edge, 1.0))).astype(np.float32)
+
+
+def hold_pose(poses: np.ndarray, target: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """``poses`` drawn towards ``target`` (both (T, 27)) by ``weight`` (T,); frames of weight 0
+    keep their bits."""
+    out = np.array(poses, np.float32)
+    on = np.asarray(weight) > 0
+    if on.any():
+        out[on] = _nlerp(out[on], np.asarray(target, np.float32)[on], np.asarray(weight, np.float32)[on, None])
     return out
 
 

@@ -37,7 +37,7 @@ from core.skeleton import FPS, POSE_DIM
 from core.words import TimedWord
 from model import take_posture
 from model.features import AUDIO_DIM, HOP, frame_powers, level_features, silence_features, speech_level, word_features
-from model.postprocess import one_euro
+from model.postprocess import PAUSE_MIN_S, hold_pose, one_euro, pause_hold_weight
 
 CONTEXT = 45  # frames of words before the decided ones (3 s)
 STEP = 1  # frames decided per network call
@@ -76,6 +76,9 @@ class StreamGenerator:
         self.posture = None if asked else take_posture.draw(getattr(runner, "takes", None), seed)
         self.smoothing = smoothing
         self.filter_state: dict = {}
+        self.emitted = 0  # frames returned so far
+        self.last_filtered: np.ndarray | None = None  # the last returned frame before the pause hold
+        self.hold_target: np.ndarray | None = None  # the pose the current pause holds (its frame before)
         self.words: list[TimedWord] = []
         self.known = 0.0  # seconds of speech known
         self.done = 0  # frames decided
@@ -153,7 +156,7 @@ class StreamGenerator:
         while self.done < total:
             out.append(self._step(total))
         self.finished = True
-        return self._emit(out)
+        return self._emit(out, final=True)
 
     def _step(self, limit: int) -> np.ndarray:
         """Run the network for the next STEP frames (fewer at ``limit``); returns their raw poses."""
@@ -181,8 +184,48 @@ class StreamGenerator:
         recent = self.powers[max(0, e - int(LEVEL_WINDOW_S * FPS)) : e]
         return level_features(self.powers[s:e], speech_level(recent)).astype(np.float32)
 
-    def _emit(self, pieces: list[np.ndarray]) -> np.ndarray:
+    def _emit(self, pieces: list[np.ndarray], final: bool = False) -> np.ndarray:
         if not pieces:
             return np.zeros((0, POSE_DIM), np.float32)
         raw = np.concatenate(pieces)
-        return one_euro(raw, state=self.filter_state) if self.smoothing else raw
+        return self._calm_pauses(one_euro(raw, state=self.filter_state) if self.smoothing else raw, final)
+
+    def _calm_pauses(self, frames: np.ndarray, final: bool) -> np.ndarray:
+        """The offline engine's pause hold (:func:`model.postprocess.calm_pauses`) on frames about
+        to be returned. It needs no more look-ahead than the stream has: a frame is decided only
+        once the speech is known LOOKAHEAD_S (> PAUSE_MIN_S) past it, so whether it lies in a
+        silence of at least PAUSE_MIN_S is known, and so is a pause end close enough to ease
+        out before it; a pause whose next word is not known yet is held as if it went on.
+        After the last word (``final``: :meth:`finish`) the hold continues to the end, where
+        the offline engine, which knows no word follows, does not hold."""
+        first = self.emitted
+        self.emitted += len(frames)
+        target = np.empty_like(frames)
+        weight = np.zeros(len(frames), np.float32)
+        for i in range(len(frames)):
+            span = self._pause_span(first + i, final)
+            if span is not None:
+                a, b = span
+                if first + i == a or self.hold_target is None:
+                    self.hold_target = frames[i - 1] if i > 0 else self.last_filtered
+                target[i] = self.hold_target
+                weight[i] = pause_hold_weight(np.array([first + i - a]), b - a)[0]
+        self.last_filtered = frames[-1].copy()
+        return hold_pose(frames, target, weight)
+
+    def _pause_span(self, f: int, final: bool) -> tuple[int, float] | None:
+        """(first frame, end frame) of the pause frame ``f`` lies in (the end ``math.inf`` while
+        no word after it is known and the stream has ended), as :func:`model.postprocess.pause_frames`
+        spans it; None outside pauses."""
+        words = self.words
+        i = len(words) - 1
+        while i >= 0 and math.floor(words[i].end * FPS) + 1 > f:
+            i -= 1
+        if i < 0:
+            return None  # before the first word's end: never a pause
+        end = words[i].end
+        following = words[i + 1].start if i + 1 < len(words) else (math.inf if final else self.known)
+        if following - end < PAUSE_MIN_S:
+            return None
+        stop = math.ceil(following * FPS) if math.isfinite(following) else math.inf
+        return (math.floor(end * FPS) + 1, stop) if f < stop else None

@@ -5,11 +5,12 @@ shipped weights (the weights trained on per-utterance z-scored audio features ge
 hardest in digital silence: 0.45 m/s at the peak of a `[pause 2s]` against 0.15 m/s while
 speaking). This script compiles a script (by default one utterance with a `[pause 2s]`
 mid-sentence and a `[pause 4s]` between two sentences: a long gap), generates ``--seeds``
-takes with the neural engine (or ``--engine rules``, the teacher) and prints, over the takes,
+takes with the neural engine (or ``--engine rules``, the teacher, or ``--engine stream``, the
+streaming service's generator fed the utterance's timed words) and prints, over the takes,
 the median, mean and peak of the wrists' speed (the mean of both wrists, m/s; frame t's speed
 is the step into it) on frames inside a pause and on frames inside a word:
 
-    python scripts/pause_check.py [FILE.sgt] [--weights FILE] [--seeds N] [--engine neural|rules] [--json FILE]
+    python scripts/pause_check.py [FILE.sgt] [--weights FILE] [--seeds N] [--engine neural|rules|stream] [--json FILE]
 """
 
 from __future__ import annotations
@@ -75,15 +76,27 @@ def measure(path: Path, *, seeds: int = 5, weights=None, engine: str = "neural")
         for seed in range(seeds):
             if engine == "neural":
                 poses = neural.generate(inputs, seed=seed, options=neural.Options(weights=weights))
+            elif engine == "stream":
+                poses = streamed(inputs.words, seed, weights)
             else:
                 poses = teacher.generate(inputs, seed=seed)
             v = wrist_speed(poses)
-            in_pause.append(v[pause])
-            speaking.append(v[speech])
+            n = min(len(v), len(pause))  # a stream ends half a second after the last word
+            in_pause.append(v[:n][pause[:n]])
+            speaking.append(v[:n][speech[:n]])
     if not in_pause:
         raise SystemExit(f"{path}: no utterance has a [pause]")
     return {"pause": summary(np.concatenate(in_pause)), "speaking": summary(np.concatenate(speaking)),
             "engine": engine, "weights": weights, "seeds": seeds}
+
+
+def streamed(words, seed: int, weights=None) -> np.ndarray:
+    """The streaming generator's poses for timed words sent at once (no audio), then ``finish``."""
+    from model.runtime import load_runner
+    from model.streaming import StreamGenerator
+
+    gen = StreamGenerator(load_runner(weights), seed=seed)
+    return np.concatenate([gen.add_words([(w.word, w.start, w.end) for w in words]), gen.finish()])
 
 
 def main() -> int:
@@ -91,7 +104,7 @@ def main() -> int:
     ap.add_argument("script", nargs="?", help="a .sgt script with [pause] tags (default: the built-in one above)")
     ap.add_argument("--weights", help="generator weights (default: the shipped ones)")
     ap.add_argument("--seeds", type=int, default=5, help="takes (default 5)")
-    ap.add_argument("--engine", choices=("neural", "rules"), default="neural")
+    ap.add_argument("--engine", choices=("neural", "rules", "stream"), default="neural")
     ap.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:

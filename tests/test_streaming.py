@@ -183,3 +183,33 @@ def test_the_stream_holds_a_take_posture_that_gives_way_to_the_clients_space_and
         for style in ({"space": 1.0}, {"handedness": -0.5}):  # asked for: the network alone
             assert np.array_equal(run(runner, seed, style=style), run(Plain, seed, style=style))
         assert not np.array_equal(run(runner, seed, style={"speed": 1.0}), run(Plain, seed, style={"speed": 1.0}))
+
+
+def test_the_stream_holds_pauses_as_the_offline_engine_does(monkeypatch):
+    """model/postprocess.calm_pauses in the stream: the same hold on the same frames, whether the
+    words come at once or one by one; after the last word it holds on to the end."""
+    from model import streaming
+
+    words = [TimedWord("so", 0.2, 0.5), TimedWord("here", 0.55, 0.9), TimedWord("we", 2.9, 3.1),
+             TimedWord("go", 3.2, 3.6), TimedWord("now", 3.7, 4.0), TimedWord("again", 5.1, 5.6)]
+
+    def run(pieces):
+        gen = StreamGenerator(load_runner(None), seed=4)
+        groups = np.array_split(np.arange(len(words)), pieces)
+        out = [gen.add_words([(words[i].word, words[i].start, words[i].end) for i in group]) for group in groups]
+        return np.concatenate(out + [gen.finish()])
+
+    held = run(1)
+    assert np.array_equal(held, run(len(words)))  # the hold does not depend on how the words arrive
+    monkeypatch.setattr(streaming, "hold_pose", lambda poses, target, weight: poses)
+    unheld = run(1)
+    offline = postprocess.calm_pauses(unheld, words)  # pauses 0.9-2.9 s and 4.0-5.1 s
+    last = int(np.floor(words[-1].end * FPS)) + 1
+    assert np.array_equal(held[:last], offline[:last])
+    quiet = postprocess.pause_frames(words, len(unheld))
+    assert quiet.sum() > 40 and not np.array_equal(held[quiet], unheld[quiet])
+    # after the last word the stream does not know that no word follows: it holds on, towards
+    # the pose it paused in (the offline engine, knowing the speech has ended, does not)
+    assert np.array_equal(offline[last:], unheld[last:]) and not np.array_equal(held[last:], unheld[last:])
+    paused_in = unheld[last - 1]
+    assert np.abs(held[-1] - paused_in).sum() < 0.6 * np.abs(unheld[-1] - paused_in).sum()
