@@ -94,6 +94,7 @@ def figures(r: dict) -> dict[str, float]:
         "jerk / ref, style": g("model+style", "jerk_ratio"),
         "Hellinger all, free": g("model", "hellinger"), "Hellinger all, teacher": g("rules", "hellinger"),
         "BA model": g("model", "beat_align"), "BA shuffled audio": g("shuffled audio", "beat_align"),
+        "BA teacher shuffled": g("rules, shuffled", "beat_align"),
         "BA teacher": g("rules", "beat_align"),
     })
     for dim, s in (r["eval"].get("style_following") or {}).items():

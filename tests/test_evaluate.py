@@ -130,20 +130,21 @@ def test_smoothing_option_reaches_the_model_rows_only(clips, model, motions):
 
 def test_table_rows_are_the_metrics_of_the_conditions(corpus, clips, model):
     rows = E.evaluate_corpus(corpus, split="train", seed=3, limit=3)
-    assert [r["name"] for r in rows] == NAMES + ["shuffled audio"] and all(r["n_clips"] == 3 for r in rows)
+    assert [r["name"] for r in rows] == NAMES + ["shuffled audio", "rules, shuffled"] and all(r["n_clips"] == 3 for r in rows)
     conditions = E.condition_motions(clips[:3], model, E.mean_pose(clips), seed=3)
     audio = [c["audio_clean"] for c in clips[:3]]
     expected = M.report(conditions, audio=audio)
     for got, want in zip(rows, expected):
         for key in M.ROW_KEYS:
             assert got[key] == pytest.approx(want[key], rel=1e-6, nan_ok=True), (got["name"], key)
-    # beat alignment: each row's motion against its own clip's onsets; the shuffled row, the
-    # model's motion against clip i + 1's onsets cut or repeated to clip i's length
+    # beat alignment: each row's motion against its own clip's onsets; the shuffled rows, the
+    # model's and the teacher's motion against clip i + 1's onsets cut or repeated to clip i's length
+    by = {r["name"]: r for r in rows}
     assert rows[0]["beat_align"] == pytest.approx(M.clips_beat_alignment(conditions["model"][1], audio))
     other = [audio[(i + 1) % 3][np.arange(len(audio[i])) % len(audio[(i + 1) % 3])] for i in range(3)]
-    assert rows[-1]["beat_align"] == pytest.approx(M.clips_beat_alignment(conditions["model"][1], other))
-    assert np.isnan(rows[-1]["fgd"]) and np.isnan(rows[-1]["hellinger"])
-    by = {r["name"]: r for r in rows}
+    for row, name in (("shuffled audio", "model"), ("rules, shuffled", "rules")):
+        assert by[row]["beat_align"] == pytest.approx(M.clips_beat_alignment(conditions[name][1], other))
+        assert np.isnan(by[row]["fgd"]) and np.isnan(by[row]["hellinger"])
     assert by["model+pose"]["pcs"] < 1e-6 and by["keyframe"]["pcs"] < 1e-6 < by["model+pose raw"]["pcs"]
     assert by["model+pose raw"]["pcs"] < by["mean pose"]["pcs"]
     # --no-take-posture: the network alone; the style row requests space and handedness on
@@ -172,7 +173,7 @@ def test_sgt_eval_writes_the_rows(corpus, tmp_path, capsys):
     table = capsys.readouterr().out
     written = json.loads(out.read_text())
     rows = written["conditions"]
-    assert [r["name"] for r in rows] == NAMES + ["shuffled audio"] and rows[0]["n_clips"] == 2
+    assert [r["name"] for r in rows] == NAMES + ["shuffled audio", "rules, shuffled"] and rows[0]["n_clips"] == 2
     assert rows[2]["pcs"] == pytest.approx(0.0, abs=1e-6) and rows[1]["pcs"] > 0
     assert rows[0]["pcs"] is None  # NaN (not applicable) is written as null
     assert table.splitlines()[2].startswith("model ") and "FGD" in table and " BA" in table.splitlines()[0]

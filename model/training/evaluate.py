@@ -15,7 +15,9 @@ Every held-out clip is one evaluation window (the corpus clips are single uttera
 - ``keyframe``: the MANUAL baseline through the same 5-frame pose control;
 - ``shuffled audio``: the beat alignment of the ``model`` row's motions against the speech
   onsets of *another* clip (clip ``i + 1``'s clean audio, repeated or cut to clip ``i``'s
-  length): the chance level of the beat alignment column (its other columns are not applicable).
+  length): the chance level of the beat alignment column (its other columns are not applicable);
+- ``rules, shuffled``: the same for the ``rules`` row: the teacher's own margin over chance,
+  the most a model that learns from it can be expected to show.
 
 Every row's beat alignment (``beat_align``) is against the onsets of the clip's clean audio.
 :func:`style_following` measures requested versus achieved style over the range.
@@ -108,10 +110,10 @@ def shuffled(features: list[np.ndarray]) -> list[np.ndarray]:
     return [features[(i + 1) % n][np.arange(len(features[i])) % len(features[(i + 1) % n])] for i in range(n)]
 
 
-def shuffled_row(motions, features) -> dict:
-    """The ``shuffled audio`` row: only ``beat_align`` (the model's motion against another clip's onsets)."""
+def shuffled_row(motions, features, name: str = "shuffled audio") -> dict:
+    """A shuffled-audio row: only ``beat_align`` (``motions`` against another clip's onsets)."""
     row = {k: float("nan") for k in metrics.ROW_KEYS}
-    row.update(name="shuffled audio", beat_align=metrics.clips_beat_alignment(motions, shuffled(features)),
+    row.update(name=name, beat_align=metrics.clips_beat_alignment(motions, shuffled(features)),
                n_clips=len(motions), n_frames=int(sum(len(m) for m in motions)))
     return row
 
@@ -158,7 +160,7 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
                     progress=None, limit: int | None = None, smoothing: str = "one_euro",
                     with_style: bool = False, takes: bool = True) -> list[dict] | tuple[list[dict], dict]:
     """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``,
-    then the ``shuffled audio`` row; with ``with_style`` also :func:`style_following`, as
+    then the ``shuffled audio`` and ``rules, shuffled`` rows; with ``with_style`` also :func:`style_following`, as
     ``(rows, style)``.
 
     ``smoothing`` is the neural engine's post-filter for the model rows (``model+pose raw`` is
@@ -175,6 +177,7 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
     audio = [c["audio_clean"] for c in clips]
     rows = metrics.report(conditions, extractor=extractor, audio=audio)
     rows.append(shuffled_row(conditions["model"][1], audio))
+    rows.append(shuffled_row(conditions["rules"][1], audio, "rules, shuffled"))
     if not with_style:
         return rows
     return rows, style_following(clips, model, seed=seed, smoothing=smoothing)

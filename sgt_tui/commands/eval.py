@@ -12,8 +12,9 @@ of the shipped motion autoencoder), PCS (a 5-frame pose control mid-clip, with a
 the exact blend), SCS (style controls from the reference), APE, speed, acceleration and
 jerk (and jerk relative to the reference), Hellinger distances of speed histograms for
 all joints, elbows and wrists, and the beat alignment of the motion with the speech onsets
-(with a shuffled-audio row for its chance level). Then requested versus achieved style for
--2, -1, +1, +2 on each style dimension, with the slope (--no-style skips it). See
+(with shuffled-audio rows for the model's and the teacher's chance level). Then requested
+versus achieved style for -2, -1, +1, +2 on each style dimension, with the slope
+(--no-style skips it). See
 docs/metrics.md."""
 
 
