@@ -184,8 +184,8 @@ def stream_figures() -> None:
         stream = np.concatenate(frames)
         m = len(stream)
         ids, onsets = neural.word_features(words, m)
-        offline = postprocess.calm_pauses(postprocess.one_euro(_with_take(
-            runner, neural.run_windows(runner, np.zeros((m, AUDIO_DIM), np.float32), ids, onsets, ControlArrays.empty(m), n), n)), words)
+        offline = postprocess.calm_pauses(postprocess.one_euro(neural.network_motion(
+            runner, np.zeros((m, AUDIO_DIM), np.float32), ids, onsets, ControlArrays.empty(m), n)), words)
         angle, fast, jerky = _compare(stream, offline)
         angles.append(angle)
         speed.append(fast)
@@ -199,13 +199,6 @@ def stream_figures() -> None:
     print(f"  vs the offline engine on the same words ({len(SENTENCES)} sentences): mean angle per bone "
           f"{statistics.mean(angles):.1f} deg, speed x{statistics.mean(speed):.2f}, jerk x{statistics.mean(jerk):.2f}")
     audio_stream_figures(runner)
-
-
-def _with_take(runner, raw, seed: int):
-    """The offline engine's raw output with the take's posture it draws for ``seed`` (as the stream does)."""
-    from model import neural, take_posture
-
-    return take_posture.with_posture(raw, neural.drawn_posture(runner, seed))
 
 
 def _compare(stream, offline) -> tuple[float, float, float]:
@@ -257,8 +250,8 @@ def audio_stream_figures(runner) -> None:
         m = len(stream)
         audio16 = resample_poly(x, SAMPLE_RATE, rate).astype(np.float32)
         ids, onsets = neural.word_features(words, m)
-        offline = postprocess.calm_pauses(postprocess.one_euro(_with_take(
-            runner, neural.run_windows(runner, audio_features(audio16, m), ids, onsets, ControlArrays.empty(m), n), n)), words)
+        offline = postprocess.calm_pauses(postprocess.one_euro(neural.network_motion(
+            runner, audio_features(audio16, m), ids, onsets, ControlArrays.empty(m), n)), words)
         with_audio.append(_compare(stream, offline))
         words_gen = StreamGenerator(runner, seed=n)
         alone = np.concatenate([words_gen.add_words(words), words_gen.finish()])

@@ -118,18 +118,21 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
     arrays = _seeded(inputs)
-    raw = run_windows(model, audio, ids, onsets, arrays, seed)
-    raw = take_posture.with_posture(raw, drawn_posture(model, _take_key(inputs, seed), opts.take_posture),
-                                    take_posture.posture_weight(arrays))
+    raw = network_motion(model, audio, ids, onsets, arrays, seed, _take_key(inputs, seed), opts.take_posture)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
                               blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words,
                               style=arrays.style, style_mask=arrays.style_mask)
 
 
-def drawn_posture(runner, key, enabled: bool = True):
-    """The posture of the training take drawn with ``key`` from the runner's weights
-    (:mod:`model.take_posture`); None when ``enabled`` is false or the weights carry no takes."""
-    return take_posture.draw(getattr(as_runner(runner), "takes", None), key) if enabled else None
+def network_motion(model, audio, ids, onsets, arrays, seed: int, take_key=None, take: bool = True) -> np.ndarray:
+    """The network's motion before post-processing: :func:`run_windows`, then the posture of
+    the training take drawn with ``take_key`` (default: ``seed``) from the runner's weights,
+    giving way where ``arrays`` request a pose, space or handedness (:mod:`model.take_posture`);
+    no posture when ``take`` is false or the weights carry no takes."""
+    runner = as_runner(model)
+    raw = run_windows(runner, audio, ids, onsets, arrays, seed)
+    posture = take_posture.draw(getattr(runner, "takes", None), seed if take_key is None else take_key) if take else None
+    return take_posture.with_posture(raw, posture, take_posture.posture_weight(arrays))
 
 
 def _take_key(inputs, seed: int):

@@ -127,8 +127,7 @@ def set_takes(path: Path | str, takes: Takes) -> None:
     import torch
 
     path = Path(path)
-    load_weights(path)  # refuse what cannot be read, with the usual message
-    blob = torch.load(str(path), map_location="cpu", weights_only=True)
+    blob = _read(path)
     blob["takes"] = takes.as_dict()
     buf = io.BytesIO()
     torch.save(blob, buf)
@@ -142,11 +141,25 @@ def file_hash(path: Path | str) -> str:
 
 def load_weights(path: Path | str | None = None):
     """(GestureNet in eval mode, the file's dict without the state_dict)."""
-    import torch
-
     from model.net import GestureNet  # lazy: torch
 
     path = Path(path) if path is not None else DEFAULT_WEIGHTS
+    blob = _read(path)
+    model = GestureNet({"smooth": 0, **(blob.get("config") or {})})  # files from before the option: off
+    try:
+        model.load_state_dict(blob["state_dict"])
+    except (RuntimeError, KeyError) as exc:
+        raise WeightsError(f"{path} does not match the network: {str(exc).splitlines()[0]}; {FIX}") from None
+    model.eval()
+    info = {k: v for k, v in blob.items() if k != "state_dict"}
+    return model, info
+
+
+def _read(path: Path) -> dict:
+    """A weights file's dict, checked (:func:`check_info`); :class:`WeightsError` for a missing,
+    unreadable or incompatible file."""
+    import torch
+
     if not path.exists():
         raise WeightsError(f"generator weights not found: {path}; {FIX}")
     try:
@@ -156,11 +169,4 @@ def load_weights(path: Path | str | None = None):
         # truncated and mutated files); only torch.load is inside, and the error is reported with its type, not hidden
         raise WeightsError(f"cannot read generator weights {path}: {exc.__class__.__name__}; the file is corrupt. {FIX}") from None
     check_info(path, blob)
-    model = GestureNet({"smooth": 0, **(blob.get("config") or {})})  # files from before the option: off
-    try:
-        model.load_state_dict(blob["state_dict"])
-    except (RuntimeError, KeyError) as exc:
-        raise WeightsError(f"{path} does not match the network: {str(exc).splitlines()[0]}; {FIX}") from None
-    model.eval()
-    info = {k: v for k, v in blob.items() if k != "state_dict"}
-    return model, info
+    return blob

@@ -32,7 +32,7 @@ import numpy as np
 from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
-from model import keyframe, neural, postprocess, take_posture
+from model import keyframe, neural, postprocess
 from model.runtime import TorchRunner
 from model.style import style as style_of
 from model.teacher import teach
@@ -47,8 +47,7 @@ RULES_SEED = 10_000
 def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
     """The neural engine on one clip: the network, the posture of the take drawn with the
     clip's seed (when the runner ``model`` carries training takes), then post-processing."""
-    raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
-    raw = take_posture.with_posture(raw, neural.drawn_posture(model, seed), take_posture.posture_weight(arrays))
+    raw = neural.network_motion(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing, blend=blend,
                               style=arrays.style, style_mask=arrays.style_mask)
 
