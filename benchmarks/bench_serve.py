@@ -185,7 +185,7 @@ def stream_figures() -> None:
         m = len(stream)
         ids, onsets = neural.word_features(words, m)
         offline = postprocess.calm_pauses(postprocess.one_euro(neural.network_motion(
-            runner, np.zeros((m, AUDIO_DIM), np.float32), ids, onsets, ControlArrays.empty(m), n)), words)
+            runner, np.zeros((m, AUDIO_DIM), np.float32), ids, onsets, ControlArrays.empty(m), n, words=words)), words)
         angle, fast, jerky = _compare(stream, offline)
         angles.append(angle)
         speed.append(fast)
@@ -251,7 +251,7 @@ def audio_stream_figures(runner) -> None:
         audio16 = resample_poly(x, SAMPLE_RATE, rate).astype(np.float32)
         ids, onsets = neural.word_features(words, m)
         offline = postprocess.calm_pauses(postprocess.one_euro(neural.network_motion(
-            runner, audio_features(audio16, m), ids, onsets, ControlArrays.empty(m), n)), words)
+            runner, audio_features(audio16, m), ids, onsets, ControlArrays.empty(m), n, words=words)), words)
         with_audio.append(_compare(stream, offline))
         words_gen = StreamGenerator(runner, seed=n)
         alone = np.concatenate([words_gen.add_words(words), words_gen.finish()])

@@ -45,7 +45,7 @@ class Options:
     ramp: int = 6  # frames of easing into and out of a controlled span
     weights: str | None = None  # path; None = the shipped weights
     threads: int | None = None  # torch threads; None = DEFAULT_THREADS
-    take_posture: bool = True  # draw the take's posture from the weights' training takes (model.take_posture)
+    take_posture: bool = True  # draw the take's posture and drift from the weights' training takes (model.take_posture)
 
 
 def speech_inputs(inputs, n_frames: int):
@@ -118,21 +118,29 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
     arrays = _seeded(inputs)
-    raw = network_motion(model, audio, ids, onsets, arrays, seed, _take_key(inputs, seed), opts.take_posture)
+    raw = network_motion(model, audio, ids, onsets, arrays, seed, _take_key(inputs, seed), opts.take_posture,
+                         take_posture.drift_start(inputs.words), inputs.words)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
                               blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words,
                               style=arrays.style, style_mask=arrays.style_mask)
 
 
-def network_motion(model, audio, ids, onsets, arrays, seed: int, take_key=None, take: bool = True) -> np.ndarray:
-    """The network's motion before post-processing: :func:`run_windows`, then the posture of
-    the training take drawn with ``take_key`` (default: ``seed``) from the runner's weights,
-    giving way where ``arrays`` request a pose, space or handedness (:mod:`model.take_posture`);
-    no posture when ``take`` is false or the weights carry no takes."""
+def network_motion(model, audio, ids, onsets, arrays, seed: int, take_key=None, take: bool = True,
+                   drift_start: int = 0, words=None) -> np.ndarray:
+    """The network's motion before post-processing: :func:`run_windows`, then the posture and
+    drift of the training take drawn with ``take_key`` (default: ``seed``) from the runner's
+    weights (:mod:`model.take_posture`): the posture gives way where ``arrays`` request a pose,
+    space or handedness, the drift also where they request a slower speed; the drift's clock starts
+    at ``drift_start`` and stands still in the pauses between ``words``. None of it when
+    ``take`` is false or the weights carry no takes."""
     runner = as_runner(model)
     raw = run_windows(runner, audio, ids, onsets, arrays, seed)
-    posture = take_posture.draw(getattr(runner, "takes", None), seed if take_key is None else take_key) if take else None
-    return take_posture.with_posture(raw, posture, take_posture.posture_weight(arrays))
+    drawn = take_posture.draw(getattr(runner, "takes", None), seed if take_key is None else take_key) if take else None
+    if drawn is None:
+        return raw
+    return take_posture.with_posture(raw, drawn, take_posture.posture_weight(arrays),
+                                     take_posture.drift_clock(len(raw), drift_start, words),
+                                     take_posture.drift_weight(arrays))
 
 
 def _take_key(inputs, seed: int):

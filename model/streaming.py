@@ -71,9 +71,13 @@ class StreamGenerator:
             if not isinstance(value, (int, float)) or not -STYLE_LIMIT <= value <= STYLE_LIMIT:
                 raise StreamError(f"style {name} must be a number from -{STYLE_LIMIT} to {STYLE_LIMIT}")
             self.style[STYLE_INDEX[name]], self.style_mask[STYLE_INDEX[name]] = value, 1.0
-        # the take's posture (model.take_posture), unless the client asks for space or handedness
+        # the take's posture and drift (model.take_posture), unless the client asks for space or handedness
         asked = any(self.style_mask[STYLE_INDEX[n]] for n in take_posture.YIELDS_TO_STYLES)
-        self.posture = None if asked else take_posture.draw(getattr(runner, "takes", None), seed)
+        self.take = None if asked else take_posture.draw(getattr(runner, "takes", None), seed)
+        k = STYLE_INDEX["speed"]
+        if self.take is not None and self.style_mask[k] and self.style[k] < 0:  # the drift gives way to a slower speed
+            self.take = take_posture.Take(self.take.posture)
+        self.drift_frame = 0  # the drift's clock: it stands still in pauses (take_posture.drift_clock)
         self.smoothing = smoothing
         self.filter_state: dict = {}
         self.emitted = 0  # frames returned so far
@@ -172,7 +176,11 @@ class StreamGenerator:
                                    np.repeat(self.style[None], n, 0), np.repeat(self.style_mask[None], n, 0), self.z)
         k = min(STEP, e - a)
         self.done += k
-        return take_posture.with_posture(y[a - s : a - s + k], self.posture)
+        frames = np.empty(k, np.int64)
+        for i in range(k):  # as take_posture.drift_clock: still inside the pauses the stream holds
+            frames[i] = self.drift_frame
+            self.drift_frame += self._pause_span(a + i, False) is None
+        return take_posture.with_posture(y[a - s : a - s + k], self.take, frames=frames)
 
     def _audio_features(self, s: int, e: int) -> np.ndarray:
         """Features of frames [s, e): silence without audio; with it, levels relative to the

@@ -181,26 +181,6 @@ def limit_velocity(poses: np.ndarray, max_deg=MAX_STEP_DEG) -> np.ndarray:
     return postprocess.limit_velocity(poses, max_deg)
 
 
-def _gauss_smooth(x: np.ndarray, sigma: float) -> np.ndarray:
-    """Gaussian smoothing along axis 0 with edge values held beyond the ends: the numbers of
-    ``scipy.ndimage.gaussian_filter1d(x, sigma, axis=0, mode="nearest")`` (its kernel: radius
-    ``int(4 sigma + 0.5)``; tests/test_teacher.py compares them) without importing scipy.ndimage
-    (half a second of every cold ``sgt generate``, which runs the teacher's listening motion)."""
-    if sigma <= 0 or len(x) < 3:
-        return x
-    x = np.asarray(x)
-    radius = int(4.0 * float(sigma) + 0.5)
-    taps = np.arange(-radius, radius + 1, dtype=np.float64)
-    w = np.exp(-0.5 / (float(sigma) ** 2) * taps**2)
-    w /= w.sum()
-    padded = np.concatenate([np.repeat(x[:1], radius, 0), x, np.repeat(x[-1:], radius, 0)]).astype(np.float64)
-    n = len(x)
-    out = w[radius] * padded[radius : radius + n]
-    for j in range(1, radius + 1):  # symmetric taps in pairs, as scipy sums them
-        out = out + w[radius + j] * (padded[radius - j : radius - j + n] + padded[radius + j : radius + j + n])
-    return out.astype(x.dtype, copy=False)
-
-
 # -- accents --------------------------------------------------------------------------------
 
 
@@ -329,7 +309,7 @@ def _speaking_envelope(tw, n: int) -> np.ndarray:
     for _, a, b in tw:
         fa, fb = int(math.floor((a - 0.45) * FPS)), int(math.ceil((b + 0.6) * FPS))
         talk[max(0, fa):max(0, min(n, fb))] = 1.0
-    talk = _gauss_smooth(talk, 3.0)
+    talk = postprocess.gauss_smooth(talk, 3.0)
     return smoothstep(talk * 1.15)
 
 
@@ -391,14 +371,14 @@ def _arms(c: _Clip, talk: np.ndarray, var: dict, rest_other: np.ndarray, beats: 
     n, t_sec, keys_t, pers, spc, hnd = c.n, c.t_sec, c.keys_t, c.pers, c.space, c.hand
 
     def hold_track(vals):
-        return _gauss_smooth(np.interp(t_sec, keys_t, vals), 0.25 * FPS)
+        return postprocess.gauss_smooth(np.interp(t_sec, keys_t, vals), 0.25 * FPS)
 
     dirs = np.repeat(REST_POSE.reshape(1, N_BONES, 3).astype(np.float64), n, axis=0)
     for side, ub, fb in ((1.0, "left_elbow", "left_wrist"), (-1.0, "right_elbow", "right_wrist")):
         dom = np.clip(0.5 + side * 0.5 * hnd, 0.0, 1.0)  # 1 for the dominant side
         # the non-dominant hand of a strongly handed speaker often stays down
         lazy = np.interp(t_sec, keys_t, (rest_other < 0.45).astype(float))
-        lazy = _gauss_smooth(lazy, 0.3 * FPS) * np.clip(1.0 - dom * 2.0, 0.0, 1.0) * np.abs(hnd) * 1.5
+        lazy = postprocess.gauss_smooth(lazy, 0.3 * FPS) * np.clip(1.0 - dom * 2.0, 0.0, 1.0) * np.abs(hnd) * 1.5
         engage = talk * np.clip(1.0 - lazy, 0.0, 1.0)
         flex = pers["flex"] + hold_track(var[side]["flex"]) + 0.08 * spc
         abd = pers["abd"] + hold_track(var[side]["abd"]) + math.radians(10) * spc
@@ -486,15 +466,15 @@ def _idle(dirs: np.ndarray, c: _Clip, talk: np.ndarray, beats: _Beats, rng) -> n
     lean = math.radians(1.2) * breath + math.radians(1.5) * np.sin(2 * np.pi * t_sec / 9.0 + ph[1]) * talk
     roll = math.radians(1.0) * np.sin(2 * np.pi * t_sec / 7.3 + ph[2])
     # twist towards the more active hand
-    act_l = _gauss_smooth(np.abs(np.diff(dirs[:, BONE_INDEX["left_wrist"]], axis=0, prepend=dirs[:1, BONE_INDEX["left_wrist"]])).sum(-1), 4)
-    act_r = _gauss_smooth(np.abs(np.diff(dirs[:, BONE_INDEX["right_wrist"]], axis=0, prepend=dirs[:1, BONE_INDEX["right_wrist"]])).sum(-1), 4)
+    act_l = postprocess.gauss_smooth(np.abs(np.diff(dirs[:, BONE_INDEX["left_wrist"]], axis=0, prepend=dirs[:1, BONE_INDEX["left_wrist"]])).sum(-1), 4)
+    act_r = postprocess.gauss_smooth(np.abs(np.diff(dirs[:, BONE_INDEX["right_wrist"]], axis=0, prepend=dirs[:1, BONE_INDEX["right_wrist"]])).sum(-1), 4)
     twist = math.radians(5.0) * np.tanh(4.0 * (act_l - act_r)) + math.radians(1.5) * np.sin(2 * np.pi * t_sec / 11 + ph[3])
     torso = _rot(twist, lean, roll)
 
     hscale = pers["head"] * (0.7 + 0.3 * np.clip(c.speed, 0.5, 2.0))
-    head_yaw = math.radians(7.0) * hscale * _gauss_smooth(np.interp(t_sec, c.keys_t, rng.uniform(-1, 1, nk)), 0.4 * FPS)
+    head_yaw = math.radians(7.0) * hscale * postprocess.gauss_smooth(np.interp(t_sec, c.keys_t, rng.uniform(-1, 1, nk)), 0.4 * FPS)
     head_pitch = math.radians(2.5) * np.sin(2 * np.pi * t_sec / 6.1 + ph[4]) * hscale
-    head_roll = math.radians(3.0) * hscale * _gauss_smooth(np.interp(t_sec, c.keys_t, rng.uniform(-1, 1, nk)), 0.5 * FPS)
+    head_roll = math.radians(3.0) * hscale * postprocess.gauss_smooth(np.interp(t_sec, c.keys_t, rng.uniform(-1, 1, nk)), 0.5 * FPS)
     for f in beats.frames:  # small nods on the beats
         if rng.random() < 0.6:
             head_pitch += math.radians(4.0) * hscale * np.exp(-0.5 * ((t_sec - f / FPS - 0.02) / 0.12) ** 2)
@@ -518,7 +498,7 @@ def _finish(dirs: np.ndarray, c: _Clip, talk: np.ndarray, torso: np.ndarray) -> 
     dirs = unit_vectors(dirs)
     dirs = np.einsum("tij,tbj->tbi", torso, dirs)
     poses = dirs.reshape(c.n, POSE_DIM)
-    poses = _gauss_smooth(poses, 0.7)
+    poses = postprocess.gauss_smooth(poses, 0.7)
     poses = limit_velocity(normalize_pose(poses))
     return normalize_pose(poses).astype(np.float32)
 

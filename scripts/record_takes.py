@@ -1,11 +1,11 @@
-"""Record the training takes' postures (model/take_posture.py) in weights files trained
-before ``sgt train`` measured them itself.
+"""Record the training takes' postures and drifts (model/take_posture.py) in weights files
+trained before ``sgt train`` measured them itself (or before it measured drifts).
 
     python scripts/record_takes.py --corpus data/corpus model/weights/generator.pt [runs/X/generator.pt ...]
 
 For each weights file: each training clip's posture (the clip's mean pose minus the mean pose
-this network makes on the clip's speech with no controls), written into the file with
-everything else kept. Re-export the shipped
+this network makes on the clip's speech with no controls) and drift (the same difference
+low-passed over time, less the posture), written into the file with everything else kept. Re-export the shipped
 weights afterwards (``python scripts/export_onnx.py``): the file's hash changes.
 """
 

@@ -102,7 +102,7 @@ def test_every_condition_is_what_the_model_card_says(clips, model, motions):
         assert np.allclose(style_ctl.style, style(ref), atol=1e-6) and style_ctl.style_mask.all()
         assert style_ctl.style.std(axis=0).max() > 0.05
         # the free model: the neural engine with no controls, clip i's seed (3 + i) and the
-        # posture of the training take that seed draws
+        # posture and drift (from frame 0) of the training take that seed draws
         empty = ControlArrays.empty(len(ref))
         raw_free = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], empty, 3 + i)
         raw_free = take_posture.with_posture(raw_free, take_posture.draw(model.takes, 3 + i))
@@ -196,8 +196,9 @@ def test_style_following_is_the_style_of_the_requested_motion(clips, model):
                 arrays = ControlArrays.empty(len(clip["poses"]))
                 arrays.set_style(0, len(clip["poses"]), {name: value})
                 raw = neural.run_windows(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, 3 + i)
-                if name == "speed":  # a speed request leaves the take's posture on
-                    raw = take_posture.with_posture(raw, take_posture.draw(model.takes, 3 + i))
+                if name == "speed":  # a speed request leaves the take's posture on, and its drift if faster
+                    raw = take_posture.with_posture(raw, take_posture.draw(model.takes, 3 + i),
+                                                    drift_weight=np.full(len(raw), float(value > 0), np.float32))
                 words = clip["word_ids"] > 0
                 engine = postprocess.finish(raw, arrays.pose, arrays.pose_mask, style=arrays.style, style_mask=arrays.style_mask)
                 per_clip.append(style(engine)[words, k])

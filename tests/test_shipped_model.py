@@ -63,9 +63,12 @@ def test_shipped_model_follows_pose_controls_and_moves(utterances):
 
 def test_shipped_model_reads_style_controls_per_frame(utterances):
     """A style span on half of an utterance speeds up that half (the engine does not average
-    the per-frame style over the utterance)."""
+    the per-frame style over the utterance). Measured as the speed style (normalised): the
+    unrequested half moves at its drawn take's own pace (its drift), so the raw speed of that
+    half depends on the take; a request averaged over the line would leave the two halves
+    within 0.1 of each other (+1.25 each)."""
     from core.controls import ControlArrays
-    from model.style import raw_style
+    from model.style import style
 
     inputs = utterances[2]
     n = inputs.n_frames
@@ -73,11 +76,11 @@ def test_shipped_model_reads_style_controls_per_frame(utterances):
     def half_change(lo, hi, seed):
         arrays = ControlArrays.empty(n)
         arrays.set_style(lo, hi, {"speed": 2.5})
-        speed = raw_style(neural.generate(EngineInputs(arrays, inputs.words, inputs.audio_path, inputs.lead_in), seed=seed))[:, 0]
+        speed = style(neural.generate(EngineInputs(arrays, inputs.words, inputs.audio_path, inputs.lead_in), seed=seed))[:, 0]
         return speed[n // 2:].mean() - speed[: n // 2].mean()
 
     for seed in range(2):
-        assert half_change(n // 2, n, seed) > 0.05 > 0 > half_change(0, n // 2, seed)
+        assert half_change(n // 2, n, seed) > 1.0 and half_change(0, n // 2, seed) < -1.0
 
 
 @pytest.mark.parametrize("value", [-1.0, 1.0, 2.0])

@@ -213,3 +213,40 @@ def test_the_stream_holds_pauses_as_the_offline_engine_does(monkeypatch):
     assert np.array_equal(offline[last:], unheld[last:]) and not np.array_equal(held[last:], unheld[last:])
     paused_in = unheld[last - 1]
     assert np.abs(held[-1] - paused_in).sum() < 0.6 * np.abs(unheld[-1] - paused_in).sum()
+
+
+def test_the_stream_adds_the_takes_drift_on_its_own_clock_and_drops_it_for_a_slower_speed():
+    """The drawn take's drift in the stream: frame f gets the drift at clock f while no pause
+    intervenes (a constant network makes it visible), none when the client asks for a slower
+    speed; a faster speed keeps it."""
+    from core.skeleton import REST_POSE, normalize_pose
+    from model import take_posture
+
+    rng = np.random.default_rng(3)
+    takes = take_posture.Takes(rng.uniform(-0.05, 0.05, (3, 27)).astype(np.float32),
+                               tuple(rng.uniform(-0.15, 0.15, (12, 27)).astype(np.float32) for _ in range(3)))
+
+    class Constant:  # the network holds the rest pose whatever it hears
+        noise_dim = 16
+
+        def __init__(self, with_takes):
+            self.takes = takes if with_takes else None
+
+        def run_window(self, audio, ids, onsets, pose, pose_mask, style, style_mask, z):
+            return np.repeat(np.asarray(REST_POSE, np.float32)[None], len(audio), 0)
+
+    words = [(w, 0.3 * i, 0.3 * i + 0.28) for i, w in enumerate("one two three four five six seven eight".split())]
+
+    def run(with_takes=True, **kw):
+        gen = StreamGenerator(Constant(with_takes), seed=5, smoothing=False, **kw)
+        return np.concatenate([gen.add_words(words), gen.finish()])
+
+    out = run()
+    take = take_posture.draw(takes, 5)
+    n = int(round(words[-1][2] * FPS))  # up to the last word: no pause yet
+    want = normalize_pose(np.asarray(REST_POSE, np.float32) + take.posture + take.drift_at(np.arange(n)))
+    assert np.allclose(out[:n], want, atol=1e-5)
+    assert np.abs(np.diff(out[:n], axis=0)).max() > 1e-3  # it moves
+    slow = run(style={"speed": -1.0})
+    assert np.allclose(slow[:n], normalize_pose(np.asarray(REST_POSE, np.float32) + take.posture), atol=1e-5)
+    assert np.allclose(run(style={"speed": 1.0})[:n], want, atol=1e-5)

@@ -205,7 +205,7 @@ def test_rules_engine_style_controls():
 def test_gauss_smooth_is_scipys_gaussian_filter_with_nearest_edges(shape, sigma):
     from scipy.ndimage import gaussian_filter1d
 
-    from model.teacher import _gauss_smooth
+    from model.postprocess import gauss_smooth as _gauss_smooth
 
     x = np.random.default_rng(3).normal(size=shape)
     np.testing.assert_allclose(_gauss_smooth(x, sigma), gaussian_filter1d(x, sigma, axis=0, mode="nearest"),

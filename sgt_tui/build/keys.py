@@ -33,7 +33,7 @@ from pathlib import Path
 
 #: Bump when a change to the compiler, the speech timing, the engines or the post-processing
 #: changes the motion of an utterance whose inputs did not change.
-CODE_VERSION = 6  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed); 5: zero-phase smoothing; 6: the take's posture
+CODE_VERSION = 7  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed); 5: zero-phase smoothing; 6: the take's posture; 7: the take's drift
 
 #: Engines whose output does not depend on the seed.
 _SEEDLESS = frozenset({"keyframe"})
@@ -48,7 +48,7 @@ class Settings:
     smoothing: str = "one_euro"
     blend: bool = True
     weights: str | None = None  # None: the shipped weights
-    take_posture: bool = True  # the neural engine draws each speaker's take posture (model.take_posture)
+    take_posture: bool = True  # the neural engine draws each speaker's take posture and drift (model.take_posture)
 
     def options(self):
         from model.neural import Options  # lazy: numpy, the engine

@@ -126,11 +126,12 @@ def add_post_options(p) -> None:
 
 
 def add_take_posture_option(p) -> None:
-    """``--no-take-posture``: the neural engine draws no take posture (model/take_posture.py; generate, build, eval)."""
+    """``--no-take-posture``: the neural engine draws no take posture or drift (model/take_posture.py; generate, build, eval)."""
     p.add_argument("--no-take-posture", action="store_true",
-                   help="neural engine: no take posture (by default each speaker holds the posture of one of the "
-                        "weights' training takes, chosen by the seed, except where the script requests a pose, space "
-                        "or handedness; docs/model.md)")
+                   help="neural engine: no take posture or drift (by default each speaker holds the posture of one "
+                        "of the weights' training takes, chosen by the seed, and wanders slowly around it as that take "
+                        "did, except where the script requests a pose, space or handedness, or a slower speed for "
+                        "the wandering; docs/model.md)")
 
 
 def add_seed_option(p, help_text: str) -> None:
