@@ -245,13 +245,16 @@ def test_training_keeps_the_best_validation_epoch_and_decays_the_rate(weights):
     assert load_weights(weights)[1]["meta"]["epochs_done"] == best["epoch"]
     assert load_weights(weights.parent / "last.pt")[1]["meta"]["epochs_done"] == rows[-1]["epoch"]
     assert sum(r["best"] for r in rows) >= 1 and rows[0]["best"]
-    # the kept weights carry the training takes' postures measured with their own network (model/take_posture.py)
+    # the kept weights carry the training takes' postures and drifts measured with their own network (model/take_posture.py)
     from model.training.takes import measure_takes
     from model.weights import takes_of
 
     takes = takes_of(weights, load_weights(weights)[1])
     again = measure_takes(load_weights(weights)[0], synthetic_clips(20, frames=150, seed=0)[:16])
     assert len(takes) == 16 and np.allclose(takes.postures, again.postures, atol=1e-3)
+    # and their drifts (float16 in the file)
+    assert len(takes.drifts) == 16 and all(a.shape == b.shape and np.allclose(a, b, atol=2e-3)
+                                           for a, b in zip(takes.drifts, again.drifts))
     cfg = TrainConfig(epochs=10, steps_per_epoch=10, lr=1e-3, lr_floor=0.1)
     rates = [learning_rate(cfg, s) for s in range(101)]
     assert rates[0] == pytest.approx(1e-3) and rates[-1] == pytest.approx(1e-4)
