@@ -158,12 +158,13 @@ class StreamGenerator:
         total = max(self.done, int(math.ceil((max(self.known, self.last_word_end) + TAIL) * FPS - 1e-6)))
         out = []
         while self.done < total:
-            out.append(self._step(total))
+            out.append(self._step(total, final=True))
         self.finished = True
         return self._emit(out, final=True)
 
-    def _step(self, limit: int) -> np.ndarray:
-        """Run the network for the next STEP frames (fewer at ``limit``); returns their raw poses."""
+    def _step(self, limit: int, final: bool = False) -> np.ndarray:
+        """Run the network for the next STEP frames (fewer at ``limit``); returns their raw poses
+        with the take's posture and drift (``final``: no word follows, as :meth:`_pause_span`)."""
         a = self.done
         s = max(0, a - CONTEXT)
         e = min(a + STEP + LOOKAHEAD, max(limit, a + 1))
@@ -179,7 +180,7 @@ class StreamGenerator:
         frames = np.empty(k, np.int64)
         for i in range(k):  # as take_posture.drift_clock: still inside the pauses the stream holds
             frames[i] = self.drift_frame
-            self.drift_frame += self._pause_span(a + i, False) is None
+            self.drift_frame += self._pause_span(a + i, final) is None
         return take_posture.with_posture(y[a - s : a - s + k], self.take, frames=frames)
 
     def _audio_features(self, s: int, e: int) -> np.ndarray:

@@ -250,3 +250,24 @@ def test_the_stream_adds_the_takes_drift_on_its_own_clock_and_drops_it_for_a_slo
     slow = run(style={"speed": -1.0})
     assert np.allclose(slow[:n], normalize_pose(np.asarray(REST_POSE, np.float32) + take.posture), atol=1e-5)
     assert np.allclose(run(style={"speed": 1.0})[:n], want, atol=1e-5)
+
+
+def test_the_streams_drift_stands_still_after_the_last_word_once_it_finishes(monkeypatch):
+    """After the last word the stream holds (docs/serve.md); its drift clock stands still too."""
+    from model import take_posture
+
+    seen = []
+    original = take_posture.with_posture
+
+    def spy(poses, take, weight=None, frames=None, drift_weight=None):
+        seen.append(np.asarray(frames).copy())
+        return original(poses, take, weight, frames, drift_weight)
+
+    monkeypatch.setattr(take_posture, "with_posture", spy)
+    gen = StreamGenerator(load_runner(None), seed=1)
+    gen.add_words([("one", 0.1, 0.4), ("two", 0.5, 0.8)])
+    gen.finish()
+    clock = np.concatenate(seen)
+    last = int(np.floor(0.8 * FPS)) + 1  # the first frame after the last word
+    assert len(clock) > last + 5 and np.all(np.diff(clock[:last]) == 1)
+    assert np.all(clock[last:] == clock[last])  # still while the stream holds its tail
