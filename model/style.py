@@ -68,8 +68,8 @@ def window_mean(x, window: int):
     return (c[..., hi] - c[..., lo]) / (hi - lo)
 
 
-def _positions(poses):
-    """FK for numpy or torch poses (..., T, 27) -> (..., T, 10, 3)."""
+def joint_positions(poses):
+    """FK for numpy or torch poses (..., T, 27) -> (..., T, 10, 3) joint positions (m), differentiably for torch."""
     if not _is_torch(poses):
         return positions_from_pose(poses)
     import torch
@@ -84,7 +84,7 @@ def _positions(poses):
 
 def raw_style(poses, window: int = WINDOW):
     """Un-normalised (speed, space, handedness) per frame: (..., T, 27) -> (..., T, 3)."""
-    pos = _positions(poses)
+    pos = joint_positions(poses)
     disp = _norm(pos[..., 1:, :, :] - pos[..., :-1, :, :])  # (..., T-1, J)
     # frame 0 has no predecessor: reuse the first displacement so every frame has a value
     first = disp[..., :1, :]

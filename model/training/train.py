@@ -30,6 +30,7 @@ from core.controls import STYLE_NAMES
 from core.fileio import atomic_write
 from model.style import style as style_of
 from model.training.metrics import pcs_frames
+from model.training.speed_hist import soft_speed_hellinger
 from model.training.takes import record_takes
 from model.training.train_config import WINDOW, TrainConfig  # noqa: F401  (re-exported)
 from model.weights import save_weights
@@ -289,7 +290,7 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
     total_steps = cfg.epochs * cfg.steps_per_epoch
     for epoch in range(epoch0, cfg.epochs):
         model.train()
-        sums = {k: 0.0 for k in ("loss", "huber", "ctrl", "vel", "style", "kl", "gan", "disc")}
+        sums = {k: 0.0 for k in ("loss", "huber", "ctrl", "vel", "style", "kl", "gan", "disc", "hist")}
         for step in range(cfg.steps_per_epoch):
             lr = learning_rate(cfg, epoch * cfg.steps_per_epoch + step)
             for group in opt.param_groups + (opt_d.param_groups if opt_d else []):
@@ -337,6 +338,10 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
                 vel = ((torch.diff(out, dim=1) - torch.diff(ref, dim=1)).abs().mean((1, 2)) * keep).sum() / kept
                 loss = loss + cfg.vel * vel
                 sums["vel"] += vel.item()
+            if cfg.hist > 0:
+                hist = soft_speed_hellinger(out, ref, keep)
+                loss = loss + cfg.hist * hist
+                sums["hist"] += hist.item()
             if critic is not None:
                 # discriminator step (non-saturating GAN); real and generated windows in one pass
                 d_out = critic(torch.cat([ref, out.detach()]))
@@ -394,6 +399,6 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
             break
     dist.close()
     if dist.main and (out_dir / "generator.pt").exists():
-        log("measuring the training takes' postures for generator.pt")
+        log("measuring the training takes' postures and drifts for generator.pt")
         record_takes(out_dir / "generator.pt", train_clips, progress=progress)
     return model

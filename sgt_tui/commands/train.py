@@ -44,6 +44,9 @@ def register(sub) -> None:
                    help=f"weight of the style-consistency term (Eq. 7 gamma; default {TrainConfig.gamma:g})")
     p.add_argument("--vel-weight", type=non_negative_float, default=TrainConfig.vel,
                    help=f"weight of the L1 velocity term, 0 = off (default {TrainConfig.vel:g})")
+    p.add_argument("--hist-weight", type=non_negative_float, default=TrainConfig.hist,
+                   help="weight of the Hellinger distance between the generated and reference joint-speed histograms "
+                        f"(too few still and fast frames is what a regression makes), 0 = off (default {TrainConfig.hist:g})")
     p.add_argument("--kl", type=non_negative_float, default=TrainConfig.kl,
                    help="KL weight of the conditional-VAE noise: a training-only encoder reads each reference window "
                         f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
@@ -98,7 +101,7 @@ def run(args) -> int:
             raise InputError(f"cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}") from None
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else args.gan_weight, seed=args.seed,
-                      threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight,
+                      threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight, hist=args.hist_weight,
                       kl=args.kl, p_prior=args.p_prior, p_restyle=args.restyle, window=args.window, device=args.device,
                       net={"hidden": args.hidden, "gru": not args.no_gru, "smooth": args.smooth})
     try:
