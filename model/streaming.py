@@ -81,6 +81,7 @@ class StreamGenerator:
         self.smoothing = smoothing
         self.filter_state: dict = {}
         self.emitted = 0  # frames returned so far
+        self.spans: list = []  # the pause span (_pause_span) of each decided frame not yet returned
         self.last_filtered: np.ndarray | None = None  # the last returned frame before the pause hold
         self.hold_target: np.ndarray | None = None  # the pose the current pause holds (its frame before)
         self.words: list[TimedWord] = []
@@ -160,7 +161,7 @@ class StreamGenerator:
         while self.done < total:
             out.append(self._step(total, final=True))
         self.finished = True
-        return self._emit(out, final=True)
+        return self._emit(out)
 
     def _step(self, limit: int, final: bool = False) -> np.ndarray:
         """Run the network for the next STEP frames (fewer at ``limit``); returns their raw poses
@@ -177,10 +178,10 @@ class StreamGenerator:
                                    np.repeat(self.style[None], n, 0), np.repeat(self.style_mask[None], n, 0), self.z)
         k = min(STEP, e - a)
         self.done += k
-        frames = np.empty(k, np.int64)
-        for i in range(k):  # as take_posture.drift_clock: still inside the pauses the stream holds
-            frames[i] = self.drift_frame
-            self.drift_frame += self._pause_span(a + i, final) is None
+        spans = [self._pause_span(a + i, final) for i in range(k)]
+        self.spans += spans  # the pause hold of _calm_pauses reads them when the frames are returned
+        frames = self.drift_frame + np.cumsum([0] + [span is None for span in spans[:-1]])
+        self.drift_frame += sum(span is None for span in spans)  # as take_posture.drift_clock: still in pauses
         return take_posture.with_posture(y[a - s : a - s + k], self.take, frames=frames)
 
     def _audio_features(self, s: int, e: int) -> np.ndarray:
@@ -193,26 +194,27 @@ class StreamGenerator:
         recent = self.powers[max(0, e - int(LEVEL_WINDOW_S * FPS)) : e]
         return level_features(self.powers[s:e], speech_level(recent)).astype(np.float32)
 
-    def _emit(self, pieces: list[np.ndarray], final: bool = False) -> np.ndarray:
+    def _emit(self, pieces: list[np.ndarray]) -> np.ndarray:
         if not pieces:
             return np.zeros((0, POSE_DIM), np.float32)
         raw = np.concatenate(pieces)
-        return self._calm_pauses(one_euro(raw, state=self.filter_state) if self.smoothing else raw, final)
+        return self._calm_pauses(one_euro(raw, state=self.filter_state) if self.smoothing else raw)
 
-    def _calm_pauses(self, frames: np.ndarray, final: bool) -> np.ndarray:
+    def _calm_pauses(self, frames: np.ndarray) -> np.ndarray:
         """The offline engine's pause hold (:func:`model.postprocess.calm_pauses`) on frames about
         to be returned. It needs no more look-ahead than the stream has: a frame is decided only
         once the speech is known LOOKAHEAD_S (> PAUSE_MIN_S) past it, so whether it lies in a
         silence of at least PAUSE_MIN_S is known, and so is a pause end close enough to ease
         out before it; a pause whose next word is not known yet is held as if it went on.
-        After the last word (``final``: :meth:`finish`) the hold continues to the end, where
-        the offline engine, which knows no word follows, does not hold."""
+        After the last word (:meth:`finish`) the hold continues to the end, where the offline
+        engine, which knows no word follows, does not hold. Each frame's pause span is the one
+        :meth:`_step` found when it decided the frame (``self.spans``)."""
         first = self.emitted
         self.emitted += len(frames)
+        spans, self.spans = self.spans[: len(frames)], self.spans[len(frames):]  # decided with the frames
         target = np.empty_like(frames)
         weight = np.zeros(len(frames), np.float32)
-        for i in range(len(frames)):
-            span = self._pause_span(first + i, final)
+        for i, span in enumerate(spans):
             if span is not None:
                 a, b = span
                 if first + i == a or self.hold_target is None:

@@ -20,7 +20,7 @@ sys.path.insert(0, str(ROOT))
 
 
 def main() -> int:
-    from model.training.corpus import load_corpus
+    from model.training.corpus import CorpusError, load_corpus
     from model.training.takes import record_takes
     from model.weights import WeightsError
     from sgt_tui.progress import ProgressBar
@@ -29,7 +29,11 @@ def main() -> int:
     ap.add_argument("--corpus", default="data/corpus", help="the corpus the weights were trained on (default data/corpus)")
     ap.add_argument("weights", nargs="+", help="weights files to update")
     args = ap.parse_args()
-    clips = load_corpus(args.corpus, "train")
+    try:
+        clips = load_corpus(args.corpus, "train")
+    except (CorpusError, OSError) as exc:
+        print(f"record_takes: cannot load the corpus at {args.corpus}: {exc}", file=sys.stderr)
+        return 1
     for path in args.weights:
         try:
             takes = record_takes(path, clips, progress=ProgressBar(Path(path).parent.name or "takes"))

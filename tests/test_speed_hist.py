@@ -59,3 +59,8 @@ def test_sgt_train_adds_it_with_its_weight(tmp_path):
     off = TrainConfig(epochs=1, steps_per_epoch=3, batch=4, net={"hidden": 16, "layers": 1, "gru": 0})
     train(clips[:6], clips[6:], tmp_path / "off", off, resume=False, log=lambda s: None)
     assert json.loads((tmp_path / "off" / "metrics.jsonl").read_text().splitlines()[-1])["hist"] == 0
+    # the same batches (the term draws no random numbers), so only the term can make the weights differ
+    from model.weights import load_weights
+
+    on_w, off_w = (load_weights(tmp_path / run / "last.pt")[0].state_dict() for run in ("run", "off"))
+    assert any(not torch.equal(on_w[k], off_w[k]) for k in on_w)

@@ -277,3 +277,13 @@ def test_takes_differ_by_seed_as_the_training_takes_do_and_requests_win(shipped,
     for s in (0, 3):
         assert np.array_equal(neural.generate(asked, seed=s), neural.generate(asked, seed=s, options=neural.Options(take_posture=False)))
     assert float(style(neural.generate(asked, seed=0))[:, k].mean()) < -1.0
+
+
+def test_record_takes_says_what_is_wrong_without_a_traceback(tmp_path):
+    import subprocess
+    import sys
+
+    script = Path(__file__).resolve().parent.parent / "scripts" / "record_takes.py"
+    for args, why in (([f"--corpus={tmp_path / 'none'}", str(tmp_path / "w.pt")], "cannot load the corpus"),):
+        run = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, timeout=120)
+        assert run.returncode == 1 and why in run.stderr and "Traceback" not in run.stderr
