@@ -74,6 +74,17 @@ class Mannequin:
     def __init__(self, width: int = 320, height: int = 320) -> None:
         self.width, self.height = int(width), int(height)
         self.pyrender, self.renderer, self.platform = gl.start(self.width, self.height)
+        # trimesh computes the meshes' vertex normals inside ``except BaseException`` (it falls
+        # back from scipy.sparse on any error): a Ctrl-C landing there was logged as a warning and
+        # the render ran on to the end (seen in CI). Hold it while the scene is built.
+        try:
+            with interrupts_deferred():
+                self._build_scene()
+        except BaseException:
+            self.close()  # the GL context is released even when the build is interrupted
+            raise
+
+    def _build_scene(self) -> None:
         import trimesh
 
         pr = self.pyrender

@@ -159,6 +159,29 @@ def test_ctrl_c_while_a_frame_renders_is_not_swallowed_by_pyopengl():
         m.close()
 
 
+def test_ctrl_c_while_trimesh_computes_normals_is_not_swallowed(monkeypatch):
+    """trimesh computes vertex normals inside ``except BaseException`` (falling back from
+    scipy.sparse): a Ctrl-C landing there was logged as a warning and `sgt render` ran on to
+    the end (seen in CI). Here the SIGINT arrives inside that ``try``, once."""
+    import trimesh.geometry as tg
+    from renders.mannequin import Mannequin
+
+    real = tg.index_sparse
+    sent = []
+
+    def interrupted(*args, **kwargs):
+        if not sent:
+            sent.append(1)
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # the handler runs here, inside trimesh's try
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(tg, "index_sparse", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        Mannequin(32, 32).close()
+    assert sent, "trimesh no longer computes normals this way: move the interrupt"
+
+
 def test_ctrl_c_while_a_class_sets_up_its_fields_is_an_interrupt(monkeypatch, capsys):
     """SIGINT while a module being imported builds a class (a dataclass's fields): Python 3.11
     reports it as a RuntimeError caused by the KeyboardInterrupt (seen in CI, 1 run in ~20)."""
