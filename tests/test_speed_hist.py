@@ -56,7 +56,7 @@ def test_sgt_train_adds_it_with_its_weight(tmp_path):
     train(clips[:6], clips[6:], tmp_path / "run", cfg, resume=False, log=lambda s: None)
     row = json.loads((tmp_path / "run" / "metrics.jsonl").read_text().splitlines()[-1])
     assert row["hist"] > 0
-    off = TrainConfig(epochs=1, steps_per_epoch=3, batch=4, net={"hidden": 16, "layers": 1, "gru": 0})
+    off = TrainConfig(epochs=1, steps_per_epoch=3, batch=4, hist=0.0, net={"hidden": 16, "layers": 1, "gru": 0})
     train(clips[:6], clips[6:], tmp_path / "off", off, resume=False, log=lambda s: None)
     assert json.loads((tmp_path / "off" / "metrics.jsonl").read_text().splitlines()[-1])["hist"] == 0
     # the same batches (the term draws no random numbers), so only the term can make the weights differ

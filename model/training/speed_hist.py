@@ -6,8 +6,8 @@ strikes: too few still frames and too few fast ones, which the Hellinger distanc
 joint-speed histograms measures (docs/metrics.md). :func:`soft_speed_hellinger` is that
 distance between a batch of generated windows and their reference windows, with each speed
 spread over its two nearest bins (triangular weights) so that it has a gradient.
-``sgt train --hist-weight W`` adds ``W`` times it to the generator's loss (off by default;
-docs/model.md, "What we compared").
+``sgt train --hist-weight W`` adds ``W`` times it to the generator's loss (default 2, the
+shipped recipe; 0 switches it off; docs/model.md, "What we compared").
 """
 
 from __future__ import annotations

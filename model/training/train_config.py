@@ -24,7 +24,7 @@ class TrainConfig:
     huber_delta: float = 0.05
     ctrl: float = 100.0  # L1 on pose-controlled frames; 0 switches it off
     vel: float = 50.0  # L1 on velocities; 0 switches it off
-    hist: float = 0.0  # Hellinger distance of the joint-speed histograms (model.training.speed_hist); 0 = off
+    hist: float = 2.0  # Hellinger distance of the joint-speed histograms (model.training.speed_hist); 0 = off
     kl: float = 0.01  # KL weight of the conditional-VAE noise (a training-only posterior encoder); 0 = off
     p_prior: float = 0.0  # with the encoder: share of uncontrolled windows whose noise comes from the prior
     # (controlled windows always get the prior's)
