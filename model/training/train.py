@@ -228,6 +228,16 @@ def weights_checksum(model) -> float:
                      for p in _unwrap(model).parameters()))
 
 
+def _checkpoint_difference(state: dict, config: dict, world: int) -> str:
+    """What keeps a checkpoint from resuming: the settings that differ (``name`` then and now),
+    or the number of processes."""
+    saved = state.get("config") or {}
+    changed = [f"{k} {saved.get(k)!r} (now {v!r})" for k, v in config.items() if k != "minutes" and saved.get(k) != v]
+    if changed:
+        return "other settings: " + ", ".join(changed)
+    return f"{len(state.get('rngs', []))} processes (now {world})"
+
+
 def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bool = True, progress=None, log=print):
     """Train (or resume) and return the model. Writes in ``out_dir``: checkpoint.pt (to resume),
     metrics.jsonl (a row per epoch), last.pt (the last epoch's weights) and generator.pt (the
@@ -282,7 +292,8 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
             best = state.get("best", best)
             log(f"resumed from {ckpt_path} after epoch {epoch0}")
         else:
-            log(f"{ckpt_path} was made with other settings or another number of processes: starting afresh")
+            log(f"{ckpt_path} was made with {_checkpoint_difference(state, asdict(cfg), dist.world)}: starting afresh "
+                "(to resume it, give the settings it was made with)")
     # wrapped after loading: DistributedDataParallel broadcasts rank 0's weights to every rank
     net, encoder, critic = dist.wrap(model), (dist.wrap(enc) if enc is not None else None), \
         (dist.wrap(disc) if disc is not None else None)
