@@ -66,9 +66,10 @@ def test_sgt_train_adds_it_with_its_weight(tmp_path):
     assert any(not torch.equal(on_w[k], off_w[k]) for k in on_w)
 
 
-def test_a_checkpoint_made_with_other_settings_says_which(tmp_path):
+def test_a_checkpoint_made_with_other_settings_is_not_replaced(tmp_path):
     """`sgt train`'s default weight of this term changed (0 -> 2): a run interrupted before
-    that no longer resumes with the same command, and the log says which setting differs."""
+    that no longer resumes with the same command. Training refuses, says which setting
+    differs, and leaves the checkpoint as it was; --fresh (resume=False) starts over."""
     from synthetic import synthetic_clips
 
     from model.training.train import TrainConfig, train
@@ -77,10 +78,12 @@ def test_a_checkpoint_made_with_other_settings_says_which(tmp_path):
     net = {"hidden": 16, "layers": 1, "gru": 0}
     train(clips[:6], clips[6:], tmp_path, TrainConfig(epochs=1, steps_per_epoch=2, batch=4, hist=0.0, net=net),
           resume=False, log=lambda s: None)
-    said = []
+    before = (tmp_path / "checkpoint.pt").read_bytes()
     now = TrainConfig(epochs=1, steps_per_epoch=2, batch=4, hist=2.0, net=net)
-    train(clips[:6], clips[6:], tmp_path, now, log=said.append)
-    assert any("other settings: hist 0.0 (now 2.0)" in s for s in said), said
-    said.clear()
+    with pytest.raises(ValueError, match=r"other settings: hist 0\.0 \(now 2\.0\).*--fresh"):
+        train(clips[:6], clips[6:], tmp_path, now, log=lambda s: None)
+    assert (tmp_path / "checkpoint.pt").read_bytes() == before
+    train(clips[:6], clips[6:], tmp_path, now, resume=False, log=lambda s: None)
+    said = []
     train(clips[:6], clips[6:], tmp_path, now, log=said.append)
     assert any("resumed from" in s for s in said), said

@@ -292,8 +292,10 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
             best = state.get("best", best)
             log(f"resumed from {ckpt_path} after epoch {epoch0}")
         else:
-            log(f"{ckpt_path} was made with {_checkpoint_difference(state, asdict(cfg), dist.world)}: starting afresh "
-                "(to resume it, give the settings it was made with)")
+            # refused rather than started afresh: the first epoch would replace the checkpoint
+            raise ValueError(f"{ckpt_path} was made with {_checkpoint_difference(state, asdict(cfg), dist.world)}; "
+                             "give the settings it was made with to resume it, or start afresh with --fresh "
+                             "(which replaces it), or train into another folder")
     # wrapped after loading: DistributedDataParallel broadcasts rank 0's weights to every rank
     net, encoder, critic = dist.wrap(model), (dist.wrap(enc) if enc is not None else None), \
         (dist.wrap(disc) if disc is not None else None)
