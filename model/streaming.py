@@ -74,9 +74,8 @@ class StreamGenerator:
         # the take's posture and drift (model.take_posture), unless the client asks for space or handedness
         asked = any(self.style_mask[STYLE_INDEX[n]] for n in take_posture.YIELDS_TO_STYLES)
         self.take = None if asked else take_posture.draw(getattr(runner, "takes", None), seed)
-        k = STYLE_INDEX["speed"]
-        if self.take is not None and self.style_mask[k] and self.style[k] < 0:  # the drift gives way to a slower speed
-            self.take = take_posture.Take(self.take.posture)
+        if self.take is not None and take_posture.asks_slower(self.style[None], self.style_mask[None])[0]:
+            self.take = take_posture.Take(self.take.posture)  # the drift gives way to a slower speed
         self.drift_frame = 0  # the drift's clock: it stands still in pauses (take_posture.drift_clock)
         self.smoothing = smoothing
         self.filter_state: dict = {}
@@ -180,8 +179,9 @@ class StreamGenerator:
         self.done += k
         spans = [self._pause_span(a + i, final) for i in range(k)]
         self.spans += spans  # the pause hold of _calm_pauses reads them when the frames are returned
-        frames = self.drift_frame + np.cumsum([0] + [span is None for span in spans[:-1]])
-        self.drift_frame += sum(span is None for span in spans)  # as take_posture.drift_clock: still in pauses
+        moving = [span is None for span in spans]
+        frames = take_posture.clock_of(moving, self.drift_frame)  # as drift_clock: still in pauses
+        self.drift_frame += sum(moving)
         return take_posture.with_posture(y[a - s : a - s + k], self.take, frames=frames)
 
     def _audio_features(self, s: int, e: int) -> np.ndarray:

@@ -175,8 +175,15 @@ def drift_clock(n: int, start: int = 0, words=None) -> np.ndarray:
     """(n,) the drift's frame for each of ``n`` frames: from ``start`` on, standing still inside
     the pauses between ``words`` (:func:`model.postprocess.pause_frames`), where the engine holds
     the pose, so a pause ends where the drift was when it began."""
-    moving = ~pause_frames(words or [], n)
-    return start + np.concatenate([[0], np.cumsum(moving)[:-1]]).astype(np.int64) if n else np.zeros(0, np.int64)
+    return clock_of(~pause_frames(words or [], n), start)
+
+
+def clock_of(moving, start: int = 0) -> np.ndarray:
+    """(n,) the drift's frame for frames whose ``moving`` (n,) bool says whether the clock runs
+    into the next one: ``start`` on the first, one more after each moving frame (the stream
+    passes the pause spans it found itself)."""
+    moving = np.asarray(moving, bool)
+    return start + np.concatenate([[0], np.cumsum(moving)[:-1]]).astype(np.int64) if len(moving) else np.zeros(0, np.int64)
 
 
 def drift_start(words) -> int:
@@ -198,9 +205,14 @@ def drift_weight(arrays) -> np.ndarray:
     """(T,) share of the drift per frame: as :func:`posture_weight`, and it also gives way
     where a slower speed is requested (a drift would add motion to it; a faster request keeps
     it and the engine's speed correction meets the request)."""
+    return _give_way(_requested(arrays) | asks_slower(arrays.style, arrays.style_mask))
+
+
+def asks_slower(style, style_mask) -> np.ndarray:
+    """(T,) bool: frames of style requests ``style``/``style_mask`` (T, 3) that ask for a slower
+    speed, where the drift gives way."""
     k = STYLE_INDEX["speed"]
-    slow = (np.asarray(arrays.style_mask)[:, k] > 0.5) & (np.asarray(arrays.style)[:, k] < 0)
-    return _give_way(_requested(arrays) | slow)
+    return (np.asarray(style_mask)[:, k] > 0.5) & (np.asarray(style)[:, k] < 0)
 
 
 def _requested(arrays) -> np.ndarray:

@@ -36,17 +36,12 @@ def measure_takes(model, clips, *, seed: int = 0, progress=None) -> take_posture
         ref = np.asarray(clip["poses"], np.float64)
         posture = ref.mean(axis=0) - raw.astype(np.float64).mean(axis=0)
         postures.append(posture)
-        slow = _low_pass(ref) - _low_pass(raw.astype(np.float64)) - posture
+        sigma = take_posture.DRIFT_SIGMA  # both low-passed, the edges held
+        slow = gauss_smooth(ref, sigma) - gauss_smooth(raw.astype(np.float64), sigma) - posture
         drifts.append(take_posture.limit_bones(slow[:: take_posture.DRIFT_STEP]).astype(np.float32))
     if progress:
         progress(len(chosen), len(chosen), "")
     return take_posture.Takes(np.clip(np.asarray(postures, np.float32).reshape(-1, 27), -limit, limit), tuple(drifts))
-
-
-def _low_pass(x: np.ndarray) -> np.ndarray:
-    """A Gaussian low-pass along time (sigma :data:`~model.take_posture.DRIFT_SIGMA` frames,
-    the edges held)."""
-    return gauss_smooth(x, take_posture.DRIFT_SIGMA)
 
 
 def record_takes(weights, clips, *, progress=None) -> take_posture.Takes:
