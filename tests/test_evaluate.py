@@ -184,6 +184,20 @@ def test_sgt_eval_writes_the_rows(corpus, tmp_path, capsys):
         assert r["slope"] == pytest.approx(np.polyfit(r["requested"], r["achieved"], 1)[0])
 
 
+def test_split_all_evaluates_every_clip_of_the_corpus(corpus, capsys):
+    """--split all: a held-out corpus built with another seed is evaluated whole (its train,
+    val and test clips alike), with the same rows as one split."""
+    from sgt_tui.cli import main
+
+    every = load_corpus(corpus, None)
+    assert len({c["split"] for c in every}) == 3
+    rows = {r["name"]: r for r in E.evaluate_corpus(corpus, split="all", extractor=None)}
+    assert rows["model"]["n_clips"] == len(every) and rows["model"]["n_frames"] == sum(len(c["poses"]) for c in every)
+    assert rows["rules"]["n_clips"] == len(every)
+    assert main(["eval", "--corpus", str(corpus), "--split", "all", "--limit", "1", "--no-style"]) == 0
+    assert capsys.readouterr().out.splitlines()[2].startswith("model ")
+
+
 def test_style_following_is_the_style_of_the_requested_motion(clips, model):
     """Achieved style: the style statistics of the neural engine's output (with its speed
     correction) with only that dimension requested, at that value, on every frame, averaged

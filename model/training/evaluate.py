@@ -158,7 +158,8 @@ def format_style_following(result: dict) -> str:
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
                     progress=None, limit: int | None = None, smoothing: str = "one_euro",
                     with_style: bool = False, takes: bool = True) -> list[dict] | tuple[list[dict], dict]:
-    """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``,
+    """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``
+    ("all": every clip of the corpus, for a held-out corpus built with another seed),
     then the ``shuffled audio`` and ``rules, shuffled`` rows; with ``with_style`` also :func:`style_following`, as
     ``(rows, style)``.
 
@@ -166,7 +167,7 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
     always unsmoothed and unblended: the network's own pose following). ``takes``: draw
     each clip's take posture from the weights' training takes, as generation does
     (:mod:`model.take_posture`); false: the network alone."""
-    clips = load_corpus(corpus, split)
+    clips = load_corpus(corpus, None if split == "all" else split)
     if limit:
         clips = clips[:limit]
     net, info = load_weights(weights)

@@ -23,7 +23,9 @@ def register(sub) -> None:
 
     p = sub.add_parser("eval", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
-    p.add_argument("--split", default="test", choices=("test", "val", "train"))
+    p.add_argument("--split", default="test", choices=("test", "val", "train", "all"),
+                   help="which clips (default test); 'all': every clip, for a held-out corpus built with another "
+                        "seed (sgt corpus -o data/heldout --hours 1 --seed 1), whose FGD is steadier: see docs/metrics.md")
     p.add_argument("--weights", help="generator weights (default: the shipped ones)")
     p.add_argument("--extractor", default="default", help="FGD feature extractor weights (default: the shipped ones)")
     p.add_argument("-o", "--output", metavar="JSON",
