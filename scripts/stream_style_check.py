@@ -36,29 +36,48 @@ def clip_words(clip) -> list:
     return words
 
 
-def offline(runner, words, name: str, value: float, seed: int) -> np.ndarray:
-    """The neural engine on ``words`` (no audio) with style ``name`` = ``value`` on every frame."""
-    from core.controls import STYLE_INDEX, ControlArrays
-    from model import neural, postprocess
-    from model.features import silence_features, word_features
+def offline(words, name: str, value: float, seed: int, weights=None) -> np.ndarray:
+    """The neural engine, as ``sgt generate`` runs it, on ``words`` (no audio) with style ``name``
+    = ``value`` on every frame."""
+    from core.controls import ControlArrays
+    from core.skeleton import FPS
+    from model import neural
+    from model.generate import EngineInputs
     from model.streaming import TAIL
 
-    n = int(np.ceil((words[-1].end + TAIL) * 15))
-    arrays = ControlArrays.empty(n)
-    arrays.style[:, STYLE_INDEX[name]] = value
-    arrays.style_mask[:, STYLE_INDEX[name]] = 1.0
-    ids, onsets = word_features(words, n)
-    raw = neural.network_motion(runner, silence_features(n), ids, onsets, arrays, seed, words=words)
-    return postprocess.finish(raw, arrays.pose, arrays.pose_mask, words=words, style=arrays.style,
-                              style_mask=arrays.style_mask)
+    arrays = ControlArrays.empty(int(np.ceil((words[-1].end + TAIL) * FPS)))
+    arrays.set_style(0, arrays.n_frames, {name: value})
+    return neural.generate(EngineInputs(arrays, words), seed=seed, options=neural.Options(weights=weights))
 
 
-def stream(runner, words, name: str, value: float, seed: int) -> np.ndarray:
+def stream(words, name: str, value: float, seed: int, weights=None) -> np.ndarray:
     """The streaming generator fed ``words`` at once, then finished."""
+    from model.runtime import load_runner
     from model.streaming import StreamGenerator
 
-    gen = StreamGenerator(runner, seed=seed, style={name: value})
+    gen = StreamGenerator(load_runner(weights), seed=seed, style={name: value})
     return np.concatenate([gen.add_words([(w.word, w.start, w.end) for w in words]), gen.finish()])
+
+
+def following(engine, clip_words_list, weights=None) -> dict:
+    """``sgt eval``'s requested-versus-achieved result (:func:`model.training.evaluate.style_following`'s
+    form) for ``engine`` (:func:`offline` or :func:`stream`) on each clip's words."""
+    from core.controls import STYLE_INDEX, STYLE_NAMES
+    from model.features import word_features
+    from model.style import style as style_of
+
+    out = {}
+    for name in STYLE_NAMES:
+        achieved = []
+        for value in LEVELS:
+            got = []
+            for i, words in enumerate(clip_words_list):
+                motion = engine(words, name, value, i, weights)
+                ids, _ = word_features(words, len(motion))
+                got.append(style_of(motion)[ids > 0, STYLE_INDEX[name]])
+            achieved.append(float(np.concatenate(got).mean()))
+        out[name] = {"requested": list(LEVELS), "achieved": achieved, "slope": float(np.polyfit(LEVELS, achieved, 1)[0])}
+    return out
 
 
 def main(argv=None) -> int:
@@ -69,29 +88,13 @@ def main(argv=None) -> int:
     ap.add_argument("--limit", type=int, help="only the first N clips")
     args = ap.parse_args(argv)
 
-    from core.controls import STYLE_INDEX, STYLE_NAMES
-    from model.features import word_features
-    from model.runtime import load_runner
-    from model.style import style as style_of
     from model.training.corpus import load_corpus
+    from model.training.evaluate import format_style_following
 
-    runner = load_runner(args.weights)
-    clips = [c for c in load_corpus(args.corpus, args.split)[: args.limit] if clip_words(c)]
-    print(f"{len(clips)} clips of {args.corpus} ({args.split}), words only; achieved style for "
-          + ", ".join(f"{v:+g}" for v in LEVELS))
-    for name in STYLE_NAMES:
-        for engine, run in (("offline", offline), ("stream", stream)):
-            achieved = []
-            for value in LEVELS:
-                got = []
-                for i, clip in enumerate(clips):
-                    words = clip_words(clip)
-                    motion = run(runner, words, name, value, i)
-                    ids, _ = word_features(words, len(motion))
-                    got.append(style_of(motion)[ids > 0, STYLE_INDEX[name]])
-                achieved.append(float(np.concatenate(got).mean()))
-            slope = float(np.polyfit(LEVELS, achieved, 1)[0])
-            print(f"{name:<11} {engine:<8}" + "".join(f" {a:+6.2f}" for a in achieved) + f"   slope {slope:.2f}", flush=True)
+    words = [w for w in map(clip_words, load_corpus(args.corpus, args.split)[: args.limit]) if w]
+    print(f"{len(words)} clips of {args.corpus} ({args.split}), their timed words only")
+    for title, engine in (("offline engine (sgt generate)", offline), ("stream (sgt serve)", stream)):
+        print(f"\n{title}\n" + format_style_following(following(engine, words, args.weights)), end="", flush=True)
     return 0
 
 

@@ -10,7 +10,6 @@ import pytest
 
 from core.words import TimedWord
 from model.features import word_features
-from model.runtime import load_runner
 from model.style import style as style_of
 
 SCRIPT = Path(__file__).resolve().parent.parent / "scripts" / "stream_style_check.py"
@@ -35,11 +34,10 @@ def test_clip_words_are_in_order_and_never_overlap(check):
 def test_a_faster_request_gives_faster_motion(check, engine):
     words = [TimedWord(w, 0.2 + 0.45 * i, 0.55 + 0.45 * i) for i, w in enumerate(
         "the shops on this floor open at nine every morning and close late".split())]
-    runner = load_runner(None)
     run = getattr(check, engine)
     achieved = []
     for value in (-2.0, 2.0):
-        motion = run(runner, words, "speed", value, 0)
+        motion = run(words, "speed", value, 0)
         ids, _ = word_features(words, len(motion))
         achieved.append(float(style_of(motion)[ids > 0, 0].mean()))
     assert achieved[1] - achieved[0] > 2.0, achieved
