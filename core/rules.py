@@ -908,6 +908,23 @@ wrong, give the words' times with `timings=FILE` (a TextGrid or JSON).
     files={"said.wav": "@speech:Well, hello there my friend."},
 )
 
+SPEECH_CRASH = rule(
+    "SGT408", "speech-crash", ERROR,
+    "the speech engine crashed on this utterance ({detail})",
+    "try another voice or rephrase the line; please report it with the script",
+    """
+espeak-ng synthesizes every utterance in a process of its own, so when it crashes (a bug
+in the engine, a signal, the machine running out of memory) only that utterance fails:
+`sgt` reports it here and goes on, and `sgt serve` answers that request with status 500,
+logs it and starts a new speech worker for the next one. It is never the script's fault.
+
+No script triggers it on a working installation.
+
+Fix: try again; if it persists, try another voice or rephrase the line, and report the
+script (with `espeak-ng --version`).
+""",
+)
+
 # -- 5xx: gesture specs and configuration ------------------------------------------------
 
 BAD_SPEC = rule(

@@ -19,7 +19,7 @@ from core.diagnostics import Diagnostic, Related
 from dsl.script import Script, Span, Utterance
 from dsl.speech import SpeechError, list_voices
 from dsl.speech.recording import check_recording
-from dsl.speech.synth import check_voice
+from dsl.speech.synth import MAX_VOICE_NAME, check_voice, list_variants
 
 
 def check_resources(script: Script) -> list[Diagnostic]:
@@ -57,12 +57,21 @@ def check_resources(script: Script) -> list[Diagnostic]:
 
 def _unknown_voice(file: str, name: str, exc: SpeechError, where: Span) -> Diagnostic:
     kw: dict = {}
-    try:
-        hint, fixes = rules.did_you_mean(name.lower(), list_voices(), where.line, where.col, where.length)
-    except SpeechError:
-        hint, fixes = None, ()
-    if hint:
-        kw = {"hint": f"{hint} ('sgt voices' lists the voices)", "fixes": fixes}
+    base, _, variant = name.partition("+")
+    variants = exc.reason == "voice variant"  # the voice is right: suggest its variants
+    hint, fixes = None, ()
+    if len(name) <= MAX_VOICE_NAME:
+        try:
+            if variants:
+                hint, fixes = rules.did_you_mean(variant, list_variants(), where.line, where.col, where.length, fmt=base + "+{}")
+            else:
+                hint, fixes = rules.did_you_mean(name.lower(), list_voices(), where.line, where.col, where.length)
+        except SpeechError:
+            pass
+    else:  # the message quotes the name: not a 10,000-character one
+        name = name[:60] + "..."
+    lists = "'sgt voices --variants' lists the variants" if variants else "'sgt voices' lists the voices"
+    kw = {"hint": f"{hint} ({lists})", "fixes": fixes} if hint else {"hint": lists}
     return rules.UNKNOWN_VOICE.at(file, where.line, where.col, where.length, what=exc.reason or "voice", voice=name, **kw)
 
 
@@ -88,6 +97,8 @@ def speech_diagnostic(script: Script, utt: Utterance, exc: SpeechError) -> Diagn
     if exc.kind == "voice":
         where = _voice_span(script, utt) or Span(utt.line, 1, 1)
         return _unknown_voice(file, utt.voice.name, exc, where)
+    if exc.kind == "crash":
+        return rules.SPEECH_CRASH.at(file, utt.line, 1, 1, detail=exc.message)
     if exc.kind == "audio" and audio is not None:
         w = audio.where
         return rules.UNREADABLE_AUDIO.at(file, w.line, w.col, w.length, audio=_shown(audio.path, file), reason=exc.reason)

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from processes import children
 
 from core.motion import load_motion
 from sgt_tui.build.outputs import STATE
@@ -280,18 +281,6 @@ def _entries(cache: Path) -> int:
     return sum(1 for p in (cache / "build").rglob("*") if p.is_file() and not p.name.startswith("."))
 
 
-def _children(pid: int) -> list[int]:
-    out = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            out.append(int(stat.parent.name))
-    return out
-
-
 def _alive(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -315,7 +304,7 @@ def test_kill_9_mid_build_leaves_no_half_written_output_and_the_next_run_finishe
         deadline = time.monotonic() + 240
         while _entries(tmp_path / "cache") < 8 and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.01)
-        workers = _children(proc.pid)
+        workers = children(proc.pid)
         proc.send_signal(signal.SIGKILL)
     finally:
         proc.wait(30)

@@ -22,6 +22,7 @@ NO_EXAMPLE = {
     "syntax": "a fallback: the specific syntax rules cover every case",
     "speech": "the speech engine or aligner fails: not the script",
     "timing": "a broken engine or cache entry: not the script",
+    "speech-crash": "the speech process dies (a signal, a crash in the library): not the script",
     "io": "the script file itself cannot be read",
     "generation": "an editor job fails for a reason outside the script (tests/test_editor_app.py triggers it)",
     "refused-path": "only a request to sgt serve triggers it (tests/test_serve.py)",

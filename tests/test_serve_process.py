@@ -12,6 +12,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from processes import children
 
 ROOT = Path(__file__).resolve().parent.parent
 _spec = importlib.util.spec_from_file_location("bench_serve", ROOT / "benchmarks" / "bench_serve.py")
@@ -78,3 +79,59 @@ def test_load_8_clients_no_errors_and_bounded():
     assert result["requests"] >= 8 and result["errors"] == 0, result
     assert result["requests"] <= 200 + 8
     assert code == 0 and "Traceback" not in err
+
+
+def test_a_speech_worker_killed_mid_request_costs_that_request_only(tmp_path):
+    """espeak-ng runs in a forked child per synthesis: killed while it speaks (as a crash inside
+    the library would end it), that request gets a 500, the log says so without a traceback, and
+    the next request is served by a new worker."""
+    import os
+    import signal
+    import threading
+    import time
+
+    with bench.Server(env={"SGT_CACHE_DIR": str(tmp_path / "cache")}) as server:
+        long_text = "The quick brown fox jumps over the lazy dog near the old river bank. " * 250  # ~16 s of synthesis
+        answer = {}
+        request = threading.Thread(target=lambda: answer.update(r=bench.post(server.url + "/v1/generate", {"text": long_text})))
+        request.start()
+        victim, deadline = None, time.monotonic() + 30
+        while victim is None and time.monotonic() < deadline:
+            for fork_server in children(server.proc.pid):
+                speaking = children(fork_server)
+                if speaking:
+                    victim = speaking[0]
+            time.sleep(0.05)
+        assert victim is not None, "no synthesizing process appeared"
+        os.kill(victim, signal.SIGKILL)
+        request.join(60)
+        status, seconds = answer["r"]
+        assert status == 500 and seconds < 15
+        assert bench.post(server.url + "/v1/generate", {"text": "Still here, and speaking."})[0] == 200
+        code, err = server.stop()
+    assert code == 0
+    assert "the speech worker died" in err and "SIGKILL" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("voice", ["en-us+" + "a" * 40, "en-us+../../../../../../etc/passwd", "en-us+zz9"])
+def test_hostile_voice_variants_are_refused_and_the_server_lives(server, voice):
+    """A long variant overflowed a buffer inside espeak-ng (glibc aborted the server); a path as
+    a variant made it open and print the file; an unknown one passed. All are refused (422)
+    before espeak-ng sees them, and the server answers the next request."""
+    auth = ["-H", f"Authorization: Bearer {TOKEN}", "-H", "Content-Type: application/json"]
+    script = f"@voice {voice}\nguide: hi.\n"
+    for endpoint, body in (("/v1/generate", {"text": "hi", "voice": voice, "timing": "estimate"}),
+                           ("/v1/generate", {"text": "hi", "voice": voice}),
+                           ("/v1/generate", {"script": script}),
+                           ("/v1/check", {"script": script})):
+        status, answer = curl(*auth, "-d", json.dumps(body), server.url + endpoint)
+        assert "root:" not in json.dumps(answer)
+        if endpoint == "/v1/check":
+            assert status == 200 and answer["ok"] is False
+        else:
+            assert status == 422
+        if "/" in voice and "text" in body:  # the API's voice field takes names only
+            assert answer["diagnostics"][0]["where"] == "voice"
+        else:
+            assert answer["diagnostics"][0]["code"] == "SGT211", answer
+    assert curl(server.url + "/healthz")[0] == 200

@@ -326,3 +326,50 @@ def _running(pid: int) -> bool:
             return f.read().rsplit(")", 1)[1].split()[0] != "Z"
     except FileNotFoundError:
         return False
+
+
+HOSTILE_VARIANTS = ["a" * 40, "../../../../../../etc/passwd", "/etc/passwd", "zz9", "m3/../../../../etc/passwd", "m3\x00"]
+
+
+@pytest.mark.parametrize("variant", HOSTILE_VARIANTS)
+def test_a_variant_is_an_installed_name_or_nothing_reaches_espeak(variant, capfd):
+    """espeak-ng opens whatever file a variant names (and printed /etc/passwd line by line) and
+    overflows a buffer on a long one (glibc aborted the process): the engine's own guard lets
+    only installed voices and variants through, in this process, the fork server and a fresh one."""
+    eng = _espeak.engine()
+    identifier = next(v.identifier for v in eng.voices() if v.languages and v.languages[0] == "en-us")
+    assert "m3" in eng.variants() and "f2" in eng.variants()
+    assert eng.set_voice(f"{identifier}+m3")
+    assert not eng.set_voice(f"{identifier}+{variant}")
+    for ask in (_espeak.run_synth, lambda *a: _espeak._run_fresh(json.dumps(dict(zip(
+            ("text", "voice", "rate", "pitch"), a))).encode(), 60)):
+        with pytest.raises(_espeak.EngineError) as ei:
+            ask("hello", f"{identifier}+{variant}", 175, 50)
+        assert ei.value.kind == "voice" and "root:" not in ei.value.message
+    with pytest.raises(SpeechError) as ei:
+        speech.synth.check_voice(f"en-us+{variant}")
+    assert ei.value.kind == "voice" and "root:" not in ei.value.message
+    assert "Bad voice attribute" not in capfd.readouterr().err
+
+
+def test_variants_resolve_case_blind_and_long_names_are_refused(tmp_path):
+    assert speech.synth.check_voice("en-us+M3").endswith("+m3")
+    with pytest.raises(SpeechError, match="at most 64"):
+        speech.synth.check_voice("en-us" + "x" * 100)
+    with pytest.raises(SpeechError) as ei:
+        speech.synth.check_voice("en-us+m33")
+    assert ei.value.reason == "voice variant" and "'m3'" in ei.value.message
+    assert "m3" in speech.synth.list_variants()
+
+
+def test_a_synthesis_that_dies_is_a_crash_not_a_voice_problem(monkeypatch):
+    """The fork server's child killed by a signal: EngineError kind "crash", which the compiler
+    reports as SGT408 and the service answers with 500 (tests/test_serve_process.py)."""
+    assert _espeak._died(signal.SIGKILL) == "espeak-ng was killed by SIGKILL"
+    assert _espeak._died(signal.SIGABRT) == "espeak-ng was killed by SIGABRT"
+    assert _espeak._died(3 << 8) == "espeak-ng exited with status 3"
+    monkeypatch.setattr(_espeak, "_fork_server", lambda: None)  # a fresh process, killed by its own request
+    monkeypatch.setattr(_espeak, "__file__", str(Path(__file__).parent / "no_such_worker.py"))
+    with pytest.raises(_espeak.EngineError) as ei:
+        _espeak.run_synth("hello", "gmw/en-US", 175, 50)
+    assert ei.value.kind == "crash"

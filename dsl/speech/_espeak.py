@@ -33,7 +33,8 @@ from dataclasses import dataclass
 
 
 class EngineError(Exception):
-    """Engine failure; ``kind`` is "missing-lib", "init", "voice" or "synth"."""
+    """Engine failure; ``kind`` is "missing-lib", "init", "voice", "synth" or "crash" (the
+    process synthesizing died: a signal, a crash inside the library)."""
 
     def __init__(self, kind: str, message: str):
         super().__init__(message)
@@ -64,6 +65,9 @@ EVENT_SENTENCE = 2
 EVENT_END = 5
 EVENT_MSG_TERMINATED = 6
 EVENT_SAMPLERATE = 8
+
+#: How espeak-ng's voice list names a variant (``!v/m3``); the name after ``+`` is the rest.
+VARIANT_PREFIX = "!v/"
 
 
 class _Event(ctypes.Structure):
@@ -180,6 +184,7 @@ class _Engine:
         self._callback = _CALLBACK(self._on_audio)  # keep a reference: C holds a raw pointer
         lib.espeak_SetSynthCallback(self._callback)
         self._voices: list[VoiceInfo] | None = None
+        self._variants: dict[str, str] | None = None
 
     def _on_audio(self, wav, n, events) -> int:
         if wav and n > 0:
@@ -214,7 +219,37 @@ class _Engine:
             self._voices = out
         return self._voices
 
+    def variants(self) -> dict[str, str]:
+        """The installed voice variants, name after ``+`` (``m3``, ``f2``, ``aunty``...) -> its
+        description (``Auntie``): the files of espeak-ng's ``voices/!v`` folder, as its voice
+        list gives them, sorted case-insensitively."""
+        if self._variants is None:
+            spec = _Voice()
+            spec.languages = ctypes.cast(ctypes.c_char_p(b"variant"), ctypes.c_void_p)
+            arr = self.lib.espeak_ListVoices(ctypes.byref(spec))
+            found = {}
+            i = 0
+            while arr[i]:
+                v = arr[i].contents
+                ident = (v.identifier or b"").decode("utf-8", "replace")
+                if ident.startswith(VARIANT_PREFIX):
+                    found[ident[len(VARIANT_PREFIX):]] = (v.name or b"").decode("utf-8", "replace")
+                i += 1
+            self._variants = dict(sorted(found.items(), key=lambda kv: kv[0].lower()))
+        return self._variants
+
+    def _voice_keys(self) -> set[str]:
+        """Every way the voice list names a voice (identifier, name, language), lower case."""
+        return {k.lower() for v in self.voices() for k in (v.identifier, v.name, *v.languages)}
+
     def set_voice(self, name: str) -> bool:
+        """Select voice ``name`` (``IDENTIFIER`` or ``IDENTIFIER+VARIANT``). Only installed voices
+        and variants reach the library: espeak-ng opens whatever file a variant names (a path
+        reads any file and prints it line by line on stderr) and overflows a buffer on a long
+        one (glibc aborts the process), so anything else is refused here, without a call."""
+        base, plus, variant = name.partition("+")
+        if base.lower() not in self._voice_keys() or (plus and variant not in self.variants()):
+            return False
         return self.lib.espeak_SetVoiceByName(name.encode("utf-8")) == 0
 
     def synth(self, text: str, voice: str, rate: int, pitch: int) -> tuple[bytes, list[WordEvent]]:
@@ -275,8 +310,23 @@ def _run_fresh(request: bytes, timeout: float) -> tuple[int, bytes, list[WordEve
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=timeout, check=False)
     except subprocess.TimeoutExpired:
         raise _too_long(timeout) from None
-    err = proc.stderr.decode("utf-8", "replace").strip().splitlines()
-    return _parse_answer(proc.stdout, f": {err[-1]}" if err else f" (exit {proc.returncode})")
+    # what the engine printed on stderr is not passed on: it can quote files (see _Engine.set_voice)
+    if proc.returncode != 0 or not _whole(proc.stdout):
+        raise EngineError("crash", _died(-proc.returncode if proc.returncode < 0 else proc.returncode << 8))
+    return _parse_answer(proc.stdout, "")
+
+
+def _died(status: int) -> str:
+    """How a synthesizing process ended, from its wait status (the signal in the low 7 bits)."""
+    import signal
+
+    if status & 0x7F:
+        try:
+            name = signal.Signals(status & 0x7F).name
+        except ValueError:
+            name = f"signal {status & 0x7F}"
+        return f"espeak-ng was killed by {name}"
+    return f"espeak-ng exited with status {status >> 8 or status}"
 
 
 def _too_long(timeout: float) -> EngineError:
@@ -447,6 +497,9 @@ def _serve_main() -> int:
     import sys
 
     eng = _new_engine()  # loaded and initialised once, never used here to synthesize
+    if not isinstance(eng, EngineError):  # listed once here, not in every child (listing leaves synthesis as it was)
+        eng.voices()
+        eng.variants()
     out = sys.stdout.buffer
     for request in sys.stdin.buffer:
         read, write = os.pipe()
@@ -468,7 +521,7 @@ def _serve_main() -> int:
         _, status = os.waitpid(pid, 0)
         data = b"".join(chunks)
         if status != 0 or not _whole(data):  # the child died, or answered half
-            data = _answer(EngineError("synth", f"the espeak-ng worker failed (wait status {status})"), b"")
+            data = _answer(EngineError("crash", _died(status)), b"")
         out.write(data)
         out.flush()
     return 0

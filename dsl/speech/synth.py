@@ -57,6 +57,8 @@ PAUSE_SETTLE = 0.01
 #: Speaking rates (words per minute) and pitches espeak-ng accepts; ``@rate``/``@pitch`` check them.
 RATE_RANGE = (80, 450)
 PITCH_RANGE = (0, 100)
+#: Longest voice name (``en-gb-scotland+Annie`` is 20): longer ones are refused before espeak-ng sees them.
+MAX_VOICE_NAME = 64
 
 # -- validation -----------------------------------------------------------------------------
 
@@ -139,6 +141,22 @@ def list_voices() -> list[str]:
         return list(_voice_names)
 
 
+def list_variants() -> list[str]:
+    """The voice variants a voice name may add after ``+`` (``en-us+m3``): the installed
+    espeak-ng's, sorted case-insensitively."""
+    return [name for name, _ in variant_table()]
+
+
+def variant_table() -> list[tuple[str, str]]:
+    """(variant, description) of every installed voice variant, e.g. ("aunty", "Auntie"):
+    what ``sgt voices --variants`` prints."""
+    with _espeak._LOCK:
+        try:
+            return list(_espeak.engine().variants().items())
+        except _espeak.EngineError as e:
+            raise SpeechError(e.message) from None
+
+
 def voice_table() -> list[tuple[str, str]]:
     """(name, description) of every voice :func:`list_voices` gives, e.g. ("en-us", "English
     (America)"), sorted by name: what ``sgt voices`` prints."""
@@ -176,10 +194,15 @@ def check_voice(voice: str) -> str:
 
 
 def _resolve_voice(eng, voice: str) -> str:
-    """An espeak voice name for ``voice`` or SpeechError (kind "voice")."""
+    """An espeak voice name for ``voice`` or SpeechError (kind "voice"). Only names the engine
+    lists get through (:meth:`dsl.speech._espeak._Engine.set_voice` refuses the rest too)."""
     if not isinstance(voice, str) or not voice.strip():
         raise SpeechError("the voice name is empty", kind="voice", reason="")
-    base, plus, variant = voice.strip().partition("+")
+    voice = voice.strip()
+    if len(voice) > MAX_VOICE_NAME:
+        raise SpeechError(f"the voice name is {len(voice)} characters long; voice names are at most {MAX_VOICE_NAME} "
+                          "('sgt voices' lists them)", kind="voice", reason="voice")
+    base, plus, variant = voice.partition("+")
     key = base.lower()
     chosen = None
     for v in eng.voices():
@@ -191,18 +214,26 @@ def _resolve_voice(eng, voice: str) -> str:
             if key in (lang.lower() for lang in v.languages):
                 chosen = v.identifier
                 break
-    if chosen is not None:
-        candidate = chosen + (plus + variant if plus else "")
-        if eng.set_voice(candidate):
-            return candidate
-    if chosen is None or plus:
-        import difflib
-
-        close = difflib.get_close_matches(key, list_voices(), n=3, cutoff=0.5)
-        what = "voice variant" if chosen is not None else "voice"
-        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
-        raise SpeechError(f"unknown {what} {voice!r}{hint} ('sgt voices' lists the voices)", kind="voice", reason=what)
+    if chosen is None:
+        raise SpeechError(f"unknown voice {voice!r}{_close(key, list_voices())} ('sgt voices' lists the voices)",
+                          kind="voice", reason="voice")
+    candidate = chosen
+    if plus:
+        canonical = {name.lower(): name for name in eng.variants()}.get(variant.lower())
+        if canonical is None:
+            raise SpeechError(f"unknown voice variant {variant!r} in {voice!r}{_close(variant.lower(), eng.variants())} "
+                              "('sgt voices --variants' lists them)", kind="voice", reason="voice variant")
+        candidate = f"{chosen}+{canonical}"
+    if eng.set_voice(candidate):
+        return candidate
     raise SpeechError(f"espeak-ng could not load the voice {voice!r}", kind="voice", reason="voice")
+
+
+def _close(word: str, choices) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(word, [c.lower() for c in choices], n=3, cutoff=0.5)
+    return f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
 
 
 # -- timing ---------------------------------------------------------------------------------
@@ -430,7 +461,7 @@ def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tu
         else:
             raw, events = b"", []
     except _espeak.EngineError as e:
-        raise SpeechError(e.message) from None
+        raise SpeechError(e.message, kind="crash" if e.kind == "crash" else "engine") from None
     samples = np.frombuffer(raw, dtype="<i2").astype(np.int16)
     mask, hop = audio.voiced_mask(samples, sr)
     starts = _event_starts(spans, events, len(samples), mask, hop) if spans else []

@@ -5,9 +5,11 @@ from __future__ import annotations
 import base64
 import io
 import json
+import logging
 import tempfile
 from pathlib import Path
 
+from core import rules
 from core.diagnostics import sort_key
 from core.motion import save_motion
 from dsl.compiler import compile_file
@@ -16,6 +18,8 @@ from model.generate import GenerateError, NoSuchUtterance, generate
 from model.neural import Options
 from sgt_tui.serve.config import ServeConfig
 from sgt_tui.serve.requests import REQUEST_FILE, GenerateRequest, RequestError, refused_paths, text_script
+
+log = logging.getLogger("sgt.serve")
 
 
 def script_path(config: ServeConfig, folder: Path | None = None) -> Path:
@@ -80,6 +84,11 @@ def _generate(config: ServeConfig, req: GenerateRequest, source: str, path: Path
     except NoSuchUtterance as exc:
         raise RequestError(422, str(exc)) from None
     except GenerateError as exc:
+        crashed = [d for d in exc.diagnostics if d.code == rules.SPEECH_CRASH.code]
+        if crashed:  # the server's fault, not the request's: 500, and the log says what happened
+            log.error("the speech worker died on a request (%s); a new one serves the next", crashed[0].message)
+            raise RequestError(500, "the speech engine failed on this request (the server's log has the details); "
+                                    "the service goes on") from None
         if exc.diagnostics:
             raise RequestError(422, str(exc).replace(str(path), REQUEST_FILE), diagnostics_json(exc.diagnostics, path)) from None
         raise RequestError(503, f"the generator cannot run: {exc}") from None
