@@ -143,6 +143,9 @@ class Control:
 
     ``kind`` is "pose", "style" or "pause"; frames are [start_frame, end_frame) on the
     utterance's motion; ``line``/``col`` point at the tag in the script (0 when unknown).
+    A pose control of a gesture with a stroke also has ``stroke_frame`` (where its stroke
+    keyframe plays) and ``word_frame`` (the onset frame of the word it marks, where the stroke
+    is meant to land; the end of the previous word when no word follows), on the same frames.
     In files: :meth:`to_dict` / :meth:`from_dict`.
     """
 
@@ -153,13 +156,17 @@ class Control:
     line: int = 0
     col: int = 0
     options: dict = field(default_factory=dict)
+    stroke_frame: int | None = None
+    word_frame: int | None = None
 
     def shifted(self, frames: int) -> "Control":
         return Control(self.kind, self.name, self.start_frame + frames, self.end_frame + frames,
-                       self.line, self.col, dict(self.options))
+                       self.line, self.col, dict(self.options),
+                       None if self.stroke_frame is None else self.stroke_frame + frames,
+                       None if self.word_frame is None else self.word_frame + frames)
 
     def to_dict(self) -> dict:
-        return {
+        d = {
             "kind": self.kind,
             "name": self.name,
             "start_frame": self.start_frame,
@@ -168,6 +175,11 @@ class Control:
             "col": self.col,
             "options": self.options,
         }
+        if self.stroke_frame is not None:
+            d["stroke_frame"] = self.stroke_frame
+        if self.word_frame is not None:
+            d["word_frame"] = self.word_frame
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> "Control":
@@ -176,7 +188,9 @@ class Control:
             options = d.get("options") or {}
             if not isinstance(options, dict):
                 raise TypeError("options must be an object")
+            stroke, word = d.get("stroke_frame"), d.get("word_frame")
             return cls(str(d["kind"]), str(d["name"]), int(d["start_frame"]), int(d["end_frame"]),
-                       int(d.get("line") or 0), int(d.get("col") or 0), dict(options))
+                       int(d.get("line") or 0), int(d.get("col") or 0), dict(options),
+                       None if stroke is None else int(stroke), None if word is None else int(word))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise ValueError(f"a control needs kind, name, start_frame and end_frame, got {d!r}") from exc

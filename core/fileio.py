@@ -19,7 +19,10 @@ gesture specs, evaluation JSON, corpus shards, weights, the editor's saves):
   Both carry a one-line message for users; both are :class:`OSError`.
 
 :func:`check_output` and :func:`check_output_folder` apply the same rules without writing
-anything, so a command can refuse a bad output before it does any work.
+anything, so a command can refuse a bad output before it does any work, and
+:func:`check_not_input` refuses an output that is one of the command's inputs (the same
+file through a link or a hard link too). A file with no write permission for anyone is
+read-only even for root.
 
 Standard library only: the ``sgt`` command imports this module to report its errors.
 """
@@ -103,7 +106,7 @@ def check_output(path: Path | str) -> None:
         if not os.access(target, os.W_OK):
             raise OutputError(f"cannot write {shown}: permission denied")
     else:
-        if not os.access(target, os.W_OK):
+        if _read_only(target, st):
             raise OutputError(f"cannot write {shown}: the file is read-only")
         folder = os.path.dirname(target)
         if not os.access(folder, os.W_OK | os.X_OK):
@@ -234,6 +237,40 @@ def _check_new_file(target: str, shown: str, what: str = "file") -> None:
         raise OutputError(f"cannot create the {what} {shown}: permission denied in {folder}")
 
 
+def _read_only(path: str, st: os.stat_result) -> bool:
+    """Whether the regular file ``path`` is read-only: not writable by this process, or with
+    no write permission for anyone (root may write such a file; sgt does not replace it)."""
+    return not os.access(path, os.W_OK) or not st.st_mode & 0o222
+
+
+def same_file(a: Path | str, b: Path | str) -> bool:
+    """Whether paths ``a`` and ``b`` name one file: the same path once links are resolved, or
+    the same inode (a hard link, a bind mount). Nothing that does not exist is anything's twin."""
+    try:
+        sa, sb = os.stat(a), os.stat(b)
+    except (OSError, ValueError):
+        return False
+    return (sa.st_dev, sa.st_ino) == (sb.st_dev, sb.st_ino)
+
+
+def check_not_input(output: Path | str, inputs, option: str = "-o") -> None:
+    """Raise :class:`OutputPathError` when ``output`` is one of ``inputs`` (the same file, through
+    a symbolic or a hard link too): writing it would destroy what the command reads. Devices,
+    FIFOs and kernel files are not inputs anyone loses, and are let through."""
+    shown = _name(output)
+    try:
+        st = os.stat(shown)
+    except (OSError, ValueError):
+        return  # nothing there yet: it cannot be an input
+    if not stat.S_ISREG(st.st_mode):
+        return
+    for source in inputs:
+        if source is not None and same_file(shown, source):
+            twin = "" if os.path.abspath(os.fspath(source)) == os.path.abspath(shown) else f" (it is {os.fspath(source)})"
+            raise OutputPathError(f"{option} {shown}: the output is an input of this command{twin}; writing it would "
+                                  f"destroy it: name another file")
+
+
 def _mode_for(path: str) -> int:
     try:
         return os.stat(path).st_mode & 0o7777
@@ -246,7 +283,11 @@ def _mode_for(path: str) -> int:
 def _replace(target: str, data: bytes, shown: str) -> None:
     folder = os.path.dirname(target)
     make_folder(folder)
-    if os.path.exists(target) and not os.access(target, os.W_OK):
+    try:
+        st = os.stat(target)
+    except OSError:
+        st = None
+    if st is not None and _read_only(target, st):
         raise OutputError(f"cannot write {shown}: the file is read-only")
     import tempfile
 

@@ -41,6 +41,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -51,7 +52,8 @@ from core.controls import Control
 from core.fileio import atomic_write
 from core.frames_text import frame_lines_of_many, json_with_lines
 from core.hands import DIGITS, SIDES, HandTrack
-from core.skeleton import BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
+from core.reading import InputFileError, loads_json, read_bytes
+from core.skeleton import BONE_NAMES, BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
 
 FORMAT = "sgt-motion"
@@ -303,6 +305,7 @@ def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None) -> Motio
             hands = HandTrack.from_dict(hands)
         elif hands is not None:
             raise ValueError("hands must be an object with 'palm' and 'fingers'")
+        _check_values(poses, positions)
         offset = meta.get("audio_offset")
         return MotionClip(
             hands=hands,
@@ -335,9 +338,31 @@ def _track(meta, poses, positions, path: Path, i: int, n_frames: int, hands=None
             hands = HandTrack.from_dict(hands)
         elif hands is not None:
             raise ValueError("hands must be an object with 'palm' and 'fingers'")
+        _check_values(poses, positions)
         return Track(meta.get("speaker"), poses, positions, hands)
     except (ValueError, TypeError) as exc:
         raise MotionFileError(f"{path}: track {i}: {exc}") from None
+
+
+def _check_values(poses: np.ndarray, positions) -> None:
+    """ValueError, naming the first bad frame and joint, for a value that is not a finite number
+    (NaN, Inf) or a bone direction of length 0: every writer after the load (BVH, glTF) would
+    fail on it or write it on (hands: :class:`core.hands.HandTrack` checks them)."""
+    def first_bad(arr: np.ndarray, what: str, names) -> None:
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            frame, *rest = np.argwhere(bad)[0]
+            name = names[rest[0]] if names is not None and rest else None
+            raise ValueError(f"{what} at frame {frame}{f' ({name})' if name else ''} is {arr[tuple([frame, *rest])]}, "
+                             "not a finite number")
+
+    first_bad(poses.reshape(len(poses), -1, 3), "the pose", BONE_NAMES)
+    short = np.linalg.norm(poses.reshape(len(poses), -1, 3), axis=-1) < 1e-6
+    if short.any():
+        frame, bone = np.argwhere(short)[0]
+        raise ValueError(f"the pose at frame {frame} ({BONE_NAMES[bone]}) has a bone direction of length 0")
+    if positions is not None:
+        first_bad(positions, "the position", JOINTS)
 
 
 def _finish(doc: dict, clips: list[MotionClip], tracks: list[Track], path: Path) -> MotionFile:
@@ -361,10 +386,11 @@ def load_motion_file(path) -> MotionFile:
     path = Path(path)
     kind = _kind(path)
     try:
+        data = read_bytes(path, "motion file")  # a regular file of bounded size (a FIFO would hang np.load)
         if kind == "json":
             try:
-                doc = json.loads(path.read_text(encoding="utf-8"))
-            except json.JSONDecodeError as exc:
+                doc = loads_json(data)
+            except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, nesting
                 raise MotionFileError(f"{path}: not valid JSON: {exc}") from None
             _check_header(doc, path)
             clips = [
@@ -382,7 +408,7 @@ def load_motion_file(path) -> MotionFile:
             ]
             return _finish(doc, clips, tracks, path)
         try:
-            with np.load(path, allow_pickle=False) as z:
+            with np.load(io.BytesIO(data), allow_pickle=False) as z:
                 if "meta" not in z.files:
                     raise MotionFileError(f"{path}: no 'meta' entry; not an sgt motion file")
                 doc = json.loads(str(z["meta"]))
@@ -397,12 +423,16 @@ def load_motion_file(path) -> MotionFile:
                     poses, pos, hands = _npz_part(z, "track_", i, path)
                     tracks.append(_track(t, poses, pos, path, i, n, hands))
                 return _finish(doc, clips, tracks, path)
-        except (ValueError, OSError, json.JSONDecodeError) as exc:
-            if isinstance(exc, FileNotFoundError):
-                raise
-            raise MotionFileError(f"{path}: cannot read as npz: {exc}") from None
+        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+            raise MotionFileError(f"{path}: cannot read as npz: {exc or 'the file is empty'}") from None
     except FileNotFoundError:
         raise MotionFileError(f"{path}: no such file") from None
+    except InputFileError as exc:
+        raise MotionFileError(f"{path}: {exc.reason}") from None
+    except IsADirectoryError:
+        raise MotionFileError(f"{path}: it is a folder, not a motion file") from None
+    except OSError as exc:
+        raise MotionFileError(f"{path}: cannot read: {exc.strerror or exc}") from None
 
 
 def _npz_part(z, prefix: str, i: int, path: Path) -> tuple:

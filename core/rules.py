@@ -1060,6 +1060,24 @@ Fix: correct the path or create the folder.
     example="@library nowhere\nhello\n",
 )
 
+WRONG_KIND = rule(
+    "SGT612", "wrong-kind", ERROR,
+    "{what} '{text}' is {kind}",
+    "name {expected}; paths are relative to the script's folder",
+    """
+`@audio` names a recording and its `timings=` file, which must be regular files; `@library`
+names a folder of gesture specs. A folder where a file belongs, a file where a folder
+belongs, or a FIFO or device (which could block the command or never end) is refused by
+what it is, without being read.
+
+Example: `@audio takes` where `takes` is a folder of recordings.
+
+Fix: name the file (`@audio takes/line4.wav`) or the folder the directive wants.
+""",
+    example="@audio takes\nhello\n",
+    files={"takes/line4.txt": "a folder of takes"},
+)
+
 BAD_FORMAT = rule(
     "SGT606", "bad-format", ERROR,
     "word timings must be a .TextGrid or .json file, not '{suffix}'",

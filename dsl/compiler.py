@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Callable
 
 from core import rules
+from core.reading import InputFileError
 from core.diagnostics import Diagnostic, Related, sort_key
 from core.skeleton import FPS, frame_count, mirror_name, seconds_to_frame
 from dsl.parser import analyse, read_source
@@ -80,7 +81,12 @@ def load_script(path: Path | str, *, library=None, source: str | None = None):
         try:
             source, diags = read_source(path)
         except OSError as exc:
-            reason = "it is a folder" if isinstance(exc, IsADirectoryError) else (exc.strerror or str(exc)).lower()
+            if isinstance(exc, InputFileError):
+                reason = exc.reason
+            elif isinstance(exc, IsADirectoryError):
+                reason = "it is a folder"
+            else:
+                reason = (exc.strerror or str(exc)).lower()
             d = rules.IO.at(str(path), 0, 0, reason=reason)
             return Script(str(path), "", None, [], [d]), None, [d]  # type: ignore[arg-type]
     holder = {}
@@ -181,6 +187,12 @@ def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, i
     return out
 
 
+def _stroke_frames(mark, gesture, start: int, word_frame: int) -> dict:
+    """``stroke_frame`` and ``word_frame`` of a placed pose control (none for a gesture without a stroke)."""
+    stroke = gesture.stroke_frame(mark.speed)
+    return {} if stroke is None else {"stroke_frame": start + stroke, "word_frame": word_frame}
+
+
 def _limbs(mark, gesture) -> frozenset[str]:
     """The limbs a placed gesture drives (mirrored when it is flipped)."""
     limbs = gesture.spec.limbs
@@ -268,7 +280,9 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
                 related=(Related(f"'{other.name}' is here", script.path, o.line, o.col, o.length),),
             ))
         requests.poses.append((start, gesture, mark, length))
-        controls.append(Control("pose", mark.name, start, start + length, w.line, w.col, mark.options))
+        at = t.words[mark.word_index].start if mark.word_index is not None else t.words[mark.after_word].end
+        controls.append(Control("pose", mark.name, start, start + length, w.line, w.col, mark.options,
+                                **_stroke_frames(mark, gesture, start, seconds_to_frame(at))))
         if start + length > n_frames:  # a gesture that waited may end after the others
             n_frames = requests.n_frames = start + length
     tail = max(0.0, n_frames / FPS - t.duration)

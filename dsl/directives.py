@@ -19,13 +19,16 @@ All but ``@audio`` and ``@gap`` belong to the header, before the first utterance
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
 from core import rules
 from core.controls import STYLE_NAMES
 from core.diagnostics import Diagnostic, Related
+from core.reading import kind_of, not_a_file
 from core.seeds import SEED_MAX
 from dsl.durations import parse_duration
 from dsl.script import MAX_GAP, AudioRef, Header, Span
@@ -187,7 +190,11 @@ def _do_library(ctx, args, line, where):
     if not path.is_absolute():
         path = ctx.base_dir / path
     if not path.is_dir():
-        ctx.report(rules.MISSING_FOLDER, line, arg.col, arg.length, text=arg.text, path=path)
+        if path.exists():
+            ctx.report(rules.WRONG_KIND, line, arg.col, arg.length, what="gesture folder", text=arg.text,
+                       kind=_kind(path), expected="a folder of gesture specs")
+        else:
+            ctx.report(rules.MISSING_FOLDER, line, arg.col, arg.length, text=arg.text, path=path)
         return
     span = Span(line, arg.col, arg.length)
     ctx.setting(f"library:{path.resolve()}", f"gesture folder '{arg.text}'", span)
@@ -308,7 +315,17 @@ def _resolve_file(ctx, text, line, col, length, what) -> Path | None:
     path = Path(text).expanduser()
     if not path.is_absolute():
         path = ctx.base_dir / path
+    why = not_a_file(path)
+    if why is not None:
+        ctx.report(rules.WRONG_KIND, line, col, length, what=what, text=text, kind=_kind(path), expected="a regular file")
+        return None
     if not path.is_file():
         ctx.report(rules.MISSING_FILE, line, col, length, what=what, text=text, path=path)
         return None
     return path
+
+
+def _kind(path: Path) -> str:
+    """What ``path`` is, for WRONG_KIND: "a folder", "a FIFO (named pipe)", "a file"..."""
+    mode = os.stat(path).st_mode
+    return "a file" if stat.S_ISREG(mode) else kind_of(mode)

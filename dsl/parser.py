@@ -19,6 +19,7 @@ from pathlib import Path
 from core import rules
 from core.controls import STYLE_NAMES
 from core.diagnostics import Diagnostic, Fix, Related, TextEdit, sort_key
+from core.reading import read_bytes
 from dsl.directives import DirectiveContext, apply_directive
 from dsl.durations import parse_duration
 from dsl.lines import Statement, decode_source, split_lines, split_statements, utf16_order
@@ -525,8 +526,10 @@ def read_source(path: Path) -> tuple[str, list[Diagnostic]]:
     """Read a script file as UTF-8; undecodable bytes become a diagnostic, not an exception.
 
     A UTF-16 file is not decoded at all (it would be garbage): the text is empty and the one
-    diagnostic says so. Raises ``OSError`` when the file cannot be read."""
-    data = path.read_bytes()
+    diagnostic says so. Raises ``OSError`` when the file cannot be read, and
+    :class:`core.reading.InputFileError` (an ``OSError``) for a FIFO, a device or a file over
+    the size limit of scripts (never read)."""
+    data = read_bytes(path, "script")
     order = utf16_order(data)
     if order is not None:
         return "", [rules.UTF16.at(str(path), 0, 0, order=order)]

@@ -19,6 +19,7 @@ import tomllib
 from pathlib import Path
 
 from core.paths import LIBRARY_PATH_VAR, config_files
+from core.reading import InputFileError, read_bytes
 from library.spec import LibraryProblem, locate, toml_error
 
 ENV_VAR = LIBRARY_PATH_VAR
@@ -31,10 +32,11 @@ def _problem(path: Path, text: str, field: str, message: str) -> LibraryProblem:
 
 def _paths_from_file(path: Path) -> tuple[list[Path], list[LibraryProblem]]:
     try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
+        raw = read_bytes(path, "configuration")
     except FileNotFoundError:
         return [], []
+    except InputFileError as exc:
+        return [], [LibraryProblem(path, "file", f"cannot read: {exc.reason}", kind="config")]
     except OSError as exc:
         return [], [LibraryProblem(path, "file", f"cannot read: {exc.strerror or exc}", kind="config")]
     text = raw.decode("utf-8", errors="replace")

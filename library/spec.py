@@ -69,6 +69,7 @@ from pathlib import Path
 import numpy as np
 
 from core.hands import PALMS, REST_PALM, REST_SHAPE, SHAPE_ANGLES, SHAPES, SIDES, HandTrack, interpolate_hands, palm_direction
+from core.reading import InputFileError, read_bytes
 from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, REST_POSE, mirror_name
 
 NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
@@ -79,6 +80,12 @@ HAND_KEYS = ("left_hand", "right_hand", "left_palm", "right_palm")
 #: Consecutive keyframe directions of one bone closer to opposite than this (degrees)
 #: would make the interpolation ambiguous.
 MAX_STEP_DEGREES = 170.0
+#: The longest gesture, seconds at speed 1 (the longest built-in one, think, is 2 s), and the
+#: most keyframes one may have: a spec beyond them is refused by the spec checker, so that
+#: `sgt check` and `sgt generate` agree (200,000 keyframes passed check, then generation asked
+#: for 3 GiB; duration = 1e300 overflowed into 13 frames).
+MAX_DURATION = 10.0
+MAX_KEYFRAMES = 150
 
 REST_DIRS = np.asarray(REST_POSE, dtype=np.float64).reshape(N_BONES, 3)
 
@@ -328,6 +335,9 @@ def _duration(data: dict) -> float:
     duration = data["duration"]
     if not _is_number(duration) or duration <= 0:
         raise SpecError("duration", f"duration must be a positive number of seconds, got {duration!r}")
+    if duration > MAX_DURATION:
+        raise SpecError("duration", f"duration {duration:g} s is longer than a gesture may be ({MAX_DURATION:g} s); "
+                                    "split it into gestures, or hold its end with hold=")
     return float(duration)
 
 
@@ -338,6 +348,9 @@ def _keyframes(data: dict, duration: float) -> tuple[list[Keyframe], list[np.nda
         raise SpecError("keyframes", "missing [[keyframes]]")
     if not isinstance(raw_keys, list) or not raw_keys or not all(isinstance(k, dict) for k in raw_keys):
         raise SpecError("keyframes", "keyframes must be a non-empty array of tables ([[keyframes]])")
+    if len(raw_keys) > MAX_KEYFRAMES:
+        raise SpecError("keyframes", f"{len(raw_keys)} keyframes; a gesture may have at most {MAX_KEYFRAMES} "
+                                     f"(one per frame of the longest gesture, {MAX_DURATION:g} s)")
     keyframes: list[Keyframe] = []
     key_dirs: list[np.ndarray] = []
     dirs = REST_DIRS.copy()
@@ -560,7 +573,9 @@ def _transport(p: np.ndarray, v: np.ndarray) -> np.ndarray:
 def read_spec(path: Path) -> GestureSpec:
     """Read and validate one spec file. Raises :class:`SpecError` (field 'file' for I/O)."""
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = read_bytes(path, "gesture spec").decode("utf-8")
+    except InputFileError as exc:
+        raise SpecError("file", f"cannot read: {exc.reason}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SpecError("file", f"cannot read: {exc}") from None
     return parse_spec_text(text, Path(path))

@@ -75,7 +75,9 @@ def main(argv: list[str] | None = None) -> int:
             parser.print_help()
             return 2
         command = f"sgt {args.command}"
-        return int(args.run(args) or 0)
+        return _status(args.run(args))
+    except SystemExit as exc:  # a library that exits (uvicorn exits 3): still one of this command's statuses
+        return _status(exc.code)
     except UsageError as exc:
         return _fail(command, exc, 2)
     except InputError as exc:
@@ -96,6 +98,13 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print("interrupted", file=sys.stderr)
         return 130
+
+
+def _status(code) -> int:
+    """``code`` as one of the statuses sgt exits with (0, 1, 2, 130): anything else is 1."""
+    if code is None:
+        return 0
+    return code if isinstance(code, int) and code in (0, 1, 2, 130) else 1
 
 
 def _fail(command: str, message, code: int) -> int:

@@ -67,9 +67,21 @@ def _only_diagnostics(text: str, tmp: Path) -> None:
             assert u.arrays.pose.shape == (u.n_frames, 27)
             for c in u.controls:
                 assert 0 <= c.start_frame <= c.end_frame <= u.n_frames
-            poses = sorted((c.start_frame, c.end_frame) for c in u.controls if c.kind == "pose")
-            assert all(a[1] <= b[0] for a, b in zip(poses, poses[1:]))  # overlaps are resolved
+            poses = sorted((c.start_frame, c.end_frame, _limbs(c)) for c in u.controls if c.kind == "pose")
+            for i, a in enumerate(poses):  # overlaps are resolved between gestures that share a limb (a nod layers on a point)
+                assert all(a[1] <= b[0] for b in poses[i + 1:] if a[2] & b[2]), poses
     _commands(path, tmp, result)
+
+
+def _limbs(control) -> frozenset:
+    """The limbs a pose control's gesture drives, mirrored when flipped (as the compiler places them)."""
+    from core.skeleton import mirror_name
+    from library import load_library
+    from library.spec import LIMBS
+
+    gesture = load_library(use_config=False).get(control.name)  # a gesture of an @library folder: every limb
+    limbs = gesture.spec.limbs if gesture is not None else frozenset(LIMBS)
+    return frozenset(mirror_name(limb) for limb in limbs) if control.options.get("flip") else frozenset(limbs)
 
 
 def _commands(path: Path, tmp: Path, result) -> None:

@@ -348,6 +348,6 @@ def test_file_names_that_are_not_utf8_are_written_into_json_and_load_back(tmp_pa
 
     bvh = tmp_path / f"{odd}.bvh"
     assert main(["export", str(fixed), "--engine", "keyframe", "-o", str(bvh)]) == 0
-    sidecar = json.loads((tmp_path / f"{odd}.timeline.json").read_bytes().decode("utf-8"))
+    sidecar = json.loads((tmp_path / f"{odd}.bvh.timeline.json").read_bytes().decode("utf-8"))
     assert [tmp_path / name for name in sidecar["files"].values()] == [bvh]
     assert bvh.read_bytes().startswith(b"HIERARCHY")

@@ -54,10 +54,10 @@ def test_export_writes_one_file_per_speaker_and_a_timeline(take, tmp_path, capsy
     _, motion = take
     whole = load_motion_file(motion)
     assert _main(["export", motion, "-o", tmp_path / "t.bvh"]) == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.guide.bvh", "t.timeline.json", "t.visitor.bvh"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.bvh.timeline.json", "t.guide.bvh", "t.visitor.bvh"]
     for name in ("guide", "visitor"):
         assert f"Frames: {whole.tracks[0].n_frames}\n" in (tmp_path / f"t.{name}.bvh").read_text()
-    timeline = json.loads((tmp_path / "t.timeline.json").read_text())
+    timeline = json.loads((tmp_path / "t.bvh.timeline.json").read_text())
     assert timeline["files"] == {"guide": "t.guide.bvh", "visitor": "t.visitor.bvh"}
     assert [(u["speaker"], u["start_frame"], u["frames"]) for u in timeline["utterances"]] == [
         (c.speaker, c.start_frame, c.n_frames) for c in whole.clips]
@@ -84,7 +84,7 @@ def test_export_writes_one_file_per_speaker_and_a_timeline(take, tmp_path, capsy
 def test_export_with_a_rig_writes_per_speaker_files(take, tmp_path):
     _, motion = take
     assert _main(["export", motion, "-o", tmp_path / "t.glb", "--rig", "vrm"]) == 0
-    assert {p.name for p in tmp_path.iterdir()} == {"t.guide.glb", "t.visitor.glb", "t.timeline.json"}
+    assert {p.name for p in tmp_path.iterdir()} == {"t.guide.glb", "t.visitor.glb", "t.glb.timeline.json"}
 
 
 def test_say_mix_is_the_performance_on_the_motion_clock(take, tmp_path):

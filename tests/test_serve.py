@@ -351,6 +351,28 @@ def test_stream_of_text_as_an_llm_produces_it(api):
     assert replies[-1]["frames"] == sum(len(m["poses"]) for m in frames_of(replies))
 
 
+def test_long_text_messages_are_timed_or_refused_for_what_they_are(api):
+    """A text of more than 2000 characters with spaces was dropped for '2000 characters without
+    a space'; a 900 KB one too. Now a 3000-character text is timed whole, a 900 KB one is
+    refused for its size (nothing of it used), and only a 2000-character word is 'without a space'."""
+    from sgt_tui.serve.stream import MAX_TEXT_MESSAGE
+
+    with api.websocket_connect("/v1/stream") as ws:
+        ws.send_json({"type": "start"})
+        ws.receive_json()
+        text = "the quick brown fox jumps over the lazy dog " * 70  # 3080 characters, 630 words
+        ws.send_json({"type": "text", "text": text})
+        first = ws.receive_json()
+        assert first["type"] == "timed" and len(first["words"]) == 630
+        ws.send_json({"type": "text", "text": "word " * 180_000})  # 900 KB
+        replies = receive_until(ws, "error")
+        assert f"at most {MAX_TEXT_MESSAGE} characters" in replies[-1]["message"]
+        ws.send_json({"type": "text", "text": "x" * 2500})
+        assert "without a space" in receive_until(ws, "error")[-1]["message"]
+        ws.send_json({"type": "end"})
+        assert receive_until(ws, "done")[-1]["type"] == "done"
+
+
 def test_stream_of_audio_chunks_with_their_words(api):
     """A TTS's audio at 22.05 kHz in chunks of 0.2 s, each with the words that start in it: the
     frames are those the generator decides from the same audio and words (resampled in pieces

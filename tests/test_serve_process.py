@@ -135,3 +135,33 @@ def test_hostile_voice_variants_are_refused_and_the_server_lives(server, voice):
         else:
             assert answer["diagnostics"][0]["code"] == "SGT211", answer
     assert curl(server.url + "/healthz")[0] == 200
+
+
+def test_slow_clients_are_disconnected_after_the_header_timeout():
+    """Without a header-read timeout, 60 clients that trickle their headers were held open (and
+    a connection that never sends one too). With --header-timeout 1 they are closed after it;
+    the service answers a normal client meanwhile."""
+    import socket
+    import time
+
+    with bench.Server("--header-timeout", "1") as server:
+        slow = []
+        for k in range(60):
+            s = socket.create_connection(("127.0.0.1", server.port))
+            if k % 2:
+                s.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")  # the headers never end
+            slow.append(s)
+        assert curl(server.url + "/healthz")[0] == 200
+        started = time.monotonic()
+        closed = 0
+        for s in slow:
+            s.settimeout(10)
+            try:
+                closed += s.recv(100) == b""
+            except OSError:
+                pass
+            s.close()
+        assert closed == 60 and time.monotonic() - started < 5
+        assert curl(server.url + "/healthz")[0] == 200
+        code, err = server.stop()
+    assert code == 0 and "Traceback" not in err

@@ -18,7 +18,6 @@ neighbouring words; the audio is then written (mono, 16-bit PCM) to the cache.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 import unicodedata
@@ -28,6 +27,7 @@ from typing import Sequence
 import numpy as np
 
 from core.fileio import atomic_write
+from core.reading import InputFileError, loads_json, read_bytes
 from core.words import TimedWord
 
 from . import align, audio, cache
@@ -101,7 +101,9 @@ def parse_textgrid(path: Path) -> list[tuple[str, float, float]]:
     """Timed words (label, start, end) from a TextGrid's word tier (see module docstring)."""
     name = str(path)
     try:
-        text = _decode_text(Path(path).read_bytes())
+        text = _decode_text(read_bytes(path, "timings"))
+    except InputFileError as e:
+        raise SpeechError(f"cannot read the timings file {name!r}: {e.reason}", kind="timings", reason=e.reason) from None
     except OSError as e:
         raise SpeechError(f"cannot read the timings file {name!r}: {e}") from None
     toks = _textgrid_tokens(text)
@@ -162,7 +164,9 @@ def parse_textgrid(path: Path) -> list[tuple[str, float, float]]:
 def parse_json_timings(path: Path) -> list[tuple[str, float, float]]:
     name = str(path)
     try:
-        data = json.loads(_decode_text(Path(path).read_bytes()))
+        data = loads_json(_decode_text(read_bytes(path, "timings")))
+    except InputFileError as e:
+        raise SpeechError(f"cannot read the timings file {name!r}: {e.reason}", kind="timings", reason=e.reason) from None
     except OSError as e:
         raise SpeechError(f"cannot read the timings file {name!r}: {e}") from None
     except ValueError as e:
@@ -228,7 +232,9 @@ def _read_timings(p: Path) -> tuple[list[tuple[str, float, float]], str]:
     if suffix == ".textgrid":
         return parse_textgrid(p), "textgrid"
     try:
-        head = _decode_text(p.read_bytes()[:200]).lstrip()
+        head = _decode_text(read_bytes(p, "timings")[:200]).lstrip()
+    except InputFileError as e:
+        raise SpeechError(f"cannot read the timings file {str(p)!r}: {e.reason}", kind="timings", reason=e.reason) from None
     except OSError as e:
         raise SpeechError(f"cannot read the timings file {str(p)!r}: {e}") from None
     except UnicodeDecodeError:

@@ -50,6 +50,8 @@ def load_performance(path_text: str, utterance: int | None = None, *, engine: st
 
         take = generate_script(path, engine=engine, utterances=None if utterance is None else [utterance],
                                seed=seed, options=options)
+        if not take.clips:
+            raise InputError(f"{path}: no utterances (a script with only a header makes no motion)")
         return MotionFile(take.clips, take.tracks if tracks and utterance is None else [], str(path))
     if suffix not in MOTION_SUFFIXES:
         raise UsageError(f"{path}: unknown input type '{suffix or '(none)'}' (use .json, .npz or .sgt)")

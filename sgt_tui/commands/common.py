@@ -26,7 +26,7 @@ import os
 import sys
 from pathlib import Path
 
-from core.fileio import check_output, check_output_folder
+from core.fileio import check_not_input, check_output, check_output_folder
 from core.seeds import SEED_MAX
 from sgt_tui.errors import InputError, UsageError
 
@@ -180,19 +180,50 @@ def check_utterances(script, requested) -> None:
 # -- outputs ---------------------------------------------------------------------------------
 
 
-def output_file(text: str, option: str = "-o", *, binary: bool = False):
+def output_file(text: str, option: str = "-o", *, binary: bool = False, inputs=()):
     """Check an output file named on the command line before any work is done.
 
     Returns what to hand to a writer: the path, or the standard output's binary stream for
     ``-``. Binary data is never written to a terminal (usage error); a path that cannot be
-    written raises :class:`core.fileio.OutputError` (see the module's exit status).
+    written raises :class:`core.fileio.OutputError` (see the module's exit status); an output
+    that is one of the command's ``inputs`` (:func:`inputs_of`; through a link or a hard link
+    too) is refused (:class:`core.fileio.OutputPathError`, exit 2).
     """
     if text == STDOUT:
         if binary and _isatty(sys.stdout):
             raise UsageError(f"{option} -: will not write binary data to a terminal; redirect it (> FILE) or pipe it")
         return _Stdout()
     check_output(text)
+    check_not_input(text, inputs, option)
     return text
+
+
+def inputs_of(*paths) -> list[Path]:
+    """Every file a command reads for the inputs ``paths`` (None skipped): each path and, for a
+    script, the recordings and timings files it names, resolved as the compiler resolves them
+    (``~`` expanded, relative to the script's folder). What cannot be read is left out (the
+    command reports it when it reads it)."""
+    from core.reading import read_bytes
+
+    out = []
+    for path in paths:
+        if path is None:
+            continue
+        path = Path(path)
+        out.append(path)
+        if path.suffix.lower() != ".sgt":
+            continue
+        try:
+            source = read_bytes(path, "script").decode("utf-8", "replace")
+        except OSError:
+            continue
+        from dsl.plain import file_references  # lazy: the scanner (numpy-free, but not needed for --help)
+
+        for ref in file_references(source):
+            if ref.kind in ("audio", "timings"):
+                named = Path(ref.text).expanduser()
+                out.append(named if named.is_absolute() else path.parent / named)
+    return out
 
 
 def output_folder(text: str, option: str = "-o") -> Path:

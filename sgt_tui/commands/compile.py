@@ -42,19 +42,25 @@ def run(args) -> int:
         exit_code,
         max_per_file,
         one_stdout,
+        inputs_of,
         output_file,
         print_diagnostics,
         shown,
     )
+    from core.fileio import same_file
     from sgt_tui.errors import UsageError
     from sgt_tui.progress import ProgressBar
 
     if args.max_errors is not None and args.max_errors < 0:
         raise UsageError("--max-errors must be 0 (show all) or more")
     path = Path(args.file)  # a missing or unreadable script is a diagnostic (exit 1), as in sgt check
-    one_stdout(**{"-o" if args.output else "the plan (no -o)": args.output or STDOUT, "--npz": args.npz})
-    plan_out = output_file(args.output or STDOUT, "-o")
-    npz_out = output_file(args.npz, "--npz", binary=True) if args.npz else None
+    target = STDOUT if args.output is None else args.output  # -o "" is an empty name, refused: not standard output
+    one_stdout(**{"-o" if args.output is not None else "the plan (no -o)": target, "--npz": args.npz})
+    inputs = inputs_of(path)
+    plan_out = output_file(target, "-o", inputs=inputs)
+    npz_out = output_file(args.npz, "--npz", binary=True, inputs=inputs) if args.npz is not None else None
+    if args.output and args.npz and (args.output == args.npz or same_file(args.output, args.npz)):
+        raise UsageError(f"-o and --npz name one file ({args.npz}): the plan would overwrite the arrays")
     result = compile_file(path, timing="estimate" if args.estimate else "speech", progress=ProgressBar("speech"), utterances=args.utterance)
     diags = result.diagnostics
     if result.plan is not None:

@@ -52,7 +52,7 @@ def run(args) -> int:
         raise InputError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
     weights = str(existing_file(args.weights)) if args.weights else None
     extractor = args.extractor if args.extractor == "default" else str(existing_file(args.extractor))
-    out = output_file(args.output) if args.output else None
+    out = output_file(args.output, inputs=[weights, None if extractor == "default" else extractor]) if args.output else None
 
     from model.training.corpus import CorpusError
     from model.training.evaluate import evaluate_corpus, format_style_following

@@ -30,8 +30,8 @@ A script is one performance: every speaker has one continuous track over all of 
 (its lines, listening motion between them). .json/.npz motion files hold all utterances and
 tracks; every other format holds one speaker's track: with several speakers, one file per
 speaker (take.bvh -> take.guide.bvh, take.visitor.bvh) or, with --speaker NAME, one. A
-sidecar OUT_STEM.timeline.json says where each utterance starts in the files (frames and
-seconds) and where its audio starts; CSV rows also name the utterance playing. With
+sidecar OUT.timeline.json (take.bvh.timeline.json) says where each utterance starts in the
+files (frames and seconds) and where its audio starts; CSV rows also name the utterance playing. With
 --utterance N, only that utterance's own motion is written. Motion files from before the
 performance clock (version 1) have no tracks: their utterances are joined one after
 another. '-o -' writes to standard output (JSON unless --format says otherwise). Formats
@@ -70,7 +70,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from sgt_tui.commands.clips import load_performance
-    from sgt_tui.commands.common import STDOUT, output_file, output_format, shown
+    from sgt_tui.commands.common import STDOUT, inputs_of, output_file, output_format, shown
     from sgt_tui.errors import UsageError
 
     fmt = output_format(args.output, args.format, FORMATS, what="export")
@@ -80,7 +80,9 @@ def run(args) -> int:
     if args.speaker is not None and args.utterance is not None:
         raise UsageError("--speaker and --utterance: give one (an utterance has one speaker)")
     binary = fmt in ("npz", "glb", "vrma")
-    out = output_file(args.output, binary=binary)
+    inputs = inputs_of(args.input)
+    out = output_file(args.output, binary=binary, inputs=inputs)
+    sidecar = None if args.output == STDOUT else output_file(str(timeline_path(out)), "-o", inputs=inputs)
     take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
 
     from core.motion import save_motion
@@ -104,27 +106,47 @@ def run(args) -> int:
     else:
         if args.output == STDOUT:
             raise UsageError(f"-o -: {args.input} has {len(tracks)} speakers; name one with --speaker or write files")
-        outputs = [(output_file(str(_speaker_path(out, speaker_name(t.speaker))), binary=binary),
-                    track_clip(t, clips), utterance_frames(t.n_frames, [c for c in clips if c.speaker == t.speaker]))
-                   for t in tracks]
+        paths = speaker_paths(out, [speaker_name(t.speaker) for t in tracks])
+        outputs = [(output_file(str(p), binary=binary, inputs=inputs), track_clip(t, clips),
+                    utterance_frames(t.n_frames, [c for c in clips if c.speaker == t.speaker]))
+                   for p, t in zip(paths, tracks)]  # every output checked before the first is written
     for target, clip, frames in outputs:
         own = [u for u in dict.fromkeys(frames) if u is not None]
         note = _write(target, clip, rig, fmt, frames)
         print(f"wrote {shown(target)}: {len(own)} utterance(s), {clip.n_frames} frames" + (f"; {note}" if note else ""),
               file=sys.stderr)
-    if args.output != STDOUT:
-        sidecar = _speaker_path(out, "timeline", ".json")
+    if sidecar is not None:
         _write_timeline(sidecar, clips, [(o[0], o[1].speaker) for o in outputs], bool(tracks))
         print(f"wrote {shown(sidecar)}: where each utterance and its audio start", file=sys.stderr)
     return 0
 
 
-def _speaker_path(out, name: str, suffix: str | None = None):
-    """take.bvh -> take.NAME.bvh (take.NAME.SUFFIX)."""
+def speaker_paths(out, names: list[str]) -> list:
+    """One file per speaker: take.bvh -> take.guide.bvh, take.visitor.bvh. A name is made safe
+    for a file name (no '/', NUL or leading dot: 'a/b' -> 'a_b'); names that end up alike get a
+    number ('a_b', 'a_b-2')."""
+    import re
+    from pathlib import Path
+
+    out, taken, paths = Path(out), set(), []
+    for name in names:
+        safe = re.sub(r"[/\\\x00]", "_", name).lstrip(".") or "speaker"
+        candidate, n = safe, 1
+        while candidate.lower() in taken:
+            n += 1
+            candidate = f"{safe}-{n}"
+        taken.add(candidate.lower())
+        paths.append(out.with_name(f"{out.stem}.{candidate}{out.suffix}"))
+    return paths
+
+
+def timeline_path(out):
+    """The sidecar of an export, named after it so that several exports of one take keep theirs:
+    take.bvh -> take.bvh.timeline.json."""
     from pathlib import Path
 
     out = Path(out)
-    return out.with_name(f"{out.stem}.{name}{suffix or out.suffix}")
+    return out.with_name(out.name + ".timeline.json")
 
 
 def _write(target, clip, rig: str, fmt: str, frames) -> str:

@@ -51,12 +51,12 @@ def run(args) -> int:
     from core.skeleton import FPS
     from model.neural import Options
     from sgt_tui.commands.clips import generate_script
-    from sgt_tui.commands.common import existing_file, output_file, output_format, shown
+    from sgt_tui.commands.common import existing_file, inputs_of, output_file, output_format, shown
 
     path = existing_file(args.file)
     fmt = output_format(args.output, args.format, ("json", "npz"))
-    out = output_file(args.output, binary=fmt == "npz")
     weights = str(existing_file(args.weights)) if args.weights else None
+    out = output_file(args.output, binary=fmt == "npz", inputs=inputs_of(path, weights))
     options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=weights, threads=args.threads,
                       take_posture=not args.no_take_posture)
     take = generate_script(path, engine=args.engine, utterances=args.utterance, seed=args.seed, options=options)

@@ -65,11 +65,10 @@ def _origin(g) -> str:
 
 def _list(args) -> int:
     import json
-    from pathlib import Path
 
     from library import load_library
 
-    lib = load_library([Path(d) for d in args.dir])
+    lib = load_library(_folders(args.dir))
     gestures = [g for g in lib if all(t in g.tags for t in args.tag)]
     if args.json:
         print(json.dumps({
@@ -109,13 +108,12 @@ def _list(args) -> int:
 
 def _show(args) -> int:
     import json
-    from pathlib import Path
 
     from core.skeleton import mirror_name
     from library import load_library
     from sgt_tui.errors import UsageError
 
-    lib = load_library([Path(d) for d in args.dir])
+    lib = load_library(_folders(args.dir))
     g = lib.get(args.name)
     if g is None:  # a name that matches nothing: a usage error, as `--utterance 50` is
         hint = lib.suggest(args.name)
@@ -186,7 +184,7 @@ def _sheet(args) -> int:
 
     if args.output != STDOUT and Path(args.output).suffix.lower() != ".png":
         raise UsageError(f"-o {args.output}: expected a .png file")
-    lib = load_library([Path(d) for d in args.dir])
+    lib = load_library(_folders(args.dir))
     for name in args.names:
         if name not in lib:
             hint = lib.suggest(name)
@@ -214,6 +212,13 @@ def _sheet(args) -> int:
     return 0
 
 
+def _folders(dirs: list[str]) -> list:
+    """The --dir folders, each checked: a missing one, or a file, is an input error (exit 1), not ignored."""
+    from sgt_tui.commands.common import existing_folder
+
+    return [existing_folder(d, "--dir") for d in dirs]
+
+
 def _direction(v) -> str:
     return "rest" if v is None else "[" + ", ".join(f"{x:.3f}" for x in v) + "]"
 
@@ -239,7 +244,7 @@ def _add(args) -> int:
     import re
     from pathlib import Path
 
-    from core.fileio import atomic_write_text
+    from core.fileio import atomic_write_text, check_not_input, check_output
     from core.motion import MotionFileError, load_motion
     from library.extract import spec_text_from_poses
     from sgt_tui.commands.common import existing_file, output_folder, text
@@ -252,6 +257,8 @@ def _add(args) -> int:
     target = folder / f"{args.name}.toml"
     if target.exists() and not args.force:
         raise UsageError(f"{target} exists; use --force to overwrite")
+    check_output(target)
+    check_not_input(target, [source], "--to")
     try:
         clips = load_motion(source)
     except MotionFileError as exc:

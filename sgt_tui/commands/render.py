@@ -76,18 +76,22 @@ def _check_suffix(path: str, allowed: tuple[str, ...], option: str) -> None:
 def run(args) -> int:
     from pathlib import Path
 
+    from core.fileio import same_file
     from sgt_tui.commands.clips import load_performance
-    from sgt_tui.commands.common import STDOUT, one_stdout, output_file, shown
+    from sgt_tui.commands.common import STDOUT, inputs_of, one_stdout, output_file, shown
     from sgt_tui.errors import UsageError
 
     _check_suffix(args.output, (".gif", ".mp4"), "-o")
     video = args.output != STDOUT and Path(args.output).suffix.lower() == ".mp4"
-    if args.sheet:
+    if args.sheet is not None:
         _check_suffix(args.sheet, (".png",), "--sheet")
     size = parse_size(args.size)
     one_stdout(**{"-o": args.output, "--sheet": args.sheet})
-    out = output_file(args.output, binary=True)
-    sheet_out = output_file(args.sheet, "--sheet", binary=True) if args.sheet else None
+    inputs = inputs_of(args.input, args.compare)
+    out = output_file(args.output, binary=True, inputs=inputs)
+    sheet_out = output_file(args.sheet, "--sheet", binary=True, inputs=inputs) if args.sheet is not None else None
+    if sheet_out is not None and args.output != STDOUT and (args.sheet == args.output or same_file(args.sheet, args.output)):
+        raise UsageError(f"-o and --sheet name one file ({args.sheet}): the sheet would overwrite the animation")
     take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
     clips, labels = _panel_clips(take, args.speaker, args.input)
     if args.compare:

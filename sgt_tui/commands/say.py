@@ -37,6 +37,7 @@ def run(args) -> int:
         check_utterances,
         existing_file,
         exit_code,
+        inputs_of,
         output_file,
         output_folder,
         print_diagnostics,
@@ -50,7 +51,7 @@ def run(args) -> int:
         raise UsageError(f"--mix {args.mix}: expected a .wav file")
     if args.mix == STDOUT and args.json:
         raise UsageError("--mix - and --json both write to standard output: write the mix to a file")
-    mix_out = output_file(args.mix, "--mix", binary=True) if args.mix is not None else None
+    mix_out = output_file(args.mix, "--mix", binary=True, inputs=inputs_of(path)) if args.mix is not None else None
     out_dir = output_folder(args.out_dir or f"{path.stem}_speech")
     result = compile_file(path, timing="speech", progress=ProgressBar("speech"), utterances=args.utterance)
     if result.plan is not None:

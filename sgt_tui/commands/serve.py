@@ -35,6 +35,9 @@ def register(sub) -> None:
     p.add_argument("--max-text", type=positive_int, default=20_000, metavar="CHARS", help="longest script or text (default 20000)")
     p.add_argument("--timeout", type=positive_float, default=30.0, metavar="SECONDS",
                    help="longest a request may take, its body included (default 30; then 408)")
+    p.add_argument("--header-timeout", type=positive_float, default=10.0, metavar="SECONDS",
+                   help="a client must send a request's headers within this time of connecting or of its "
+                        "previous answer, or it is disconnected (default 10)")
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
     p.set_defaults(run=run)
 
@@ -53,7 +56,7 @@ def run(args) -> int:
     try:
         config = checked(ServeConfig(host=args.host, port=args.port, token=args.token, allow=tuple(Path(a) for a in args.allow),
                                      workers=args.workers, queue=args.queue, max_body=args.max_body, max_text=args.max_text,
-                                     timeout=args.timeout, weights=weights))
+                                     timeout=args.timeout, header_timeout=args.header_timeout, weights=weights))
     except ConfigError as exc:
         raise UsageError(str(exc)) from None
     try:
@@ -63,9 +66,23 @@ def run(args) -> int:
     import uvicorn
 
     from sgt_tui.serve.app import create_app
+    from sgt_tui.serve.listen import KEEP_ALIVE, ListenError, bind, protocol
 
-    print(f"sgt serve: http://{config.host}:{config.port} (model on {runner.kind}; OpenAPI at /docs; "
+    try:
+        sock = bind(config.host, config.port)
+    except ListenError as exc:
+        raise InputError(str(exc)) from None
+    port = sock.getsockname()[1]
+    host = f"[{config.host}]" if ":" in config.host else config.host
+    print(f"sgt serve: http://{host}:{port} (model on {runner.kind}; OpenAPI at /docs; "
           f"{'token required' if config.token else 'no token: this machine only'})", file=sys.stderr)
-    uvicorn.run(create_app(config), host=config.host, port=config.port, log_level="warning", ws_max_size=1 << 20,
-                timeout_graceful_shutdown=5)
+    server = uvicorn.Server(uvicorn.Config(
+        create_app(config), log_level="warning", ws_max_size=1 << 20, timeout_graceful_shutdown=5,
+        http=protocol(config.header_timeout), timeout_keep_alive=KEEP_ALIVE))
+    try:
+        server.run(sockets=[sock])
+    except KeyboardInterrupt:  # uvicorn re-raises the ctrl+c it shut down on: a clean stop, as uvicorn.run has it
+        pass
+    finally:
+        sock.close()
     return 0

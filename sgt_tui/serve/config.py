@@ -27,6 +27,7 @@ class ServeConfig:
     max_body: int = 2_000_000  # bytes of a request body (an upload included); more get 413
     max_text: int = 20_000  # characters of a script or text
     timeout: float = 30.0  # seconds a request may take (reading the body, waiting and working); then 408
+    header_timeout: float = 10.0  # seconds a client may take to send a request's headers (sgt_tui.serve.listen)
     weights: str | None = None  # generator weights; None = the shipped ones
     stream_idle: float = 60.0  # seconds a stream may wait for its next message
 
@@ -68,4 +69,6 @@ def checked(config: ServeConfig) -> ServeConfig:
         raise ConfigError("--port must be at most 65535")
     if not config.timeout > 0:
         raise ConfigError("--timeout must be more than 0 seconds")
+    if not config.header_timeout > 0:
+        raise ConfigError("--header-timeout must be more than 0 seconds")
     return replace(config, token=token, allow=tuple(allow))

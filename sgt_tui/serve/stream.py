@@ -35,6 +35,9 @@ from model.streaming import LOOKAHEAD_S, StreamError, StreamGenerator
 MAX_SECONDS = 600.0
 #: The most text a stream holds back waiting for the end of a word (characters).
 MAX_PENDING = 2000
+#: The most text one ``text`` message may hold (characters; a /v1/generate text holds 20,000 too):
+#: more would keep a worker for longer than a request may take.
+MAX_TEXT_MESSAGE = 20_000
 #: The largest audio chunk, in characters of base64 (about 23 s of 16 kHz speech).
 MAX_AUDIO_CHUNK = 1_000_000
 #: The sample rates an audio chunk may have (resampled to the model's).
@@ -170,12 +173,15 @@ class StreamSession:
         if not final:
             if not isinstance(text, str):
                 raise StreamError('"text" must be a string')
+            if len(text) > MAX_TEXT_MESSAGE:
+                raise StreamError(f"a text message may hold at most {MAX_TEXT_MESSAGE} characters (this one has "
+                                  f"{len(text)}): send long text in several messages; nothing of this one was used")
             self.pending += text
-            if len(self.pending) > MAX_PENDING:
-                self.pending = ""
-                raise StreamError(f"more than {MAX_PENDING} characters without a space: that text was dropped")
         cut = len(self.pending) if final else _last_break(self.pending)
         ready, self.pending = self.pending[:cut], self.pending[cut:]
+        if len(self.pending) > MAX_PENDING:  # what waits for its word's end: one word, not a book
+            self.pending = ""
+            raise StreamError(f"more than {MAX_PENDING} characters without a space: that text was dropped")
         if not ready.strip():
             return []
         words, next_start = self._time_text(ready)
