@@ -102,13 +102,14 @@ class Take:
     source: str = ""
     seed: int = 0
     _tracks: list | None = field(default=None, repr=False)
+    listening: dict | None = field(default=None, repr=False)  # the speakers' listening motion, when computed already
 
     @property
     def tracks(self) -> list[Track]:
         """One continuous track per speaker over the whole performance (built on first use,
         :func:`model.performance.build_tracks`)."""
         if self._tracks is None:
-            self._tracks = build_tracks(self.plan, self.clips, self.seed)
+            self._tracks = build_tracks(self.plan, self.clips, self.seed, listening=self.listening)
         return self._tracks
 
     def save(self, path, format: str | None = None) -> None:
@@ -142,18 +143,22 @@ def engine_function(name: str, options=None) -> Callable:
 
 
 def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None = None, progress=None,
-                    options=None, seed_poses: bool = True) -> list[MotionClip]:
+                    options=None, seed_poses: bool = True, listening: dict | None = None) -> list[MotionClip]:
     """One :class:`~core.motion.MotionClip` per planned utterance.
 
     ``seed_poses``: the neural engine starts each utterance from its speaker's listening motion
     where it begins (which depends on the whole performance); False generates every utterance
     from its own inputs alone (what a per-utterance cache needs: ``sgt build``), and the tracks
-    then only ease into it."""
+    then only ease into it. ``listening``: :func:`model.performance.listening_tracks` of the
+    plan and seed, when the caller has them (computed here otherwise)."""
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     base_seed = plan.seed if seed is None else seed
     _check_seed(base_seed)
     # only the neural engine takes seed poses: the others need no listening motion here
-    listening = listening_tracks(plan, base_seed) if seed_poses and (engine or DEFAULT_ENGINE) == "neural" else None
+    if not (seed_poses and (engine or DEFAULT_ENGINE) == "neural"):
+        listening = None
+    elif listening is None:
+        listening = listening_tracks(plan, base_seed)
     clips = []
     for n, u in enumerate(plan.utterances):
         if progress:
@@ -218,8 +223,12 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
         if problem:
             raise NoSuchUtterance(problem)
         plan, diagnostics, text = result.plan, result.diagnostics, result.script.source
-    clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options, seed_poses=seed_poses)
-    return Take(plan, clips, diagnostics, text, plan.seed if seed is None else seed)
+    base_seed = plan.seed if seed is None else seed
+    # once, for the seed poses and the tracks (the other engines' tracks compute it when asked)
+    listening = listening_tracks(plan, base_seed) if seed_poses and engine == "neural" else None
+    clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options, seed_poses=seed_poses,
+                            listening=listening)
+    return Take(plan, clips, diagnostics, text, base_seed, listening=listening)
 
 
 def generate_clips(script: Path | str | Plan | None = None, **options) -> list[MotionClip]:

@@ -164,10 +164,6 @@ def _polyphase(up: int, down: int) -> tuple[np.ndarray, int, int]:
     return np.ascontiguousarray(bank), first, per_phase
 
 
-#: Outputs computed per block (bounds the memory of the gathered inputs: 64k x 28 x 8 bytes).
-_BLOCK = 1 << 16
-
-
 def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
     """Resample by ``up / down`` with a polyphase filter: the same numbers as
     ``scipy.signal.resample_poly(x, up, down)`` with its defaults (a Kaiser-windowed sinc with
@@ -182,16 +178,18 @@ def resample_poly(x: np.ndarray, up: int, down: int) -> np.ndarray:
     n_out = -(-n_in * up // down)
     bank, first, per_phase = _polyphase(up, down)
     # Output k is input sample (k + first) * down // up filtered by the phase (k + first) * down % up
-    # of the filter: each output is one row of inputs times one row of the bank, summed by
-    # numpy in the same order whatever the length (the stream resamples in pieces with it).
+    # of the filter. Outputs k = r, r + up, r + 2 up... share a phase and read inputs ``down``
+    # apart: each such class is one strided view of the input times one row of the bank, summed
+    # by numpy in the same order whatever the length (the stream resamples in pieces with it).
     last = (n_out - 1 + first) * down // up + per_phase  # one past the last input any output reads
     xp = np.concatenate([np.zeros(per_phase - 1), x, np.zeros(max(0, last - n_in - per_phase + 1))])
     out = np.empty(n_out)
-    taps = np.arange(per_phase)
-    for a in range(0, n_out, _BLOCK):
-        pos = (np.arange(a, min(n_out, a + _BLOCK)) + first) * down
-        rows = xp[(pos // up)[:, None] + taps]
-        out[a : a + len(pos)] = np.einsum("kl,kl->k", rows, bank[pos % up])
+    step = xp.strides[0]
+    for r in range(min(up, n_out)):
+        count = -(-(n_out - r) // up)
+        start, phase = divmod((r + first) * down, up)
+        rows = np.ndarray((count, per_phase), np.float64, xp, start * step, (down * step, step))  # a view
+        out[r::up] = np.einsum("kl,l->k", rows, bank[phase])
     return out
 
 

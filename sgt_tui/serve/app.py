@@ -16,14 +16,14 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, File, Form, Request, UploadFile, WebSocket, WebSocketDisconnect
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
 from pydantic import ValidationError
 from starlette.exceptions import HTTPException
 
 from library import load_library
 from model.runtime import load_runner
 from sgt_tui.serve.config import ServeConfig
-from sgt_tui.serve.jobs import check, generate_request
+from sgt_tui.serve.jobs import Encoded, check, generate_request
 from sgt_tui.serve.pool import Busy, Pool
 from sgt_tui.serve.requests import AUDIO_SUFFIXES, CheckRequest, GenerateRequest, RequestError
 from sgt_tui.serve.stream import StreamSession
@@ -142,7 +142,10 @@ def create_app(config: ServeConfig) -> FastAPI:
     async def work(fn, *args):
         pool: Pool = state["pool"]
         try:
-            return JSONResponse(await pool.run(fn, *args, timeout=config.timeout))
+            answer = await pool.run(fn, *args, timeout=config.timeout)
+            if isinstance(answer, Encoded):
+                return Response(answer, media_type="application/json")
+            return JSONResponse(answer)
         except Busy as exc:
             return error(503, str(exc), headers={"Retry-After": str(exc.retry_after)})
         except TimeoutError:

@@ -94,11 +94,16 @@ def _generate(config: ServeConfig, req: GenerateRequest, source: str, path: Path
         raise RequestError(503, f"the generator cannot run: {exc}") from None
     buf = io.BytesIO()
     save_motion(buf, take.clips, format="json", tracks=take.tracks)  # as sgt generate writes it, less the server's path
-    answer = {"motion": json.loads(buf.getvalue()), "timing": take.timing,
-              "diagnostics": diagnostics_json(take.diagnostics, path)}
+    rest = {"timing": take.timing, "diagnostics": diagnostics_json(take.diagnostics, path)}
     if req.outputs:
-        answer["outputs"] = _outputs(req.outputs, take)
-    return answer
+        rest["outputs"] = _outputs(req.outputs, take)
+    # the motion file's JSON goes into the answer as it is: parsing it back and encoding it again
+    # cost more than the network's own work
+    return Encoded(b'{"motion": ' + buf.getvalue().rstrip() + b", " + json.dumps(rest)[1:].encode("utf-8"))
+
+
+class Encoded(bytes):
+    """An answer already encoded as JSON (the endpoint sends it as it is)."""
 
 
 def _library_for(source: str, library):
