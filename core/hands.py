@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.easing import smoothstep
 from core.skeleton import JOINT_INDEX
 
 SIDES: tuple[str, ...] = ("left", "right")
@@ -229,11 +230,6 @@ def _halfway(a: np.ndarray, inward: float) -> np.ndarray:
     return _unit(_reject(np.where(x_major[..., None], down, toward_midline), a))
 
 
-def _ease(u: np.ndarray) -> np.ndarray:
-    u = np.clip(u, 0.0, 1.0)
-    return u * u * (3.0 - 2.0 * u)
-
-
 def interpolate_hands(times: np.ndarray, palms: np.ndarray, fingers: np.ndarray, ts: np.ndarray) -> HandTrack:
     """Hands at times ``ts`` from keyframes at ``times`` (K,): palm targets (K, 2, 3) and finger
     angles (K, 2, 5, 4). Between two keyframes each hand eases (smoothstep: still at every
@@ -249,7 +245,7 @@ def interpolate_hands(times: np.ndarray, palms: np.ndarray, fingers: np.ndarray,
         nxt = seg
     else:
         seg = np.clip(np.searchsorted(times, ts, side="right") - 1, 0, len(times) - 2)
-        u = _ease((ts - times[seg]) / np.diff(times)[seg])
+        u = smoothstep((ts - times[seg]) / np.diff(times)[seg])
         nxt = seg + 1
     palm = np.stack([slerp(palms[seg, s], palms[nxt, s], u, inward=1.0 if side == "right" else -1.0)
                      for s, side in enumerate(SIDES)], axis=1)

@@ -770,28 +770,33 @@ Fix: give a duration with its unit inside the range: `@gap 2s`.
 
 OVERLAP = rule(
     "SGT401", "overlap", WARNING,
-    "pose control '{name}' overlaps '{other}' in frames {first}-{last}{how}: {resolution}",
-    "to keep both gestures whole, use x2 or x3 for a shorter gesture, anchor the later one to a later word, or add a [pause] between them",
+    "the stroke of '{name}' lands {late} frames ({secs} s) after '{word}'{how}: {why}",
+    "move it one word later, or give the earlier gesture less to do",
     """
-Two pose controls whose frames overlap cannot both be followed. The compiler resolves it
-the same way everywhere (check, compile, say, generate, the editor), as behaviour
-realisers do with gestures that collide:
+Each `[pose:NAME]` puts its gesture's stroke on the onset of the word after the mark. When
+gestures that use the same limb follow each other closely they are joined the way people
+join gestures in a gesture unit (and behaviour realisers do): the earlier one keeps its
+stroke and its `hold=`, its retraction is cut, and the later one prepares from where the
+arm is, not from rest, as fast as a person could (900 degrees per second at most): counting
+on the fingers adds a finger, and most strokes still land on their words.
 
-- the earlier gesture keeps everything up to the end of its stroke (and its hold), and its
-  retraction is cut where the later one starts;
-- if the later one would start before the earlier one's stroke is done, it waits until
-  then (its stroke then lands after its word).
+This warning says that one cannot: the words are too close for the arm to turn from the
+earlier stroke to this one in time (or the earlier gesture has no stroke and plays whole),
+so its stroke lands the given number of frames after its word. The hint names a change
+that puts it on its word, tried in turn: a faster speed or no `hold=` for the earlier
+gesture, or the mark one word later.
 
 It is a warning, not an error: `sgt check` estimates word times from the text, and only
-real speech timing shows exactly which overlaps occur, so an error would make check and
+real speech timing shows exactly how close the words are, so an error would make check and
 compile disagree. `sgt check --timing` uses the real timing.
 
-Example: `look [pose:point_right] here [pose:point_left] and there now`.
+Example: `guide: Look [pose:point_left x3] [pose:point_right x3] there.` (both strokes
+on "there": the second cannot be on time).
 
-Fix: if the resolution is not what you want, use x2 or x3 for a shorter gesture, anchor
-the later one to a later word, or add a `[pause]` between them.
+Fix: do what the hint says: move the later mark one word later, drop the earlier
+gesture's `hold=`, or use x2/x3 on an earlier gesture that plays whole.
 """,
-    example="look [pose:point_right] here [pose:point_left] and there now\n",
+    example="guide: Look [pose:point_left x3] [pose:point_right x3] there.\n",
 )
 
 SPEECH = rule(

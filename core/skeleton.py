@@ -126,6 +126,33 @@ def normalize_pose(poses: np.ndarray) -> np.ndarray:
     return p.reshape(*p.shape[:-2], POSE_DIM)
 
 
+def slerp_poses(a: np.ndarray, b: np.ndarray, w) -> np.ndarray:
+    """Poses ``a`` -> ``b`` (n, 27) by weight ``w`` (n,): every bone direction turns along the
+    great circle (slerp), so even a bone turned round by 180 degrees moves smoothly (opposite
+    directions turn about the perpendicular nearest the x axis). float32."""
+    w = np.asarray(w, np.float64).reshape(-1)
+    n = len(w)
+    a = normalize_pose(np.asarray(a, np.float64)).reshape(n, N_BONES, 3).astype(np.float64)
+    b = normalize_pose(np.asarray(b, np.float64)).reshape(n, N_BONES, 3).astype(np.float64)
+    dot = np.clip((a * b).sum(-1, keepdims=True), -1.0, 1.0)
+    ortho = b - dot * a
+    norm = np.linalg.norm(ortho, axis=-1, keepdims=True)
+    side = np.cross(a, np.cross(np.array([1.0, 0.0, 0.0]), a))
+    side = np.where(np.linalg.norm(side, axis=-1, keepdims=True) < 1e-6, np.cross(a, [0.0, 0.0, 1.0]), side)
+    ortho = np.where(norm < 1e-6, side, ortho)
+    ortho /= np.linalg.norm(ortho, axis=-1, keepdims=True)
+    angle = np.arccos(dot) * w[:, None, None]
+    return normalize_pose((np.cos(angle) * a + np.sin(angle) * ortho).reshape(n, -1))
+
+
+def bone_angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Degrees between the bone directions of poses ``a`` and ``b`` (..., 27) -> (..., 9)."""
+    a = np.asarray(a, np.float64).reshape(*np.shape(a)[:-1], N_BONES, 3)
+    b = np.asarray(b, np.float64).reshape(*np.shape(b)[:-1], N_BONES, 3)
+    cos = (a * b).sum(-1) / np.maximum(np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1), 1e-12)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
 def positions_from_pose(poses: np.ndarray, root=ROOT_POSITION) -> np.ndarray:
     """Forward kinematics: poses (..., 27) -> joint positions (..., 10, 3) in metres."""
     p = np.asarray(poses, dtype=np.float64)

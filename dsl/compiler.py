@@ -20,9 +20,10 @@ from pathlib import Path
 from typing import Callable
 
 from core import rules
-from core.reading import InputFileError
 from core.diagnostics import Diagnostic, Related, sort_key
-from core.skeleton import FPS, frame_count, mirror_name, seconds_to_frame
+from core.reading import InputFileError
+from core.skeleton import FPS, frame_count, seconds_to_frame
+from dsl import realize
 from dsl.parser import analyse, read_source
 from dsl.plan import ArrayRequests, Control, Plan, UtterancePlan
 from dsl.resources import check_resources, speech_diagnostic
@@ -122,7 +123,7 @@ def compile_file(
     exist: see :func:`compile_text`); ``utterances`` (0-based numbers) compiles only those.
 
     The verdict (errors or not) does not depend on ``timing``: overlapping pose controls are
-    warnings resolved the same way under both (:func:`resolve_overlaps`); only a failing speech
+    warnings resolved the same way under both (:func:`dsl.realize.resolve`); only a failing speech
     engine or aligner is found by "speech" alone.
     """
     script, lib, diags = load_script(path, library=library, source=source)
@@ -168,89 +169,20 @@ def _timing(script: Script, utt: Utterance, mode: str, cache_dir, diags: list[Di
     return t
 
 
-def _place_poses(utt: Utterance, t: Timing, lib) -> list[tuple[object, object, int, int, int]]:
-    """(mark, gesture, start frame, frames, key frames) per pose control: its stroke lands on
-    its anchor frame; the first ``key frames`` run to the end of its stroke and hold (the whole
-    clip when it marks no stroke), which :func:`resolve_overlaps` never cuts.
-
-    The clip itself is built only when the control arrays are (``sgt check`` never needs them)."""
-    out = []
-    for mark in utt.poses:
-        gesture = lib.get(mark.name)
-        if gesture is None:  # already reported by the analyser
-            continue
-        at = t.words[mark.word_index].start if mark.word_index is not None else t.words[mark.after_word].end
-        stroke = gesture.stroke_frame(mark.speed)
-        length = gesture.clip_length(speed=mark.speed, hold=mark.hold)
-        keep = length if stroke is None else stroke + 1 + (frame_count(mark.hold) if mark.hold > 0 else 0)
-        out.append((mark, gesture, seconds_to_frame(at) - (stroke or 0), length, keep))
-    return out
-
-
-def _stroke_frames(mark, gesture, start: int, word_frame: int) -> dict:
-    """``stroke_frame`` and ``word_frame`` of a placed pose control (none for a gesture without a stroke)."""
-    stroke = gesture.stroke_frame(mark.speed)
-    return {} if stroke is None else {"stroke_frame": start + stroke, "word_frame": word_frame}
-
-
-def _limbs(mark, gesture) -> frozenset[str]:
-    """The limbs a placed gesture drives (mirrored when it is flipped)."""
-    limbs = gesture.spec.limbs
-    return frozenset(mirror_name(limb) for limb in limbs) if mark.flip else frozenset(limbs)
-
-
-def resolve_overlaps(poses) -> list[tuple]:
-    """Place pose controls that would overlap, the same way under any timing.
-
-    ``poses`` are (mark, gesture, start frame, frames, key frames) in source order (see
-    :func:`_place_poses`). Returns, in that order, (mark, gesture, start, frames, note): where
-    each plays and for how long, and for one that collided with an earlier gesture, ``note``
-    = (previous mark, first and last overlapping frame, what was done). Gestures collide only
-    when they drive a common limb (:attr:`library.spec.GestureSpec.limbs`): a nod plays over a
-    one-handed point, both layered. The rule (as behaviour realisers resolve colliding
-    gestures): the earlier gesture keeps its key frames (up to the end of its stroke and hold)
-    and its retraction is cut where the later one starts; a later one that would start before
-    the earlier one's key frames are over waits until then. After this no two controls that
-    share a limb overlap."""
-    out = [[mark, gesture, start, length, None] for mark, gesture, start, length, _ in poses]
-    if len(poses) < 2:
-        return [tuple(p) for p in out]
-    limbs = [_limbs(p[0], p[1]) for p in poses]
-    order = sorted(range(len(poses)), key=lambda i: poses[i][2])  # stable: source order on ties
-    last_on: dict[str, int] = {}  # limb -> the gesture placed last on it
-    for i in order:
-        p = out[i]
-        mark, length = p[0], p[3]
-        for j in sorted({last_on[limb] for limb in limbs[i] if limb in last_on}, key=lambda j: out[j][2]):
-            prev = out[j]
-            start = p[2]
-            p_mark, p_start, p_len, p_keep = prev[0], prev[2], prev[3], poses[j][4]
-            if start < p_start + p_len:
-                first, last = max(start, p_start), min(start + length, p_start + p_len) - 1
-                if start >= p_start + p_keep:
-                    resolution = f"'{p_mark.name}' is cut after its stroke, at frame {start}"
-                else:
-                    wait = p_start + p_keep - start
-                    start = p[2] = start + wait
-                    resolution = f"'{mark.name}' waits {wait} frame{'s' if wait != 1 else ''} ({wait / FPS:.2f} s) for the stroke of '{p_mark.name}'"
-                prev[3] = min(prev[3], start - p_start)  # the earlier one's retraction ends where this one starts
-                p[4] = (p_mark, first, last, resolution)
-        for limb in limbs[i]:
-            last_on[limb] = i
-    return [tuple(p) for p in out]
-
-
 def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: bool, diags: list[Diagnostic]) -> UtterancePlan:
     # People start preparing a gesture before they speak and finish it after: the motion gets
     # a lead-in before the speech (whole frames, so onsets keep their frame phase) and a tail
     # after it, so that no gesture loses its preparation or its retraction.
-    poses = _place_poses(utt, t, lib)
-    lead_frames = max([0] + [-p[2] for p in poses])
+    poses = realize.place(utt, t.words, lib)
+    lead_frames = max([0] + [-p.start for p in poses])
     lead = lead_frames / FPS
     if lead_frames:
         t = t.shifted(lead)
-        poses = [(m, g, start + lead_frames, n, keep) for m, g, start, n, keep in poses]
-    n_frames = max([frame_count(t.duration)] + [p[2] + p[3] for p in poses])
+        for p in poses:
+            p.start += lead_frames
+            p.word_frame += lead_frames
+    realize.resolve(poses)
+    n_frames = max([frame_count(t.duration)] + [p.end for p in poses])
     requests = ArrayRequests(n_frames)
     controls: list[Control] = []
 
@@ -269,22 +201,21 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         b = max(a + 1, min(n_frames, seconds_to_frame(end)))
         controls.append(Control("pause", "pause", a, b, p.where.line, p.where.col, {"seconds": p.seconds}))
 
-    for mark, gesture, start, length, note in resolve_overlaps(poses):
-        w = mark.where
-        if note is not None:
-            other, first, last, resolution = note
-            o = other.where
+    for p in poses:
+        w = p.mark.where
+        if p.late >= realize.LATE_WARN:
+            o = p.after.mark.where
             diags.append(rules.OVERLAP.at(
-                script.path, w.line, w.col, w.length, name=mark.name, other=other.name, first=first, last=last,
-                how=" (with estimated timing; real speech may differ)" if estimated else "", resolution=resolution,
-                related=(Related(f"'{other.name}' is here", script.path, o.line, o.col, o.length),),
+                script.path, w.line, w.col, w.length, name=p.mark.name, other=p.after.mark.name, late=p.late,
+                secs=f"{p.late / FPS:.2f}", word=_word_text(utt, t, p.mark),
+                why=p.why,
+                how=" (with estimated timing; real speech may differ)" if estimated else "",
+                hint=realize.hint(p, t.words, poses) or None,
+                related=(Related(f"'{p.after.mark.name}' is here", script.path, o.line, o.col, o.length),),
             ))
-        requests.poses.append((start, gesture, mark, length))
-        at = t.words[mark.word_index].start if mark.word_index is not None else t.words[mark.after_word].end
-        controls.append(Control("pose", mark.name, start, start + length, w.line, w.col, mark.options,
-                                **_stroke_frames(mark, gesture, start, seconds_to_frame(at))))
-        if start + length > n_frames:  # a gesture that waited may end after the others
-            n_frames = requests.n_frames = start + length
+        stroke = {} if p.stroke is None else {"stroke_frame": p.stroke_frame, "word_frame": p.word_frame}
+        controls.append(Control("pose", p.mark.name, p.first, p.end, w.line, w.col, p.mark.options, **stroke))
+    requests.poses.extend(sorted(poses, key=lambda p: p.start))
     tail = max(0.0, n_frames / FPS - t.duration)
 
     controls.sort(key=lambda c: (c.start_frame, c.kind, c.line, c.col))
@@ -300,6 +231,13 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
         n_frames=n_frames, words=t.words, controls=controls, requests=requests, speech=speech, audio_path=t.audio_path,
         lead_in=lead, gap=script.header.gap if utt.gap is None else utt.gap,
     )
+
+
+def _word_text(utt: Utterance, t: Timing, mark) -> str:
+    """The word a pose mark puts its stroke on, for messages."""
+    if mark.word_index is not None:
+        return t.words[mark.word_index].word
+    return t.words[mark.after_word].word if mark.after_word is not None else ""
 
 
 def _rel(path: Path, script_path: str) -> str:

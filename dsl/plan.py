@@ -24,8 +24,9 @@ import numpy as np
 
 from core.controls import STYLE_NAMES, Control, ControlArrays
 from core.fileio import atomic_write, json_text
-from core.hands import HandTrack
-from core.skeleton import FPS
+from core.easing import smoothstep
+from core.hands import SIDES, HandTrack, slerp
+from core.skeleton import FPS, slerp_poses
 from core.words import TimedWord
 
 PLAN_FORMAT = "sgt-plan"
@@ -37,32 +38,64 @@ class ArrayRequests:
     """What the control arrays must hold; they are built on first use (``sgt check`` never needs them)."""
 
     n_frames: int
-    poses: list = field(default_factory=list)  # (start frame, library Gesture, PoseMark, frames played)
+    poses: list = field(default_factory=list)  # dsl.realize.Placed, resolved, in start order
     styles: list = field(default_factory=list)  # (start, end, {name: value}), outer spans first
 
     def build(self) -> ControlArrays:
         arrays = ControlArrays.empty(self.n_frames)
         for a, b, values in self.styles:
             arrays.set_style(a, b, values)
-        for start, gesture, mark, length in self.poses:  # length < the clip's: its retraction was cut
-            clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
-            arrays.set_pose(start, clip.poses[:length], clip.bones)
+        for p in self.poses:  # a limb's frames played < the clip's: its retraction was cut there
+            clip = p.clip()
+            lengths = p.lengths()[0]
+            taken = p.approach[1] if p.approach is not None else np.zeros(len(lengths), bool)
+            own = np.asarray(clip.bones, bool) & ~taken
+            for length in np.unique(lengths[own]):
+                arrays.set_pose(p.start, clip.poses[:length], own & (lengths == length))
+            if not taken.any():
+                continue
+            cut, _, frm, _, _ = p.approach  # the bones taken over approach the stroke from where they are
+            n = p.stroke_frame - cut
+            w = smoothstep((np.arange(n) + 1) / (n + 1))
+            on_the_way = slerp_poses(np.repeat(frm[None], n, 0), np.repeat(clip.poses[p.stroke][None], n, 0), w)
+            for length in np.unique(lengths[taken]):
+                arrays.set_pose(cut, np.concatenate([on_the_way, clip.poses[p.stroke : length]]), taken & (lengths == length))
         return arrays
 
     def build_hands(self) -> tuple[HandTrack, np.ndarray]:
         """The pose controls' hands (their gestures' hand keys; relaxed elsewhere) and a mask
         (T, 2) per side (:data:`core.hands.SIDES`), 1 on the frames a pose control sets that
-        hand: a layered gesture sets only the hands it drives (``Clip.hand_sides``)."""
+        hand: a layered gesture sets only the hands it drives (``Clip.hand_sides``); a gesture
+        that chains from the one before changes from that one's hands to its own on the frames
+        of its approach (:mod:`dsl.realize`)."""
         track = HandTrack.rest(self.n_frames)
         mask = np.zeros((self.n_frames, 2), np.float32)
-        for start, gesture, mark, length in self.poses:
-            clip = gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold)
-            lo, hi = max(0, start), min(self.n_frames, start + length)
-            if hi > lo:
-                for s in np.flatnonzero(clip.hand_sides):
-                    track.palm[lo:hi, s] = clip.hands.palm[lo - start : hi - start, s]
-                    track.fingers[lo:hi, s] = clip.hands.fingers[lo - start : hi - start, s]
-                    mask[lo:hi, s] = 1.0
+        for p in self.poses:
+            clip = p.clip()
+            start = p.start
+            taken = p.approach[4] if p.approach is not None else np.zeros(2, bool)
+            for s in np.flatnonzero(clip.hand_sides):
+                end = start + int(p.lengths()[1][s])
+                first = p.approach[0] if taken[s] else start
+                lo, hi = max(0, first), min(self.n_frames, end)
+                if hi <= lo:
+                    continue
+                palm, fingers = clip.hands.palm[:, s], clip.hands.fingers[:, s]
+                if taken[s]:  # from the previous gesture's hand to this one's, reached at the stroke
+                    n = p.stroke_frame - first
+                    w = smoothstep((np.arange(n) + 1) / (n + 1))
+                    from_palm, from_fingers = p.approach[3][0][s], p.approach[3][1][s]
+                    way_palm = slerp(np.repeat(from_palm[None], n, 0), np.repeat(palm[p.stroke][None], n, 0), w,
+                                     1.0 if SIDES[s] == "right" else -1.0)
+                    way_fingers = (1 - w)[:, None, None] * from_fingers + w[:, None, None] * fingers[p.stroke]
+                    palm = np.concatenate([way_palm, palm[p.stroke :]])
+                    fingers = np.concatenate([way_fingers, fingers[p.stroke :]])
+                    offset = first
+                else:
+                    offset = start
+                track.palm[lo:hi, s] = palm[lo - offset : hi - offset]
+                track.fingers[lo:hi, s] = fingers[lo - offset : hi - offset]
+                mask[lo:hi, s] = 1.0
         return track, mask
 
 

@@ -38,7 +38,7 @@ from core.words import TimedWord
 from dsl.compiler import compile_file
 from dsl.plan import Plan
 from model.hands import motion_hands
-from model.performance import SEED_FRAMES, build_tracks, listening_tracks
+from model.performance import SEED_FRAMES, Exact, listening_tracks, perform
 from model.runtime import load_runner
 from model.take_posture import speaker_key
 from model.weights import WeightsError
@@ -94,7 +94,12 @@ class NoSuchUtterance(GenerateError):
 @dataclass
 class Take:
     """What :func:`generate` made: the compiled plan, one clip per planned utterance, the
-    compiler's warnings and the script's text (for showing them)."""
+    speakers' tracks, the compiler's warnings and the script's text (for showing them).
+
+    The tracks are the performance (:func:`model.performance.perform`) and each clip the
+    frames of its utterance on its speaker's track. A take made with ``perform=False`` holds
+    the engine's clips, each on its own (what ``sgt build`` caches); asking for its tracks
+    performs it then, and its clips become the tracks' views."""
 
     plan: Plan
     clips: list[MotionClip]
@@ -103,13 +108,13 @@ class Take:
     seed: int = 0
     _tracks: list | None = field(default=None, repr=False)
     listening: dict | None = field(default=None, repr=False)  # the speakers' listening motion, when computed already
+    exact: Exact | None = field(default=None, repr=False)  # how the performance makes the pose controls exact
 
     @property
     def tracks(self) -> list[Track]:
-        """One continuous track per speaker over the whole performance (built on first use,
-        :func:`model.performance.build_tracks`)."""
+        """One continuous track per speaker over the whole performance."""
         if self._tracks is None:
-            self._tracks = build_tracks(self.plan, self.clips, self.seed, listening=self.listening)
+            self.clips, self._tracks = perform(self.plan, self.clips, self.seed, self.listening, self.exact)
         return self._tracks
 
     def save(self, path, format: str | None = None) -> None:
@@ -176,9 +181,21 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
     return clips
 
 
+def exact_for(engine: str, options=None) -> Exact:
+    """How the performance makes an engine's pose controls exact (its own blend's settings;
+    none for the neural engine with ``blend=False``, ``--no-blend``)."""
+    if engine == "rules":
+        from model.teacher import CONTROL_RAMP, CONTROL_RAMP_STEP_DEG  # lazy: the teacher loads the library
+
+        return Exact(ramp=CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG)
+    if engine == "neural" and options is not None:
+        return Exact(ramp=options.ramp, blend=options.blend)
+    return Exact()
+
+
 def generate(script: Path | str | Plan | None = None, *, source: str | None = None, engine: str | None = None,
              utterances=None, seed: int | None = None, timing: str = "speech", options=None, progress=None,
-             speech_progress=None, library=None, seed_poses: bool = True) -> Take:
+             speech_progress=None, library=None, seed_poses: bool = True, perform: bool = True) -> Take:
     """Compile a script and generate its motion: the one way from a script to motion.
 
     ``script`` is a script file's path, or a compiled :class:`~dsl.plan.Plan` (generated as it
@@ -190,7 +207,8 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
     ``speech_progress`` and ``progress`` are called ``(done, total, what)`` while compiling and
     while generating. ``library`` is a loaded :class:`~library.Library` to compile with (default:
     the built-in and user gestures plus the script's ``@library`` folders, loaded per call).
-    ``seed_poses``: see :func:`clips_from_plan`.
+    ``seed_poses``: see :func:`clips_from_plan`. ``perform``: the tracks and the clips as their
+    views (:func:`model.performance.perform`); False keeps the engine's clips (see :class:`Take`).
 
     Raises :class:`GenerateError` (script errors, with their diagnostics; an unknown engine;
     missing weights) or :class:`NoSuchUtterance`.
@@ -228,7 +246,10 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
     listening = listening_tracks(plan, base_seed) if seed_poses and engine == "neural" else None
     clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options, seed_poses=seed_poses,
                             listening=listening)
-    return Take(plan, clips, diagnostics, text, base_seed, listening=listening)
+    take = Take(plan, clips, diagnostics, text, base_seed, listening=listening, exact=exact_for(engine, options))
+    if perform:
+        take.tracks  # noqa: B018  (performs the take: its clips become the tracks' views)
+    return take
 
 
 def generate_clips(script: Path | str | Plan | None = None, **options) -> list[MotionClip]:

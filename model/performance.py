@@ -23,13 +23,16 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from core.controls import ControlArrays
 from core.hands import SIDES, HandTrack, slerp
 from core.motion import MotionClip, Track
-from core.skeleton import BONE_INDEX, FPS, N_BONES, normalize_pose, positions_from_pose
-from model.postprocess import smoothstep
+from core.skeleton import BONE_INDEX, FPS, N_BONES, normalize_pose, positions_from_pose, slerp_poses
+from model.hands import limit_speed, with_gestures
+from model.postprocess import blend_pose_controls, smoothstep
 
 #: Listening poses an utterance's generation starts from (the neural engine's seed poses).
 SEED_FRAMES = 15
@@ -90,24 +93,6 @@ def listening(n_frames: int, accent_times, rng: np.random.Generator) -> np.ndarr
     return normalize_pose(dirs.reshape(n_frames, -1)).astype(np.float32)
 
 
-def _blend(a: np.ndarray, b: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Poses a -> b by weight w (n,): every bone direction turns along the great circle
-    (slerp), so even a bone turned round by 180 degrees moves smoothly."""
-    n = len(w)
-    a = normalize_pose(np.asarray(a, np.float64)).reshape(n, N_BONES, 3)
-    b = normalize_pose(np.asarray(b, np.float64)).reshape(n, N_BONES, 3)
-    dot = np.clip((a * b).sum(-1, keepdims=True), -1.0, 1.0)
-    ortho = b - dot * a
-    norm = np.linalg.norm(ortho, axis=-1, keepdims=True)
-    # opposite directions: any perpendicular will do; take the one nearest the x axis
-    side = np.cross(a, np.cross(np.array([1.0, 0.0, 0.0]), a))
-    side = np.where(np.linalg.norm(side, axis=-1, keepdims=True) < 1e-6, np.cross(a, [0.0, 0.0, 1.0]), side)
-    ortho = np.where(norm < 1e-6, side, ortho)
-    ortho /= np.linalg.norm(ortho, axis=-1, keepdims=True)
-    angle = np.arccos(dot) * w[:, None, None]
-    return normalize_pose((np.cos(angle) * a + np.sin(angle) * ortho).reshape(n, -1))
-
-
 def _ease_frames(a: np.ndarray, b: np.ndarray) -> int:
     """Frames needed to ease from pose ``a`` to pose ``b`` (the largest joint distance along
     the arcs the bones turn through: up to pi/2 times the straight distance)."""
@@ -131,7 +116,7 @@ def place(track: np.ndarray, poses: np.ndarray, start: int, free_before: int, fr
     a = start - before
     w = smoothstep((np.arange(before + inside) + 1) / (before + inside + 1))
     target = np.concatenate([np.repeat(poses[:1], before, 0), poses[:inside]])
-    track[a : start + inside] = _blend(track[a : start + inside], target, w)
+    track[a : start + inside] = slerp_poses(track[a : start + inside], target, w)
     # the utterance's own frames
     mid = slice(start + inside, end)
     track[mid] = poses[inside:]
@@ -143,7 +128,7 @@ def place(track: np.ndarray, poses: np.ndarray, start: int, free_before: int, fr
     w = 1.0 - smoothstep((np.arange(inside_out + after) + 1) / (inside_out + after + 1))
     listen = np.concatenate([base[n - inside_out :], track[end : end + after]])
     target = np.concatenate([poses[n - inside_out :], np.repeat(poses[-1:], after, 0)])
-    track[b0 : end + after] = _blend(listen, target, w)
+    track[b0 : end + after] = slerp_poses(listen, target, w)
 
 
 def place_hands(track: HandTrack, hands: HandTrack, start: int) -> None:
@@ -169,13 +154,36 @@ def listening_tracks(plan, seed: int = 0) -> dict:
             for k, speaker in enumerate(plan.speakers)}
 
 
-def build_tracks(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None = None) -> list[Track]:
-    """One :class:`~core.motion.Track` per speaker of ``plan`` (in order of their first line),
-    ``plan.n_frames`` long: its utterances (``clips``, one per planned utterance) in their
-    places, listening motion (:func:`listening_tracks`, or ``listening`` computed before from
-    the same plan and seed) everywhere else."""
+@dataclass(frozen=True)
+class Exact:
+    """How a performance makes its pose controls exact on the tracks (:func:`perform`): the
+    pose-control blend's ramp (frames; longer where a bone must turn more than ``max_step_deg``
+    degrees a frame), or none (``--no-blend``: the engine's own following)."""
+
+    ramp: int = 6
+    max_step_deg: float = 40.0  # 600 deg/s: ramps never come near the 900 deg/s bound
+    blend: bool = True
+
+
+def perform(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None = None,
+            exact: Exact | None = None) -> tuple[list[MotionClip], list[Track]]:
+    """The performance: one :class:`~core.motion.Track` per speaker of ``plan`` (in order of
+    their first line), ``plan.n_frames`` long, and each utterance's clip as a view of its
+    speaker's track.
+
+    A track is its speaker's listening motion (:func:`listening_tracks`, or ``listening``
+    computed before from the same plan and seed) with its utterances (``clips``, one per planned
+    utterance, as the engine made them) eased in at their places (:func:`place`). Then every
+    pose control of those utterances is made exact on the track (``exact``, the pose-control
+    blend of :mod:`model.postprocess` over the whole track, its requests at their frames): the
+    easing between utterances and the listening motion can never cut into a stroke, which is
+    on its word. Hands likewise: the utterances' hands eased into relaxed hands, then the pose
+    controls' hands exact on their frames, then the hands' speed limit. The returned clips are
+    the tracks' frames of each utterance (the same numbers), with the utterances' words and
+    controls: the track is the product, the clip a view of it."""
+    exact = exact or Exact()
     n = plan.n_frames
-    tracks = []
+    tracks, views = [], {}
     for speaker, listen in (listening if listening is not None else listening_tracks(plan, seed)).items():
         poses = listen.copy()
         hands = HandTrack.rest(n)
@@ -186,5 +194,23 @@ def build_tracks(plan, clips: list[MotionClip], seed: int = 0, listening: dict |
             end = u.start_frame + c.n_frames
             place(poses, c.poses, u.start_frame, (u.start_frame - prev_end) // 2, (next_start - end + 1) // 2)
             place_hands(hands, c.hands, u.start_frame)
-        tracks.append(Track(speaker, poses, hands=hands))
-    return tracks
+        requests = ControlArrays.empty(n)
+        requests.bone_mask = np.zeros((n, N_BONES), np.float32)
+        gesture_hands, hand_mask = HandTrack.rest(n), np.zeros((n, 2), np.float32)
+        for u, _ in own:
+            at = slice(u.start_frame, u.start_frame + u.n_frames)
+            requests.pose[at], requests.pose_mask[at] = u.arrays.pose, u.arrays.pose_mask
+            requests.bone_mask[at] = u.arrays.bones()
+            h, m = u.hands
+            gesture_hands.palm[at], gesture_hands.fingers[at], hand_mask[at] = h.palm, h.fingers, m
+        if exact.blend and requests.pose_mask.any():
+            poses = blend_pose_controls(poses, requests.pose, requests.pose_mask, exact.ramp,
+                                        max_step_deg=exact.max_step_deg, bones=requests.bone_mask)
+        if hand_mask.any():
+            hands = limit_speed(with_gestures(hands, gesture_hands, hand_mask))
+        track = Track(speaker, np.asarray(poses, np.float32), hands=hands)
+        tracks.append(track)
+        for u, c in own:
+            at = slice(u.start_frame, u.start_frame + c.n_frames)
+            views[id(c)] = replace(c, poses=track.poses[at].copy(), positions=None, hands=track.hands.take(np.arange(n)[at]))
+    return [views[id(c)] for c in clips], tracks

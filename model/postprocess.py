@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from core.easing import smoothstep
 from core.skeleton import FPS, N_BONES, normalize_pose
 from model.style import load_stats, raw_style, window_mean
 
@@ -105,12 +106,6 @@ def gauss_smooth(x: np.ndarray, sigma: float) -> np.ndarray:
     for j in range(1, radius + 1):  # symmetric taps in pairs, as scipy sums them
         out = out + w[radius + j] * (padded[radius - j : radius - j + n] + padded[radius + j : radius + j + n])
     return out.astype(x.dtype, copy=False)
-
-
-def smoothstep(x):
-    """3x^2 - 2x^3 of ``x`` clipped to [0, 1]: the easing of every blend and cross-fade."""
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3 - 2 * x)
 
 
 def _spans(m: np.ndarray) -> list[tuple[int, int]]:

@@ -42,8 +42,8 @@ def _whole_arrays(u) -> ControlArrays:
     """The plan's controls with every gesture's whole pose requested (no per-bone mask)."""
     arrays = ControlArrays.empty(u.n_frames)
     arrays.style[:], arrays.style_mask[:] = u.arrays.style, u.arrays.style_mask
-    for start, gesture, mark, length in u.requests.poses:
-        arrays.set_pose(start, gesture.clip(speed=mark.speed, flip=mark.flip, hold=mark.hold).poses[:length])
+    for p in u.requests.poses:
+        arrays.set_pose(p.start, p.clip().poses[: p.length])
     return arrays
 
 

@@ -11,6 +11,7 @@ import io
 import json
 from pathlib import Path
 
+import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -67,21 +68,21 @@ def _only_diagnostics(text: str, tmp: Path) -> None:
             assert u.arrays.pose.shape == (u.n_frames, 27)
             for c in u.controls:
                 assert 0 <= c.start_frame <= c.end_frame <= u.n_frames
-            poses = sorted((c.start_frame, c.end_frame, _limbs(c)) for c in u.controls if c.kind == "pose")
-            for i, a in enumerate(poses):  # overlaps are resolved between gestures that share a limb (a nod layers on a point)
-                assert all(a[1] <= b[0] for b in poses[i + 1:] if a[2] & b[2]), poses
+            _no_bone_played_twice(u)  # overlaps are resolved per bone (a nod layers on a point)
     _commands(path, tmp, result)
 
 
-def _limbs(control) -> frozenset:
-    """The limbs a pose control's gesture drives, mirrored when flipped (as the compiler places them)."""
-    from core.skeleton import mirror_name
-    from library import load_library
-    from library.spec import LIMBS
-
-    gesture = load_library(use_config=False).get(control.name)  # a gesture of an @library folder: every limb
-    limbs = gesture.spec.limbs if gesture is not None else frozenset(LIMBS)
-    return frozenset(mirror_name(limb) for limb in limbs) if control.options.get("flip") else frozenset(limbs)
+def _no_bone_played_twice(u) -> None:
+    """No two pose controls of a planned utterance drive one bone on one frame."""
+    owner = np.full((u.n_frames, 9), -1)
+    for i, p in enumerate(u.requests.poses):
+        lengths = p.lengths()[0]
+        taken = p.approach[1] if p.approach is not None else np.zeros(9, bool)
+        for b in np.flatnonzero(np.asarray(p.clip().bones, bool)):
+            first = p.approach[0] if taken[b] else p.start
+            frames = slice(max(0, first), max(0, min(u.n_frames, p.start + lengths[b])))
+            assert (owner[frames, b] == -1).all(), (p.mark.name, b, owner[frames, b])
+            owner[frames, b] = i
 
 
 def _commands(path: Path, tmp: Path, result) -> None:

@@ -134,8 +134,8 @@ def test_hints_and_templates_take_their_fields():
     d = rules.OUT_OF_RANGE.at("a.sgt", 2, 3, 4, what="pitch", value=300, allowed="a value from 0 to 100")
     assert (d.message, d.hint, d.code, d.name) == ("pitch 300 is out of range", "use a value from 0 to 100", "SGT302", "out-of-range")
     assert rules.OUT_OF_RANGE.at("a.sgt", 1, 1, 1, hint=None, what="x", value=1, allowed="y").hint is None
-    assert rules.OVERLAP.at("a.sgt", 1, 1, severity=rules.ERROR, name="a", other="b", first=1, last=2, how="",
-                            resolution="r").is_error
+    assert rules.OVERLAP.at("a.sgt", 1, 1, severity=rules.ERROR, name="a", other="b", late=3, secs="0.20", word="w",
+                            how="", why="r").is_error
 
 
 def test_did_you_mean_gives_fixes_named_by_the_hint():

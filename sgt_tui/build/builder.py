@@ -391,14 +391,15 @@ def _prepare(s: _Script, settings: Settings) -> None:
 def _write(out: Path, s: _Script, exports: tuple[str, ...], settings: Settings) -> dict:
     from threadpoolctl import threadpool_limits  # lazy: only a build that writes needs it
 
-    from model.performance import build_tracks  # lazy: numpy, the engines' helpers
+    from model.generate import exact_for  # lazy: numpy, the engines' helpers
+    from model.performance import perform  # lazy: numpy, the engines' helpers
 
     _prepare(s, settings)
     plan, placed, seed, listening = s.prepared
     utts = s.script.utterances
     clips = [s.entries[u.index].clip(u.line, u.index, placed[u.index].start, placed[u.index].audio_offset) for u in utts]
-    with threadpool_limits(limits=1):
-        tracks = build_tracks(plan, clips, seed, listening)
+    with threadpool_limits(limits=1):  # the performance: the clips become views of the tracks, as sgt generate's
+        clips, tracks = perform(plan, clips, seed, listening, exact_for(settings.engine, settings.options()))
     records = outputs.write_motion_outputs(out, s.rel, clips, tuple(e for e in exports if e != "wav"), tracks)
     if "wav" in exports:  # the speech the layout was made from
         for u in utts:
