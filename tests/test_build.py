@@ -334,11 +334,13 @@ def test_kill_9_mid_build_leaves_no_half_written_output_and_the_next_run_finishe
     assert a == b and len(a) == 8
 
 
-def test_ray_builds_the_same_bytes(env):
+def test_ray_builds_the_same_bytes(env, capsys):
     pytest.importorskip("ray")
     assert build(env / "game", "-o", env / "local", "--bvh", "-j", "1", "-q") == 0
     os.environ["SGT_CACHE_DIR"] = str(env / "ray-cache")  # monkeypatch restores it (set by the fixture)
+    capsys.readouterr()
     assert build(env / "game", "-o", env / "ray", "--bvh", "--ray", "-j", "2", "-q") == 0
+    assert capsys.readouterr().err == ""  # --quiet: nothing of Ray's either
     a, b = files(env / "local"), files(env / "ray")
     assert cached_flags(env / "ray") == {"act1/intro.sgt": [False, False], "act2.sgt": [False, False]}
     a.pop("manifest.json"), b.pop("manifest.json")

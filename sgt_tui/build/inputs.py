@@ -19,6 +19,9 @@ takes the record as it is; anything else (a changed byte, a touched gesture file
 option) analyses the script as before. Recordings are compared by size, time and inode here,
 not by content: the utterance keys themselves hash them, so a file changed without changing
 those three (a rare, deliberate act) is only seen once the script itself is analysed again.
+
+The same files (and each script itself) make the build's :class:`Guard`: no output of a
+build may be one of its inputs.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import stat
 from pathlib import Path
 
 from core.paths import LIBRARY_PATH_VAR, config_files
@@ -83,3 +87,62 @@ def _stat(path: Path):
             return sorted([e.name, e.stat().st_size, e.stat().st_mtime_ns] for e in gestures)
     except OSError:
         return None
+
+
+class Guard:
+    """The files a build reads (scripts, recordings, timings files), by device and inode, so
+    that no output of the build is one of them: the same file through a symbolic or a hard
+    link counts (:func:`core.fileio.same_file`'s rule, with one look at each file however many
+    outputs are checked). Folders are not kept (gesture folders: no output is a ``.toml``
+    file), nor what is not there."""
+
+    def __init__(self) -> None:
+        self._files: dict[tuple[int, int], tuple[str, str, str]] = {}
+
+    def add(self, path, reader: str, kind: str = "file") -> None:
+        """``path`` is read by the script ``reader`` (as the build names it) as its ``kind``
+        (``script``, ``recording``, ``timings file``, or just ``file``)."""
+        try:
+            st = os.stat(path)
+        except (OSError, ValueError):
+            return
+        if not stat.S_ISREG(st.st_mode):
+            return
+        key = (st.st_dev, st.st_ino)
+        if key not in self._files or self._files[key][2] == "file":
+            self._files[key] = (os.fspath(path), reader, kind)
+
+    def reader(self, output) -> tuple[str, str, str] | None:
+        """(the input, the script that reads it, its kind) when ``output`` is an input, else None."""
+        try:
+            st = os.stat(output)
+        except (OSError, ValueError):
+            return None
+        return self._files.get((st.st_dev, st.st_ino))
+
+    def clash(self, output, script) -> str | None:
+        """Why writing ``output`` for ``script`` would destroy an input (the end of a sentence
+        that starts with the output), or None."""
+        found = self.reader(output)
+        if found is None:
+            return None
+        what, reader, kind = found
+        same = os.path.abspath(what) == os.path.abspath(output)
+        if kind == "script":
+            return "is the script itself" if same and _same(reader, script) else f"is the script {what}"
+        return f"is the {kind}{'' if same else ' ' + what} that {'it' if _same(reader, script) else reader} reads"
+
+
+def _same(a, b) -> bool:
+    return os.path.abspath(a) == os.path.abspath(b)
+
+
+def named_files(script) -> list[tuple[str, str]]:
+    """(path, kind) of the recordings and timings files an analysed script reads."""
+    found = []
+    for utt in script.utterances:
+        if utt.audio is not None:
+            found.append((os.path.abspath(utt.audio.path), "recording"))
+            if utt.audio.timings is not None:
+                found.append((os.path.abspath(utt.audio.timings), "timings file"))
+    return found

@@ -15,7 +15,10 @@ the build writes cache entries and outputs from there, so a worker never writes 
 from __future__ import annotations
 
 import os
+import signal
+import weakref
 from collections.abc import Callable, Sequence
+from multiprocessing.context import SpawnContext, SpawnProcess
 from pathlib import Path
 
 from core.fileio import atomic_write
@@ -38,17 +41,67 @@ def default_jobs() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def _spawn_context(started: list):
+    """The "spawn" context, with workers that start with SIGINT blocked; every process it
+    starts is appended to ``started``.
+
+    ctrl+c on a terminal sends SIGINT to the whole foreground process group: the build's
+    workers too. A worker that got it while Python started (``site`` runs the ``.pth`` files),
+    while it imported sgt or while it generated printed a KeyboardInterrupt traceback each,
+    after the build's one "interrupted" line. The build stops its workers itself (SIGTERM,
+    :meth:`LocalPool.close`), so they need never see SIGINT: a process inherits the signal
+    mask of the thread that forks it, across ``exec``, so each worker is started from a thread
+    that blocks SIGINT for that moment (a SIGINT meanwhile waits, and reaches this process
+    once the mask is restored).
+
+    That SIGINT then lands right after ``start`` returns, before the executor has recorded the
+    new process: ``started`` records it first (with SIGINT still blocked), so that
+    :meth:`LocalPool.close` stops it too. (Left running, it outlived the build and printed a
+    traceback when the semaphores it was unpickling had gone with the build.)"""
+    import multiprocessing
+
+    if not hasattr(signal, "pthread_sigmask"):  # not POSIX
+        return multiprocessing.get_context("spawn")
+
+    class QuietSpawn(SpawnContext):
+        def Process(self, *args, **kwargs):  # noqa: N802 - the name the executor calls
+            proc = _QuietProcess(*args, **kwargs)
+            _RECORD[proc] = started
+            return proc
+
+    return QuietSpawn()
+
+
+#: Where each :class:`_QuietProcess` records itself when it starts (not on the process object:
+#: that is pickled for the child).
+_RECORD: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+class _QuietProcess(SpawnProcess):
+    """A spawned process that starts with SIGINT blocked (see :func:`_spawn_context`)."""
+
+    def start(self) -> None:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            super().start()
+            record = _RECORD.get(self)
+            if record is not None:
+                record.append(self)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 class LocalPool:
     """``jobs`` spawned worker processes (no inherited state: threads, torch), started on
     demand; :meth:`warm` starts one now, to load torch and the weights while the build is
     still reading the scripts (the "one line changed" build waits for nothing else)."""
 
     def __init__(self, jobs: int, settings) -> None:
-        import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
         self.jobs = jobs
-        self.pool = ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
+        self.started: list = []  # every worker process started, recorded before the executor does
+        self.pool = ProcessPoolExecutor(max_workers=jobs, mp_context=_spawn_context(self.started),
                                         initializer=warm_up, initargs=(settings,))
         self.warming = None  # the warm-up's future, while :meth:`warm` has started one worker
 
@@ -85,9 +138,12 @@ class LocalPool:
     def close(self, wait: bool = True) -> None:
         """Stop the workers; without ``wait``, at once (a warm-up that turned out useless)."""
         if not wait:  # no public way to stop a worker that is still starting
-            for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
-                proc.terminate()
+            for proc in self.started:
+                if proc.exitcode is None:
+                    proc.terminate()
         self.pool.shutdown(wait=True, cancel_futures=True)
+        for proc in self.started:  # one the executor never recorded (see _spawn_context)
+            proc.join()
 
 
 def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: LocalPool | None = None,
@@ -104,6 +160,7 @@ def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: Local
     from concurrent.futures.process import BrokenProcessPool
 
     pool = pool or LocalPool(workers, tasks[0].settings)
+    finished = False
     try:
         if pool.warming is not None and len(tasks) < pool.jobs:
             futures = pool.submit_when_warm(tasks, idle)
@@ -119,10 +176,12 @@ def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: Local
             except Exception as exc:  # noqa: BLE001 - a bug in a worker fails its utterances, not the build
                 result = TaskResult(futures[future].number, error=f"internal error: {exc.__class__.__name__}: {exc}")
             on_result(result)
+        finished = True
     except BrokenProcessPool:
         raise RunnerError("a worker process died (killed, or out of memory); run the build again to finish it") from None
     finally:
-        pool.close()
+        # interrupted (ctrl+c) or failed: stop the workers now; they do not get SIGINT themselves
+        pool.close(wait=finished)
 
 
 # -- Ray --------------------------------------------------------------------------------------
@@ -163,6 +222,11 @@ def run_ray(tasks: Sequence[Task], address: str | None, on_result: OnResult, *, 
         raise RunnerError("--ray needs Ray: pip install -e '.[ray]' (or pip install 'ray>=2.40')") from None
     started = not ray.is_initialized()
     if started:
+        import logging
+
+        # Ray's own warnings (its token-authentication notice on every local start, among them)
+        # are not the build's: --quiet prints errors only, and Ray's errors come as exceptions
+        logging.getLogger("ray").setLevel(logging.ERROR)
         kwargs: dict = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
         if address:
             kwargs["address"] = address

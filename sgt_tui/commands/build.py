@@ -16,8 +16,13 @@ Each utterance is cached by the content of everything that changes its motion (t
 controls, the gestures they play, voice, rate, pitch, recordings, engine, weights, seed),
 so editing one line regenerates one utterance, and a build with nothing changed writes
 nothing. Outputs are written atomically: a killed build leaves no half-written file and
-the next one finishes it. Scripts with errors are reported (every problem, as 'sgt check'
-does) and the others still build; the exit status is 1 when anything failed.
+the next one finishes it; an output that no longer matches the manifest (changed or
+removed) is made again and reported. One build at a time writes OUT: a second one waits
+for it (--no-wait: fails instead). Scripts with errors are reported (every problem, as
+'sgt check' does), as is a script whose output would be one of the build's inputs (its
+recording or timings file, another script); the others still build; the exit status is 1
+when anything failed. Warnings are printed as 'sgt check --timing' prints them, once per
+script.
 
 --jobs N runs N local worker processes with one torch thread each; --ray runs the same
 work on Ray (a local instance, or a cluster at ADDRESS; pip install -e '.[ray]')."""
@@ -41,6 +46,8 @@ def register(sub) -> None:
     add_seed_option(p, "random seed for every script (default: each script's @seed)")
     add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
+    p.add_argument("--no-wait", action="store_true",
+                   help="when another build is writing OUT, fail at once (exit 1) instead of waiting for it")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no warnings, no summary: only errors")
     p.set_defaults(run=run)
 
@@ -49,6 +56,7 @@ def run(args) -> int:
     from pathlib import Path
 
     from sgt_tui.build import BuildCache, Settings, build, find_sources
+    from sgt_tui.build.lock import Busy
     from sgt_tui.build.runners import RunnerError, default_jobs
     from sgt_tui.commands.common import existing_file, output_folder, print_diagnostics
     from sgt_tui.errors import InputError, UsageError
@@ -70,13 +78,24 @@ def run(args) -> int:
 
     if not find_sources([Path(p) for p in args.paths]):
         raise UsageError(f"no .sgt scripts under {' '.join(args.paths)}")
+    def waiting(holder: str) -> None:  # shown with --quiet too: a build that waits says why
+        who = f" ({holder})" if holder else ""
+        print(f"sgt build: waiting for another build into {out} to finish{who}; --no-wait fails instead",
+              file=sys.stderr, flush=True)
+
     progress = None if args.quiet else BuildProgress()
     try:
         report = build([Path(p) for p in args.paths], out, settings, jobs=args.jobs or default_jobs(),
                        ray=(args.ray or True) if args.ray is not None else None, exports=exports, cache=cache,
-                       show=show, progress=progress)
+                       show=show, progress=progress, wait=not args.no_wait, waiting=waiting)
     except RunnerError as exc:
         raise (UsageError if "pip install" in str(exc) else InputError)(str(exc)) from None
+    except Busy as exc:
+        raise InputError(str(exc)) from None
+    if not args.quiet:
+        for rel, why in report.repaired:
+            print(f"sgt build: warning: {out / rel} did not match the manifest ({why} since the last build): "
+                  f"made again", file=sys.stderr)
     for line in report.errors:
         print(f"sgt build: error: {line}", file=sys.stderr)
     if not args.quiet or report.failed:
