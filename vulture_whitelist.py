@@ -49,6 +49,10 @@ _.write_mp4
 _.discover
 _.get_cursor_line_start_location
 _.get_cursor_line_end_location
+# Textual reads these: App.app_focus (set when the editor handles a key itself, as Textual's own
+# key dispatch does; sgt_tui/app/main.py) and a widget style's overflow_y (sgt_tui/app/script_area.py).
+_.app_focus
+_.overflow_y
 # The utterance whose take is current; tests/test_editor_app.py reads it to check the preview.
 _.current_key
 # The grammar's own parser (dsl/body.py): the definition the scanner is proved equal to

@@ -1,6 +1,8 @@
-"""Benchmark of `sgt edit`: keystroke-to-diagnostics, regenerate-and-show, CPU while the preview plays.
+"""Benchmark of `sgt edit`: keystroke-to-diagnostics, regenerate-and-show, CPU while the preview plays,
+and a 1 MB script (first screen, keystroke to screen) side by side with the code before issue 21.
 
     python benchmarks/bench_edit.py [--lines 500] [--repeat 15] [--seconds 4]
+    python benchmarks/bench_edit.py --large-only [--before 742c655] [--large-lines 10000] [--keys 30]
 
 1. Keystroke to diagnostics on a 500-line script (target: under 50 ms): one character typed into
    an utterance, then (a) the editor's analysis alone and (b) the whole path in the running app,
@@ -12,6 +14,14 @@
    engine and the neural network with untrained weights (same computation, so same speed).
 3. CPU while the preview plays at 15 fps: process CPU time / wall time of the real `sgt edit` in a
    tmux terminal (headless Textual when tmux is missing), playing and paused.
+4. A long script (10,000 lines, 1.1 MB; target: first screen within 1 s of a short script's,
+   editing responsive), measured on the real `sgt edit` in tmux, for the code before issue 21
+   (``--before REV``, default 742c655; see benchmarks/against.py) and today's, in one run:
+   (a) first screen: from starting the command to the status line on the terminal, for a
+   one-line script and the long one (the command's start-up, about 1-2 s here, is in both);
+   (b) the first analysis shown (the status line's problem count); (c) keystroke to screen:
+   a character typed into utterance 1 until tmux shows it, one key every 150 ms (a fast
+   typist), once the analysis is shown (and, today, also while the first analysis runs).
 
 Prints medians. Figures vary with machine load.
 """
@@ -226,15 +236,132 @@ async def _headless_cpu(seconds: float) -> tuple[float, float]:
     return playing, paused
 
 
+class _Terminal:
+    """`sgt edit FILE` of one source tree in a tmux terminal of its own (100x30)."""
+
+    def __init__(self, tree: Path, path: Path, cache: Path) -> None:
+        self.sock = f"sgt-bench-{os.getpid()}-{time.monotonic_ns()}"
+        launch = "import sys; from sgt_tui.cli import main; sys.exit(main())"
+        self.cmd = (f"cd {shlex.quote(str(tree))} && PYTHONPATH={shlex.quote(str(tree))} "
+                    f"SGT_EDITOR_CACHE={shlex.quote(str(cache))} TERM=xterm-256color exec "
+                    f"{shlex.quote(sys.executable)} -c {shlex.quote(launch)} edit {shlex.quote(str(path))} --engine rules")
+
+    def tmux(self, *args: str) -> str:
+        return subprocess.run(["tmux", "-L", self.sock, *args], capture_output=True, text=True, timeout=30).stdout
+
+    def start(self) -> float:
+        t = time.perf_counter()
+        self.tmux("new-session", "-d", "-s", "b", "-x", "100", "-y", "30", self.cmd)
+        return t
+
+    def screen(self) -> str:
+        return self.tmux("capture-pane", "-p", "-t", "b")
+
+    def wait(self, test, timeout: float = 600.0) -> float:
+        """Poll the screen until ``test(screen)``; the time it first held."""
+        deadline = time.perf_counter() + timeout
+        while time.perf_counter() < deadline:
+            if test(self.screen()):
+                return time.perf_counter()
+        raise SystemExit(f"timed out; the screen shows:\n{self.screen()}")
+
+    def close(self) -> None:
+        self.tmux("kill-server")
+
+
+def _status(screen: str) -> str:
+    return screen.split("\n", 1)[0]
+
+
+def _analysed(screen: str) -> bool:  # the status line has the problem count (and the utterance)
+    return "utt 1/" in _status(screen)
+
+
+def _type_and_time(term: _Terminal, marker: str, interval: float) -> list[float]:
+    """Type ``marker`` one key at a time at the start of line 4 (utterance 1); each key's time
+    from send-keys until the terminal shows it."""
+    out = []
+    for k in range(1, len(marker) + 1):
+        t = time.perf_counter()
+        term.tmux("send-keys", "-t", "b", "-l", marker[k - 1])
+        shown = marker[:k] + "guide:"
+        out.append(term.wait(lambda s: shown in s, timeout=60) - t)
+        time.sleep(max(0.0, interval - (time.perf_counter() - t)))
+    return out
+
+
+def large_script(before: str | None, lines: int, repeat: int, keys: int) -> None:
+    from against import trees
+    from bench_check import make_script
+
+    if not shutil.which("tmux"):
+        print("large script: tmux is not installed; skipped")
+        return
+    tmp = Path(tempfile.mkdtemp())
+    big, small = tmp / "long.sgt", tmp / "short.sgt"
+    big.write_text(make_script(lines))
+    small.write_text("guide: Hello there.\n")
+    size = big.stat().st_size
+    print(f"long script: {lines} lines, {size / 1e6:.1f} MB; load before: {os.getloadavg()[0]:.2f}")
+    rows = []
+    with trees(before) as measured:
+        for label, tree in measured:
+            firsts = {"short": [], "long": []}
+            analysed, during, after = [], [], []
+            for i in range(repeat):
+                for kind, path in (("short", small), ("long", big)):
+                    term = _Terminal(tree, path, tmp / f"cache-{label[:3]}-{kind}-{i}")
+                    try:
+                        t0 = term.start()
+                        shown = term.wait(lambda s: "engine rules" in _status(s))
+                        firsts[kind].append(shown - t0)
+                        if kind == "short":
+                            continue
+                        if i == 0 and not _analysed(term.screen()):  # typing while the first analysis runs
+                            term.tmux("send-keys", "-t", "b", "Down", "Down", "Down", "Home")
+                            time.sleep(0.3)
+                            during = _type_and_time(term, "qz" * (keys // 2), 0.15)
+                            term.tmux("send-keys", "-t", "b", *["BSpace"] * len(during))
+                        analysed.append(term.wait(_analysed) - t0)
+                        if i == 0:
+                            if not during:
+                                term.tmux("send-keys", "-t", "b", "Down", "Down", "Down", "Home")
+                            time.sleep(1.0)
+                            after = _type_and_time(term, "xj" * (keys // 2), 0.15)
+                    finally:
+                        term.close()
+            rows.append((label, firsts, analysed, during, after))
+    print(f"{'':<22} {'first screen, short':>20} {'first screen, 1 MB':>19} {'analysis shown':>15} "
+          f"{'key->screen (analysing)':>24} {'key->screen':>22}")
+    for label, firsts, analysed, during, after in rows:
+        def med(v):
+            return f"{statistics.median(v):.2f} s" if v else "-"
+
+        def lat(v):
+            return f"{statistics.median(v) * 1000:.0f} ms (max {max(v) * 1000:.0f})" if v else "- (no screen yet)"
+        print(f"{label:<22} {med(firsts['short']):>20} {med(firsts['long']):>19} {med(analysed):>15} "
+              f"{lat(during):>24} {lat(after):>22}")
+    print(f"(medians of {repeat} starts; key->screen: {keys} keys, median and max; load after: {os.getloadavg()[0]:.2f})")
+
+
 def main() -> int:
+    from against import add_before_option
+
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--lines", type=int, default=500)
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--seconds", type=float, default=4.0, help="how long to measure CPU use")
+    ap.add_argument("--large-lines", type=int, default=10_000, help="lines of the long script (10,000: 1.1 MB)")
+    ap.add_argument("--large-repeat", type=int, default=3, help="starts of each script per tree")
+    ap.add_argument("--keys", type=int, default=30, help="keys typed to time keystroke to screen")
+    ap.add_argument("--large-only", action="store_true", help="only the long script, side by side")
+    add_before_option(ap)
     args = ap.parse_args()
-    keystroke(args.lines, args.repeat)
-    regenerate(max(3, args.repeat // 3))
-    cpu_while_playing(args.seconds)
+    if not args.large_only:
+        keystroke(args.lines, args.repeat)
+        regenerate(max(3, args.repeat // 3))
+        cpu_while_playing(args.seconds)
+    large_script(args.before, args.large_lines, args.large_repeat, args.keys)
     return 0
 
 

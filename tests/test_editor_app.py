@@ -440,8 +440,8 @@ def test_cli_errors_are_messages_not_tracebacks(tmp_path):
     bad.write_bytes("guide: caf\xe9\n".encode("latin-1"))
     out = _sgt("edit", str(bad))
     assert out.returncode == 1 and "not UTF-8" in out.stderr and "Traceback" not in out.stderr
-    out = _sgt("edit", str(tmp_path))
-    assert out.returncode == 2 and "folder" in out.stderr
+    out = _sgt("edit", str(tmp_path))  # as sgt check says of a folder: an input it cannot read
+    assert out.returncode == 1 and "folder" in out.stderr
     out = _sgt("edit", str(tmp_path / "fine.sgt"))
     assert out.returncode == 2 and "terminal" in out.stderr
     assert "edit" in _sgt("--help").stdout
@@ -623,8 +623,8 @@ def _with_fixes(app: EditorApp) -> EditorApp:
             return d
         return dataclasses.replace(d, fixes=rules.replacements(d.file, d.line, d.col, d.length, d.suggestions))
 
-    def patched(text):
-        a = run(text)
+    def patched(text, **kw):
+        a = run(text, **kw)
         a.diagnostics = [fixed(d) for d in a.diagnostics]
         a.by_line = {line: [fixed(d) for d in found] for line, found in a.by_line.items()}
         return a
@@ -850,8 +850,8 @@ def test_cli_refuses_devices_fifos_and_folders(tmp_path):
     fifo = tmp_path / "pipe.sgt"
     os.mkfifo(fifo)
     for target, what in (("/dev/null", "character device"), (str(fifo), "FIFO"), (str(tmp_path), "folder")):
-        out = _sgt("edit", target)  # returns at once: a FIFO is never opened
-        assert out.returncode == 2 and what in out.stderr and "Traceback" not in out.stderr, out.stderr
+        out = _sgt("edit", target)  # returns at once: a FIFO is never opened; 1 as for sgt check
+        assert out.returncode == 1 and what in out.stderr and "Traceback" not in out.stderr, out.stderr
 
 
 def test_a_burst_of_keys_leaves_one_analysis_in_the_exclusive_worker_group(tmp_path, monkeypatch):

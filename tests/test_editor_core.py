@@ -548,3 +548,25 @@ def test_goto_names_a_line_or_an_utterance():
     for bad in ("u3", "9", "0", "x", "u"):
         with pytest.raises(ValueError):
             goto_line(bad, a, 4)
+
+
+def test_a_read_only_script_is_never_replaced_even_as_root(tmp_path):
+    """Issue 21: the editor replaced read-only files (an atomic rename needs only the folder's
+    permission, and root passes every check). It obeys the output rule of every command now:
+    the save and a "save as" onto a read-only file are refused, and the file is unchanged."""
+    p = tmp_path / "ro.sgt"
+    p.write_text("guide: one\n")
+    p.chmod(0o444)
+    f = ScriptFile.open(p)
+    f.document.replace((0, 0), (0, 0), "x")
+    with pytest.raises(FileError, match="cannot save .*read-only"):
+        f.save()
+    with pytest.raises(FileError, match="read-only"):
+        f.save(force=True)
+    other = tmp_path / "other.sgt"
+    other.write_text("guide: other\n")
+    other.chmod(0o444)
+    with pytest.raises(FileError, match="read-only"):
+        f.save_as(other, overwrite=True)
+    assert p.read_text() == "guide: one\n" and other.read_text() == "guide: other\n"
+    assert f.document.modified

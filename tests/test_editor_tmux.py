@@ -173,3 +173,47 @@ def test_ctrl_home_ctrl_end_and_home_on_a_wrapped_line_in_tmux(tmux, tmp_path):
     assert script.read_text() == f"Aguide: first\nH{long}\nguide: lastZ"
     tmux.keys("C-q")
     assert _exit_code(tmux, tmp_path) == "EXIT=0"
+
+
+def test_typing_and_ctrl_s_in_one_burst_save_exactly_what_was_typed(tmux, tmp_path):
+    """Issue 21: the text and ctrl+s sent by one send-keys (as a paste or a fast macro does)
+    said "saved" while the file lacked the text and [+] stayed. Keys are now handled in the
+    order they came: ctrl+s saves every key typed before it and none typed after it."""
+    script = tmp_path / "burst.sgt"
+    script.write_text("guide: first.\n")
+    tmux.start(script)
+    tmux.wait_for("utterance 1")
+    tmux("send-keys", "-t", "t", "guide: x.", "Enter", "C-s", "y", "BSpace", "z")
+    tmux.wait_for("saved ")
+    shown = tmux.wait_for("zguide: first.")
+    assert "burst.sgt [+]" in shown  # the z typed after ctrl+s is not saved yet
+    assert script.read_text() == "guide: x.\nguide: first.\n"
+    tmux("send-keys", "-t", "t", "BSpace", "C-s")
+    shown = tmux.wait_gone("burst.sgt [+]")
+    assert script.read_text() == "guide: x.\nguide: first.\n"
+    tmux.keys("C-q")
+    assert _exit_code(tmux, tmp_path) == "EXIT=0"
+
+
+def test_a_1_mb_script_shows_its_first_screen_and_takes_keys_while_it_is_analysed(tmux, tmp_path):
+    """Issue 21: a 1 MB script showed a blank terminal for about 50 s. The first screen now comes
+    before the first analysis (which runs in the background, the status line saying how far it
+    is), and typing and saving work meanwhile. (How fast: benchmarks/bench_edit.py --large-only.)"""
+    script = tmp_path / "long.sgt"
+    line = "guide: Line {i} of the long scene, [pose:beat_right] said once and then again, <speed:+1>quickly</speed>.\n"
+    text = "".join(line.format(i=i) for i in range(10_000))
+    assert len(text) > 1_000_000
+    script.write_text(text)
+    tmux.start(script)
+    shown = tmux.wait_for("long.sgt", timeout=30)
+    assert "guide: Line 0 of the long scene" in shown
+    assert "analysing" in shown.splitlines()[0]  # the screen came first: the analysis is on its way
+    tmux.keys("A", literal=True)
+    shown = tmux.wait_for("Aguide: Line 0")
+    assert "utt 1/" not in shown.splitlines()[0]  # typed while the first analysis runs (seconds long)
+    tmux.keys("C-s")
+    tmux.wait_for("saved ", timeout=30)
+    assert script.read_text() == "A" + text
+    tmux.wait_for("utt 1/", timeout=300)  # the analysis arrives: the status line has the utterance count
+    tmux.keys("C-q")
+    assert _exit_code(tmux, tmp_path) == "EXIT=0"

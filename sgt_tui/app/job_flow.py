@@ -29,8 +29,11 @@ class JobFlow:
     def start(self, op: str, whole: bool) -> None:
         """Queue a generate (``op`` "generate") or render job for the cursor's utterance or the script."""
         app = self.app
+        analysis = app.ready_analysis()
+        if analysis is None:
+            return
         try:
-            plan = plan_job(op, app.analyses.now(), app.area.cursor_location[0], path=app.script.path,
+            plan = plan_job(op, analysis, app.area.cursor_location[0], path=app.script.path,
                             source=app.doc.text, engine=app.engine, weights=app.weights, whole=whole,
                             gif_size=app.gif_size, cache=editor_cache_dir() / "motion")
         except JobRefused as exc:

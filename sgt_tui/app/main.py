@@ -11,7 +11,9 @@ The application wires the editing model (:mod:`sgt_tui.editor`) and the backgrou
 - the dialogs around the file (:class:`FileFlow`).
 
 Every action is a key (:data:`sgt_tui.app.actions.ACTIONS`, shown in the footer, the keys list
-and the command palette).
+and the command palette). Keys for the editor's screen are handled one at a time, in the order
+they came (:meth:`EditorApp.on_event`): an action bound to a key sees every key typed before it
+and none typed after it, however fast they arrive.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from textual import on
+from textual import events, on
 from textual.app import App
 from textual.containers import Horizontal, Vertical
 from textual.screen import Screen
@@ -34,8 +36,10 @@ from sgt_tui.app.panels import JobBar, MessageLine, PreviewPanel, StatusLine, Ti
 from sgt_tui.app.screens import SEVERITY_MARK, AskScreen, KeysScreen, LibraryScreen, Picked, ProblemsScreen, StyleScreen
 from sgt_tui.app.script_area import ScriptArea
 from sgt_tui.app.services import (
+    AnalysisFailed,
     AnalysisReady,
     AnalysisService,
+    BackgroundAnalysis,
     DiskChanged,
     DiskWatcher,
     JobService,
@@ -90,6 +94,7 @@ class EditorApp(App):
         self.last_message = ""
         self.job_problems: list[Diagnostic] = []  # what the last failed job reported (F2 lists them)
         self.job_text = ""  # the text that job worked on
+        self._progress = None  # the timer that shows the first analysis's progress, while it runs
 
     def check_action(self, action: str, parameters) -> bool | None:
         """The editor's keys act on the main screen only (dialogs have their own keys)."""
@@ -121,10 +126,49 @@ class EditorApp(App):
     def on_mount(self) -> None:
         self.area.focus()
         self._fit()
-        self.analyses.now()
+        if self.analyses.inline_first:
+            self.analyses.start()
+        else:  # a long script: the first screen now, its analysis in the background once it is drawn
+            self.preview.empty_message = "analysing…"
+            self.timeline.show(None, None, "timeline", "analysing the script…")
+            self._progress = self.set_interval(0.5, self.update_status)
+            self.call_after_refresh(self.analyses.start)
         self.disk.start()
         self.recovery.start()
         self.update_status()
+
+    # -- keys, in order ----------------------------------------------------------------------------
+    async def on_event(self, event: events.Event) -> None:
+        """Keys (and pastes) for the editor's own screen are handled here, one at a time, in the
+        order they came: the action a key is bound to runs now, a typed character is inserted
+        now. (Textual hands a typed character to the text area's queue but runs a priority
+        binding at once, and any other binding only after the key has come back up from the
+        text area: in a burst from the terminal, ``x`` then ctrl+s saved the text without the
+        ``x``, and backspace then ``d`` deleted the ``d``.) Dialogs and anything else: as Textual does."""
+        if isinstance(event, (events.Key, events.Paste)) and not event.is_forwarded and self._keys_here():
+            if await self._in_order(event):
+                return
+        await super().on_event(event)
+
+    def _keys_here(self) -> bool:
+        return bool(self.screen_stack) and self.screen is self.screen_stack[0]
+
+    async def _in_order(self, event: events.Key | events.Paste) -> bool:
+        """Handle a key or a paste for the editor's screen at once; False: leave it to Textual."""
+        area = self.focused
+        if isinstance(event, events.Paste):
+            if not isinstance(area, ScriptArea):
+                return False
+            area.type_text(event.text, paste=True)
+            return True
+        self.app_focus = True
+        active = self.screen.active_bindings.get(event.key)
+        if active is not None and active.enabled:
+            return await self.run_action(active.binding.action, active.node)
+        if isinstance(area, ScriptArea) and (event.is_printable or event.key == "enter"):
+            area.type_text("\n" if event.key == "enter" else event.character or "")
+            return True
+        return False
 
     def on_resize(self) -> None:
         self._fit()
@@ -170,11 +214,30 @@ class EditorApp(App):
         self.update_status()
         self.analyses.schedule()
 
+    def on_background_analysis(self, event: BackgroundAnalysis) -> None:
+        self.analyses.finished(event)
+
+    def on_analysis_failed(self, event: AnalysisFailed) -> None:
+        self.analyses.finished(event)
+        if self.live:
+            self.say(event.text, "error")
+
+    def ready_analysis(self) -> Analysis | None:
+        """The analysis of the text as it is now, for an action; None (and a message saying so)
+        while a long script's first analysis is still running."""
+        found = self.analyses.now()
+        if found is None:
+            self.say(f"still analysing the script ({self.analyses.progress:.0%}); try again in a moment")
+        return found
+
     def on_analysis_ready(self, event: AnalysisReady) -> None:
         if event.version != self.doc.version or not self.live:
             return  # a newer change is on its way, or the editor is closing
         self.area.set_diagnostics({line - 1: found for line, found in event.analysis.by_line.items() if line > 0})
         self.shown_version = event.version
+        if self._progress is not None:
+            self._progress.stop()
+            self._progress = None
         self.update_status()
         self.update_cursor_info(force=True)
 
@@ -184,7 +247,9 @@ class EditorApp(App):
         if len(name) > 32:  # keep room for the rest of the line
             name = "…/" + self.script.path.name
         parts = [name + (" [+]" if self.doc.modified else "") + (" (new)" if self.script.is_new else "")]
-        if a is not None:
+        if a is None and not self.analyses.inline_first:
+            parts.append(f"analysing… {self.analyses.progress:.0%}")
+        elif a is not None:
             parts.append(summary(a.diagnostics) if a.diagnostics else "ok")
             if self.current is not None and a.utterances:
                 parts.append(f"utt {self.current.index + 1}/{len(a.utterances)}")
@@ -281,7 +346,10 @@ class EditorApp(App):
 
     def action_move_pose(self, step: int) -> None:
         cursor = self.area.cursor_location
-        info = self.analyses.now().utterance_at(cursor[0] + 1)
+        a = self.ready_analysis()
+        if a is None:
+            return
+        info = a.utterance_at(cursor[0] + 1)
         self.apply_action(lambda: edits.move_pose(self.doc, cursor, step, info.word_spans() if info else []))
 
     def insert_pose(self, tag: str | None) -> None:
@@ -289,14 +357,18 @@ class EditorApp(App):
             self.apply_action(lambda: edits.insert_pose(self.doc, self.area.cursor_location, tag))
 
     def action_library(self) -> None:
-        a = self.analyses.now()
+        a = self.ready_analysis()
+        if a is None:
+            return
         if a.library is None or not len(a.library):
             self.say("the motion library is empty", "warning")
             return
         self.push_screen(LibraryScreen(a.library), self.insert_pose)
 
     def action_style(self) -> None:
-        a = self.analyses.now()
+        a = self.ready_analysis()
+        if a is None:
+            return
         start, end = self.area.selection
         try:
             target = edits.style_target(self.doc, start, end)
@@ -315,10 +387,14 @@ class EditorApp(App):
         self.apply_action(lambda: edits.apply_style(self.doc, start, end, values=values, preset=preset))
 
     # -- problems and navigation ------------------------------------------------------------------
-    def problems(self) -> list[Diagnostic]:
+    def problems(self) -> list[Diagnostic] | None:
         """Every problem: the live analysis's, then those the last failed job reported (real
-        speech timing finds some the estimate cannot), without repeats."""
-        found = list(self.analyses.now().diagnostics)
+        speech timing finds some the estimate cannot), without repeats; None (and a message)
+        while the first analysis is running."""
+        a = self.ready_analysis()
+        if a is None:
+            return None
+        found = list(a.diagnostics)
         seen = {(d.line, d.col, d.message) for d in found}
         stale = self.job_text != self.doc.text  # their fixes were made for another text
         return found + [dataclasses.replace(d, fixes=()) if stale else d
@@ -331,7 +407,9 @@ class EditorApp(App):
                 if answer.fix is not None:
                     self.apply_action(lambda: edits.apply_fix(self.doc, answer.fix))
 
-        self.push_screen(ProblemsScreen(self.problems()), picked)
+        found = self.problems()
+        if found is not None:
+            self.push_screen(ProblemsScreen(found), picked)
 
     def goto(self, d: Diagnostic) -> None:
         if d.file == str(self.script.path) and d.line > 0:
@@ -341,7 +419,10 @@ class EditorApp(App):
             self.say(f"{d.file}: {d.message}" if d.file != str(self.script.path) else d.message)
 
     def action_next_problem(self) -> None:
-        mine = [d for d in self.problems() if d.file == str(self.script.path) and d.line > 0]
+        found = self.problems()
+        if found is None:
+            return
+        mine = [d for d in found if d.file == str(self.script.path) and d.line > 0]
         if not mine:
             self.say("no problems")
             return
@@ -352,7 +433,10 @@ class EditorApp(App):
     def action_quick_fix(self) -> None:
         """Apply the first suggested fix of the problem at the cursor (else on its line)."""
         row, col = self.area.cursor_location
-        fixable = [d for d in self.analyses.now().at(row + 1, col + 1) if d.fixes]
+        a = self.ready_analysis()
+        if a is None:
+            return
+        fixable = [d for d in a.at(row + 1, col + 1) if d.fixes]
         if not fixable:
             self.say("no suggested fix here (F2 lists every problem and its fixes)")
             return
@@ -401,6 +485,7 @@ class EditorApp(App):
         self.files.quit()
 
     def on_unmount(self) -> None:
+        self.analyses.close()
         self.jobs.shutdown()
 
     # -- jobs (shown by JobFlow) ------------------------------------------------------------------

@@ -13,6 +13,9 @@ Customised through TextArea's public API only (this class is the one place that 
   (:mod:`sgt_tui.editor.highlight`) and the diagnostics' underlines;
 - :meth:`render_line` (the Line API): the ``E``/``W`` mark in the gutter;
 - :meth:`edit`: every change goes to the document first; ``history`` records nothing;
+- :meth:`type_text`: what a key or a paste types, inserted by the application at the moment it
+  handles the key (:meth:`sgt_tui.app.main.EditorApp.on_event` keeps keys in order), as the
+  text area's own key handler would (over the selection, the cursor after it);
 - ``get_cursor_line_start_location`` / ``get_cursor_line_end_location``: home and end go to
   the start and end of the script line, also on a line wrapped over several rows;
 - ``notify_style_update`` drops the rendered lines when the diagnostics change;
@@ -57,12 +60,15 @@ class _NoHistory(EditHistory):
         return None
 
 
+#: A script longer than this (lines) always has a vertical scrollbar (no terminal is taller).
+LONG_SCRIPT_LINES = 1000
+
+
 class ScriptArea(TextArea):
     """A TextArea bound to a :class:`Document` (the document is the source of truth)."""
 
-    # Priority: a moving key takes effect before the next typed character is inserted (a
-    # non-priority binding runs only once the key has bubbled up to the app, and a character
-    # typed right after it can get there first on a busy machine).
+    # Home and end go to the script line's ends (not the wrapped row's); priority so that they
+    # win over the text area's own bindings of the same keys.
     BINDINGS = [
         Binding("ctrl+home", "cursor_to('start')", "start of the script", show=False, priority=True),
         Binding("ctrl+end", "cursor_to('end')", "end of the script", show=False, priority=True),
@@ -71,8 +77,13 @@ class ScriptArea(TextArea):
     ]
 
     def __init__(self, document: Document, **kw) -> None:
-        super().__init__(document.text, soft_wrap=True, show_line_numbers=True, tab_behavior="focus",
-                         theme="css", **kw)
+        # Built empty and given the text once (load_text): TextArea's constructor builds and wraps
+        # its text several times, seconds for a 1 MB script.
+        super().__init__("", soft_wrap=True, show_line_numbers=True, tab_behavior="focus", theme="css", **kw)
+        self.load_text(document.text)
+        if len(document.lines) > LONG_SCRIPT_LINES:
+            # Always a scrollbar: it appearing after the first layout would wrap the text again.
+            self.styles.overflow_y = "scroll"
         self.core = document
         self.history = _NoHistory(max_checkpoints=1, checkpoint_timer=2.0, checkpoint_max_characters=100)
         self._mirroring = False
@@ -143,6 +154,18 @@ class ScriptArea(TextArea):
         top, bottom = sorted((edit.from_location, edit.to_location))
         self.core.replace(top, bottom, text, cursor=self.cursor_location)
         return super().edit(edit)
+
+    def type_text(self, text: str, paste: bool = False) -> None:
+        """Insert what a key typed (or a paste) over the selection, as the text area's key
+        handler would; the cursor ends after it and stays visible while typing."""
+        if self.read_only or not text:
+            return
+        if self.cursor_blink:  # restart the blink: the cursor shows while typing
+            self.cursor_blink = False
+            self.cursor_blink = True
+        result = self.replace(text, *self.selection, maintain_selection_offset=False)
+        if paste:
+            self.move_cursor(result.end_location)
 
     def mirror(self, replacements, cursor) -> None:
         """Show replacements the document already made (undo, redo)."""

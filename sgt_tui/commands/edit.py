@@ -30,13 +30,10 @@ def run(args) -> int:
     import signal
     from pathlib import Path
 
-    from sgt_tui.editor.files import FileError, NotAFile, ScriptFile
-    from sgt_tui.errors import UsageError
+    from sgt_tui.editor.files import FileError, ScriptFile
 
-    try:
+    try:  # a folder, a FIFO, a device (/dev/zero), a file over the size limit, not UTF-8: one line
         script = ScriptFile.open(args.file)
-    except NotAFile as exc:  # a folder, a device, a FIFO: the wrong kind of path on the command line
-        raise UsageError(str(exc)) from None
     except FileError as exc:
         print(f"sgt edit: error: {exc}", file=sys.stderr)
         return 1

@@ -127,6 +127,10 @@ def _digest(*parts: str) -> str:
     return h.hexdigest()
 
 
+class Stopped(Exception):
+    """An analysis given up half-way (:meth:`Analyser.run`'s ``stop`` said so)."""
+
+
 class Analyser:
     """Analyses successive versions of one script, reusing the chunks that did not change."""
 
@@ -135,10 +139,15 @@ class Analyser:
         self._chunks: dict[tuple, _Chunk] = {}
         self._headers: dict[str, object] = {}
         self.chunks_analysed = 0  # how many chunks the last run had to analyse (for tests)
-        # Two runs may overlap (one on a worker thread, one for an action): each reads the
-        # caches and replaces them whole at its end, so neither sees a half-updated cache.
+        self.progress = (0, 0)  # (utterances done, utterances) of the run in progress
+        # Two runs may overlap (one on a worker thread, one for an action). A run adds each chunk
+        # it analyses to the cache at once (so a run that is stopped keeps its work for the next:
+        # a long script's first analysis is never started over) and replaces the cache whole at
+        # its end with the chunks it used; a dict is never seen half-updated.
 
-    def run(self, text: str) -> Analysis:
+    def run(self, text: str, stop=None) -> Analysis:
+        """The analysis of ``text``. ``stop``: called between chunks; when it returns True the
+        run raises :class:`Stopped` (the chunks analysed so far stay cached)."""
         lines = text.split("\n")
         statements, _ = split_statements(text)
         utts = [s for s in statements if s.kind == "utterance"]
@@ -158,7 +167,9 @@ class Analyser:
             key = (kind, prefix_text if kind != "first" else "", "\n".join(body), lib_key)
             hit = cached.get(key) or used.get(key)
             if hit is None:
-                hit = self._analyse(kind, prefix, body, lib)
+                if stop is not None and stop():
+                    raise Stopped()
+                hit = cached[key] = self._analyse(kind, prefix, body, lib)
                 analysed[0] += 1
             used[key] = hit
             return hit
@@ -175,6 +186,7 @@ class Analyser:
             pending: list[str] = []  # directives between the previous utterance and this one
             owners = iter(statements)
             for k, stmt in enumerate(utts):
+                self.progress = (k, len(utts))
                 for s in owners:
                     if s is stmt:
                         break
@@ -202,6 +214,7 @@ class Analyser:
                 shift = prev_end + 1 - c.canonical_start
                 diags += [_moved(d, shift, c.canonical_start) for d in c.diagnostics]
         self._chunks, self.chunks_analysed = used, analysed[0]
+        self.progress = (len(utts), len(utts))
         diags.sort(key=sort_key)
         by_line: dict[int, list[Diagnostic]] = {}
         for d in diags:
@@ -233,9 +246,10 @@ class Analyser:
         return _Chunk(own, utt, plan, script.header, start, extra)
 
 
-def goto_line(answer: str, analysis: Analysis, line_count: int) -> int:
+def goto_line(answer: str, analysis: Analysis | None, line_count: int) -> int:
     """The 1-based line that ``answer`` names: ``12`` is line 12, ``u3`` the first line of
-    utterance 3 (counting from 1, as the status line). Raises ValueError with what is wrong."""
+    utterance 3 (counting from 1, as the status line; ``analysis`` None: not known yet).
+    Raises ValueError with what is wrong."""
     text = answer.strip().lower()
     utterance = text.startswith("u")
     number = text[1:].strip() if utterance else text
@@ -243,6 +257,8 @@ def goto_line(answer: str, analysis: Analysis, line_count: int) -> int:
         raise ValueError(f"'{answer}' is not a line number (12) or an utterance (u3)")
     n = int(number)
     if utterance:
+        if analysis is None:
+            raise ValueError("the script is still being analysed: its utterances are not known yet (a line number works)")
         if n > len(analysis.utterances):
             raise ValueError(f"there is no utterance {n}: the script has {len(analysis.utterances)}")
         return analysis.utterances[n - 1].line

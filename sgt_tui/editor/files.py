@@ -1,10 +1,14 @@
 """Opening and saving scripts: UTF-8 checks, line ends kept, atomic saves, changes on disk.
 
 A script that does not exist opens as a new, empty document (created on the first save).
-Saving goes through :func:`core.fileio.atomic_write`, so a reader (or a crash) sees the old
-file or the new one, never half of either. The file's state on disk when it was read or last
-saved is remembered (:class:`DiskState`); a save refuses to overwrite a file that someone else
-changed since (:class:`ChangedOnDisk`) unless told to.
+Scripts are read by :func:`core.reading.read_bytes`: only regular files (a FIFO, a device or a
+folder is refused by what it is, without blocking on it), at most :data:`core.reading.LIMITS`
+``["script"]`` bytes. Saving goes through :func:`core.fileio.atomic_write`, so a reader (or a
+crash) sees the old file or the new one, never half of either, after the checks of the output
+rule (:meth:`ScriptFile.check_writable`): a read-only file is refused (even as root), and so is
+anything that is not a regular file (a FIFO or a device is never written). The file's state on
+disk when it was read or last saved is remembered (:class:`DiskState`); a save refuses to
+overwrite a file that someone else changed since (:class:`ChangedOnDisk`) unless told to.
 """
 
 from __future__ import annotations
@@ -15,7 +19,8 @@ import stat
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.fileio import atomic_write
+from core.fileio import OutputError, atomic_write, check_output
+from core.reading import InputFileError, kind_of, read_bytes
 from dsl.lines import decode_source
 from sgt_tui.editor.document import Document
 
@@ -38,11 +43,7 @@ class TargetExists(FileError):
     """"Save as" would replace another file; the caller asks before overwriting it."""
 
 
-_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-          (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))
-
-
-def check_regular(path: Path) -> bool:
+def check_regular(path: Path, doing: str = "open") -> bool:
     """True when ``path`` is a regular file (through symlinks), False when it does not exist;
     raises :class:`NotAFile` for anything else, without opening it (a FIFO would block)."""
     try:
@@ -50,11 +51,26 @@ def check_regular(path: Path) -> bool:
     except (FileNotFoundError, NotADirectoryError):
         return False
     except OSError as exc:
-        raise FileError(f"cannot open {path}: {exc.strerror or exc}") from None
+        raise FileError(f"cannot {doing} {path}: {exc.strerror or exc}") from None
     if stat.S_ISREG(mode):
         return True
-    what = next((name for test, name in _KINDS if test(mode)), "not a regular file")
-    raise NotAFile(f"{path} is {what}, not a script file; give the path of a .sgt file")
+    link = f" (a link to {os.path.realpath(path)})" if path.is_symlink() else ""
+    raise NotAFile(f"cannot {doing} {path}: it is {kind_of(mode)}{link}, not a script file")
+
+
+def read_script(path: Path, doing: str = "read") -> bytes:
+    """The bytes of the script file ``path`` by the rules of :func:`core.reading.read_bytes`
+    (regular files only, never blocking on a FIFO; at most the script size limit); raises
+    :class:`FileError` (:class:`NotAFile` for a folder, a device, a FIFO) with one line."""
+    try:
+        return read_bytes(path, "script")
+    except IsADirectoryError:
+        raise NotAFile(f"cannot {doing} {path}: it is a folder, not a script file") from None
+    except InputFileError as exc:
+        cls = NotAFile if "not a file" in exc.reason else FileError
+        raise cls(f"cannot {doing} {path}: {exc.reason}") from None
+    except OSError as exc:
+        raise FileError(f"cannot {doing} {path}: {exc.strerror or exc}") from None
 
 
 @dataclass(frozen=True)
@@ -73,19 +89,26 @@ class DiskState:
 MISSING = DiskState(None, None, None)
 
 
-def disk_state(path: Path, previous: DiskState | None = None) -> DiskState:
-    """The file's state now; reuses ``previous``'s digest when mtime and size are unchanged."""
+def disk_state(path: Path, previous: DiskState | None = None, data: bytes | None = None) -> DiskState:
+    """The file's state now; reuses ``previous``'s digest when mtime and size are unchanged
+    (``data``: its bytes, when just read). Something that is not a regular file (a FIFO or a
+    device put where the script was) is never read: its digest names what it is."""
     try:
         st = path.stat()
     except (FileNotFoundError, NotADirectoryError):
         return MISSING
-    if previous is not None and previous.mtime_ns == st.st_mtime_ns and previous.size == st.st_size:
-        return previous
-    try:
-        digest = hashlib.sha256(path.read_bytes()).hexdigest()
     except OSError:
         return MISSING
-    return DiskState(st.st_mtime_ns, st.st_size, digest)
+    if not stat.S_ISREG(st.st_mode):
+        return DiskState(None, None, f"not a file: {kind_of(st.st_mode)}")
+    if previous is not None and previous.mtime_ns == st.st_mtime_ns and previous.size == st.st_size:
+        return previous
+    if data is None:
+        try:
+            data = read_bytes(path, "script")
+        except OSError:  # vanished, unreadable, too large: not what was read or saved
+            return DiskState(st.st_mtime_ns, st.st_size, "unreadable")
+    return DiskState(st.st_mtime_ns, st.st_size, hashlib.sha256(data).hexdigest())
 
 
 def _newline_of(text: str) -> str:
@@ -133,12 +156,9 @@ class ScriptFile:
                 what = "is not a folder" if path.parent.exists() else "does not exist"
                 raise FileError(f"cannot create {path}: {path.parent} {what}")
             return cls(path, Document(""))
-        try:
-            data = path.read_bytes()
-        except OSError as exc:
-            raise FileError(f"cannot read {path}: {exc.strerror or exc}") from None
+        data = read_script(path, "open")
         text, newline, bom = decode_script(data, path)
-        return cls(path, Document(text), newline, bom, disk_state(path))
+        return cls(path, Document(text), newline, bom, disk_state(path, data=data))
 
     @property
     def is_new(self) -> bool:
@@ -156,11 +176,7 @@ class ScriptFile:
 
     def read_disk_text(self) -> str:
         """The file's current text on disk (for reloading); raises FileError."""
-        try:
-            data = self.path.read_bytes()
-        except OSError as exc:
-            raise FileError(f"cannot read {self.path}: {exc.strerror or exc}") from None
-        return decode_script(data, self.path)[0]
+        return decode_script(read_script(self.path), self.path)[0]
 
     def reload(self) -> None:
         """Replace the document's text with the file's (one undoable step)."""
@@ -169,9 +185,25 @@ class ScriptFile:
         self.document.mark_saved()
         self.disk = disk_state(self.path)
 
+    def check_writable(self, path: Path | None = None) -> None:
+        """Raise :class:`FileError` unless ``path`` (default: the script's) can be saved to by
+        the output rule, writing nothing: a regular file that is not read-only (for anyone:
+        root too), or a new file in a folder that can be written. A FIFO, a device or a folder
+        raises :class:`NotAFile`: the editor never writes into one."""
+        path = self.path if path is None else path
+        check_regular(path, "save")
+        try:
+            check_output(path)
+        except OutputError as exc:  # said as the editor's other save failures are
+            text = str(exc)
+            raise FileError("cannot save " + text.removeprefix("cannot write ") if text.startswith("cannot write ")
+                            else text) from None
+
     def save(self, *, force: bool = False) -> None:
-        """Write atomically. Raises ChangedOnDisk when someone else changed the file (unless
-        ``force``), FileError when it cannot be written."""
+        """Write the document's text as it is now, atomically. Raises FileError (before anything
+        is written) when the file cannot be written by :meth:`check_writable`'s rule,
+        ChangedOnDisk when someone else changed the file (unless ``force``)."""
+        self.check_writable()
         if not force and self.changed_on_disk():
             now = disk_state(self.path)
             what = "deleted" if not now.exists else "changed"
@@ -179,6 +211,8 @@ class ScriptFile:
         text = self.document.text
         try:
             atomic_write(self.path, self.encoded(text))
+        except OutputError as exc:
+            raise FileError(str(exc)) from None
         except OSError as exc:
             raise FileError(f"cannot save {self.path}: {exc.strerror or exc}") from None
         self.document.mark_saved(text)
@@ -188,14 +222,16 @@ class ScriptFile:
     def save_as(self, path: Path | str, *, overwrite: bool = False) -> None:
         """Save to another path, which becomes this script's path (for a save that failed: a
         read-only folder, a full disk). Raises :class:`TargetExists` when a file is there
-        (unless ``overwrite``), :class:`NotAFile` for a folder or device, FileError when it
-        cannot be written."""
+        (unless ``overwrite``), :class:`NotAFile` for a folder, a device or a FIFO, FileError
+        when it cannot be written (a read-only file among them)."""
         path = Path(path).expanduser()
-        if check_regular(path) and not overwrite and path.resolve() != self.path.resolve():
-            raise TargetExists(f"{path} already exists")
+        exists = check_regular(path, "save as")
         if not path.parent.is_dir():
             what = "is not a folder" if path.parent.exists() else "does not exist"
             raise FileError(f"cannot save as {path}: {path.parent} {what}")
+        self.check_writable(path)  # a read-only file is refused before "replace it?" is asked
+        if exists and not overwrite and path.resolve() != self.path.resolve():
+            raise TargetExists(f"{path} already exists")
         old = self.path, self.disk
         self.path, self.disk = path, disk_state(path)
         try:
