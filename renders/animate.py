@@ -5,22 +5,27 @@ Frames are rendered one at a time with one :class:`~renders.mannequin.Mannequin`
 decorated (:mod:`renders.overlay`), mapped to one shared palette and streamed into a
 :class:`~renders.gifwriter.GifWriter`, so memory does not grow with the clip length.
 Every output is written with :func:`core.fileio.atomic_write`.
+
+Panels side by side are told apart by a label each (the speaker's name, or A/B for a
+comparison) and, given ``tints``, by the colour of the mannequin's body; the label's box is
+drawn in a dark shade of the same colour (:func:`label_color`).
 """
 
 from __future__ import annotations
 
 import io
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from core.fileio import atomic_write
 from core.hands import hand_positions
 from core.motion import MotionClip
-from core.skeleton import FPS
+from core.skeleton import FPS, seconds_to_frame
 from renders import overlay
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
-from renders.mannequin import Mannequin
+from renders.mannequin import BODY, DEFAULT_VIEW, Mannequin
 from renders.video import write_mp4
 
 DEFAULT_SIZE = (320, 320)
@@ -32,21 +37,50 @@ def _sample_frames(n_frames: int, k: int) -> list[int]:
     return sorted({min(n_frames - 1, int((i + 0.5) * n_frames / k)) for i in range(k)})
 
 
-class _Panel:
-    """One clip drawn into a width x height panel, with its overlays."""
+def label_color(tint) -> tuple[int, int, int]:
+    """The sRGB colour (0..255) of a label for a body in ``tint`` (linear RGB): the same hue,
+    dark enough for white text."""
+    c = np.clip(np.asarray(tint, np.float64) * 0.45, 0.0, 1.0)
+    srgb = np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
+    return tuple(int(round(255 * v)) for v in srgb)
 
-    def __init__(self, mannequin, clip: MotionClip, label: str | None) -> None:
+
+def draw_label(image, label: str, color) -> None:
+    """``label`` in white on a box of ``color`` in the top-left corner of PIL ``image`` (the
+    place and size of :func:`renders.overlay.draw_label`)."""
+    from PIL import ImageDraw
+
+    d = ImageDraw.Draw(image)
+    s = overlay.scale(*image.size)
+    f = overlay.font(max(8, round(12 * s)), bold=True)
+    pad = max(1, round(4 * s))
+    y = max(1, round(4 * s))
+    box = d.textbbox((pad * 2, y + pad), label, font=f, anchor="lt")
+    d.rectangle([box[0] - pad, y, box[2] + pad, box[3] + pad], fill=tuple(color))
+    d.text((pad * 2, y + pad), label, font=f, fill=overlay.WHITE, anchor="lt")
+
+
+class _Panel:
+    """One clip drawn into a width x height panel, from one view, in one tint, with its overlays."""
+
+    def __init__(self, mannequin, clip: MotionClip, label: str | None, *, view: str = DEFAULT_VIEW,
+                 tint=BODY) -> None:
         self.m = mannequin
         self.clip = clip
         self.label = label
+        self.view = view
+        self.tint = tuple(tint)
         self.hands = hand_positions(clip.positions, clip.hands)
 
     def image(self, frame: int, **kw):
         from PIL import Image
 
         f = min(frame, self.clip.n_frames - 1)
-        img = Image.fromarray(self.m.render(self.clip.positions[f], self.hands[f]))
-        return overlay.decorate(img, f, self.clip, label=self.label, **kw)
+        img = Image.fromarray(self.m.render(self.clip.positions[f], self.hands[f], view=self.view, tint=self.tint))
+        overlay.decorate(img, f, self.clip, **kw)
+        if self.label:
+            draw_label(img, self.label, label_color(self.tint))
+        return img
 
 
 def _compose(panels, frame: int):
@@ -64,17 +98,22 @@ def _compose(panels, frame: int):
     return out
 
 
-def _panels(m, clip, compare, others, labels) -> list[_Panel]:
+def _panels(m, clip, compare, others, labels, view, tints) -> list[_Panel]:
     clips = [clip] + ([compare] if compare is not None else []) + list(others)
     if labels is None and len(clips) > 1:
         labels = tuple("ABCDEFGHIJ"[i % 10] for i in range(len(clips)))
-    return [_Panel(m, c, labels[i] if labels else None) for i, c in enumerate(clips)]
+    tints = list(tints) if tints is not None else [BODY] * len(clips)
+    if len(tints) != len(clips):
+        raise ValueError(f"{len(tints)} tints for {len(clips)} panels")
+    return [_Panel(m, c, labels[i] if labels else None, view=view, tint=tints[i]) for i, c in enumerate(clips)]
 
 
 def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip | None = None,
-               labels: tuple[str, ...] | None = None, progress=None, mannequin=None, others=()) -> dict:
-    """Render ``clip`` (and, side by side, ``compare`` and ``others``, each with its label) to a
-    looping 15 fps GIF at ``path``.
+               labels: tuple[str, ...] | None = None, progress=None, mannequin=None, others=(),
+               view: str = DEFAULT_VIEW, tints=None) -> dict:
+    """Render ``clip`` (and, side by side, ``compare`` and ``others``, each with its label and,
+    with ``tints``, its body colour) to a looping 15 fps GIF at ``path``, seen from ``view``
+    (:data:`renders.mannequin.VIEWS`).
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform.
     """
@@ -82,14 +121,16 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
     own = mannequin is None
     m = mannequin or Mannequin(width, height)
     try:
-        panels = _panels(m, clip, compare, others, labels)
+        panels = _panels(m, clip, compare, others, labels, view, tints)
         n = max(p.clip.n_frames for p in panels)
-        samples = [_compose(panels, f) for f in _sample_frames(n, PALETTE_SAMPLES)]
-        palette, pimg = build_palette(samples, overlay.FIXED_COLORS)
-        writer = GifWriter(samples[0].width, samples[0].height, palette)
+        samples = {f: _compose(panels, f) for f in _sample_frames(n, PALETTE_SAMPLES)}  # kept: a few frames
+        palette, pimg = build_palette(samples.values(), overlay.FIXED_COLORS)
+        first = next(iter(samples.values()))
+        writer = GifWriter(first.width, first.height, palette)
         delays = frame_delays_cs(n)
         for f in range(n):
-            writer.add(quantize(_compose(panels, f), pimg), delays[f])
+            image = samples.pop(f) if f in samples else _compose(panels, f)
+            writer.add(quantize(image, pimg), delays[f])
             if progress:
                 progress(f + 1, n, "frames")
         data = writer.getvalue()
@@ -102,9 +143,11 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
 
 
 def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, audio=None,
-               sample_rate: int | None = None, size=DEFAULT_SIZE, progress=None, mannequin=None) -> dict:
-    """Render ``clips`` side by side (each with its label) to a 15 fps H.264 MP4 at ``path``,
-    with ``audio`` (mono, sample 0 with frame 0; :mod:`renders.audio_mix`) as its AAC track.
+               sample_rate: int | None = None, size=DEFAULT_SIZE, progress=None, mannequin=None,
+               view: str = DEFAULT_VIEW, tints=None) -> dict:
+    """Render ``clips`` side by side (each with its label and tint) to a 15 fps H.264 MP4 at
+    ``path``, seen from ``view``, with ``audio`` (mono, sample 0 with frame 0;
+    :mod:`renders.audio_mix`) as its AAC track.
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform, audio_s.
     """
@@ -112,7 +155,7 @@ def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None 
     own = mannequin is None
     m = mannequin or Mannequin(width, height)
     try:
-        panels = _panels(m, clips[0], None, clips[1:], labels)
+        panels = _panels(m, clips[0], None, clips[1:], labels, view, tints)
         n = max(p.clip.n_frames for p in panels)
         info = write_mp4(path, (np.asarray(_compose(panels, f)) for f in range(n)), audio=audio, sample_rate=sample_rate,
                          n_frames=n, progress=progress)
@@ -128,17 +171,8 @@ def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None 
 
 SHEET_COLUMNS = 4
 SHEET_FRAMES = 8
-
-
-def sheet_layout(width: int, height: int, n_samples: int) -> dict:
-    """Geometry of a contact sheet of ``n_samples`` cells of ``width`` x ``height``."""
-    s = overlay.scale(width, height)
-    cols = max(1, min(SHEET_COLUMNS, n_samples))
-    rows = math.ceil(n_samples / cols)
-    caption = max(18, round(40 * s))
-    header = max(16, round(30 * s))
-    return {"cols": cols, "rows": rows, "caption": caption, "header": header,
-            "size": (cols * width, header + rows * (height + caption))}
+#: What a sheet shows: every pose control's stroke frame, or frames evenly spaced.
+SHEET_MODES = ("strokes", "even")
 
 
 def sheet_frames(n_frames: int, n_samples: int = SHEET_FRAMES) -> list[int]:
@@ -147,50 +181,182 @@ def sheet_frames(n_frames: int, n_samples: int = SHEET_FRAMES) -> list[int]:
     return [min(n_frames - 1, int((i + 0.5) * n_frames / k)) for i in range(k)]
 
 
-def render_sheet(clip: MotionClip, path, *, size=DEFAULT_SIZE, n_samples: int = SHEET_FRAMES,
-                 mannequin=None) -> dict:
-    """A PNG contact sheet: frames sampled along ``clip`` with the spoken word under each."""
+def gesture_label(control) -> str:
+    """A pose control as the script writes it: ``point_right x2 flip``."""
+    o = control.options or {}
+    parts = [control.name]
+    if o.get("speed", 1) not in (1, None):
+        parts.append(f"x{o['speed']}")
+    if o.get("flip"):
+        parts.append("flip")
+    return " ".join(parts)
+
+
+def marked_word(words, frame: int) -> str | None:
+    """The word whose onset is nearest ``frame`` (a pose control's ``word_frame``; the later
+    word on a tie), or None without words."""
+    best = None
+    for w in words or ():
+        d = abs(seconds_to_frame(w.start) - frame)
+        if best is None or d <= best[0]:
+            best = (d, w.word)
+    return best[1] if best else None
+
+
+@dataclass
+class SheetPanel:
+    """One picture of a sheet: its row (``row``, the row's label), the clip frame it shows,
+    what it is captioned with (``lines``: text, centre (x, y), font size, bold, colour) and its
+    place ``box`` (x0, y0, x1, y1) on the sheet (the picture; the caption is under it)."""
+
+    row: int
+    label: str | None
+    frame: int
+    gesture: str | None
+    word: str | None
+    box: tuple[int, int, int, int]
+    lines: list
+
+
+def _sheet_items(clip: MotionClip, at: str, n_samples: int):
+    """(frame, gesture, word, caption lines as (text, bold, dim)) of the pictures of one row, and a
+    note for its band."""
+    strokes = sorted((c for c in clip.controls if c.kind == "pose"),
+                     key=lambda c: (c.stroke_frame if c.stroke_frame is not None else c.start_frame, c.line, c.col))
+    last = clip.n_frames - 1
+    if at == "strokes" and strokes:
+        items = []
+        for c in strokes:
+            if c.stroke_frame is not None:
+                f, where = c.stroke_frame, c.word_frame if c.word_frame is not None else c.stroke_frame
+            else:  # a gesture without a stroke keyframe: its middle
+                f = where = (c.start_frame + max(c.start_frame, c.end_frame - 1)) // 2
+            f = min(max(0, f), last)
+            word = marked_word(clip.words, where)
+            items.append((f, gesture_label(c), word, [(gesture_label(c), True, False),
+                                                      (f"“{word}”" if word else "(no word)", False, not word),
+                                                      (f"frame {f} · {f / FPS:.2f} s", False, True)]))
+        n = len(items)
+        return items, f"{n} gesture{'s' if n != 1 else ''}"
+    items = []
+    for f in sheet_frames(clip.n_frames, n_samples):
+        word = overlay.word_at(clip.words, (f + 0.5) / FPS)
+        playing = [gesture_label(c) for c in strokes if c.start_frame <= f < c.end_frame]
+        items.append((f, playing[0] if playing else None, word, [(word or "—", True, not word),
+                                                                 (", ".join(playing), False, False),
+                                                                 (f"frame {f} · {f / FPS:.2f} s", False, True)]))
+    note = f"{len(items)} evenly spaced frames"
+    if at == "strokes":
+        note = "no marked gestures: " + note
+    return items, note
+
+
+def sheet_layout(width: int, height: int, counts: list[int], columns: int = SHEET_COLUMNS) -> dict:
+    """Geometry of a contact sheet of pictures ``width`` x ``height``: rows of ``counts[i]``
+    pictures each (one row per speaker), wrapped at ``columns`` a line."""
+    s = overlay.scale(width, height)
+    cols = max(1, min(columns, max(counts, default=1)))
+    lines = [max(1, math.ceil(c / cols)) for c in counts]
+    title = max(16, round(30 * s))
+    band = max(14, round(26 * s))
+    pad = max(3, round(8 * s))
+    fonts = (max(9, round(16 * s)), max(8, round(14 * s)), max(8, round(12 * s)))
+    # The caption's three lines (gesture, word, frame), their centres spaced by their font sizes.
+    centres = [pad / 2 + 0.65 * fonts[0]]
+    for a, b in zip(fonts, fonts[1:]):
+        centres.append(centres[-1] + 0.6 * a + 0.75 * b)
+    caption = math.ceil(centres[-1] + 0.6 * fonts[-1] + pad / 2)
+    tops, y = [], title
+    for n in lines:
+        tops.append(y)
+        y += band + n * (height + caption)
+    return {"cols": cols, "lines": lines, "title": title, "band": band, "caption": caption, "row_tops": tops,
+            "size": (cols * width, y), "pad": pad, "fonts": fonts, "caption_lines": centres}
+
+
+def _fit(draw, text: str, font, width: float) -> str:
+    if draw.textlength(text, font=font) <= width:
+        return text
+    while len(text) > 1 and draw.textlength(text + "…", font=font) > width:
+        text = text[:-1]
+    return text + "…"
+
+
+def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, size=DEFAULT_SIZE,
+                 at: str = "strokes", view: str = DEFAULT_VIEW, tints=None, columns: int = SHEET_COLUMNS,
+                 n_samples: int = SHEET_FRAMES, title: str | None = None, mannequin=None) -> dict:
+    """A PNG contact sheet of ``clips`` (one row per clip: a speaker's track, or a take of a
+    comparison), each row under a band with its label and tint, wrapped at ``columns``
+    pictures a line. ``at="strokes"``: a picture at every pose control's stroke frame,
+    captioned with the gesture, the word it marks and the frame; a row without pose controls
+    falls back to ``n_samples`` evenly spaced frames, as ``at="even"`` does for every row
+    (captioned with the word spoken then and the gesture playing).
+
+    Returns frames (every picture's, row by row), panels (:class:`SheetPanel`), width,
+    height and platform.
+    """
     from PIL import Image, ImageDraw
 
+    if at not in SHEET_MODES:
+        raise ValueError(f"unknown sheet mode '{at}': use {' or '.join(SHEET_MODES)}")
+    clips = list(clips)
     width, height = size
-    frames = sheet_frames(clip.n_frames, n_samples)
-    lay = sheet_layout(width, height, len(frames))
+    tints = list(tints) if tints is not None else [BODY] * len(clips)
+    labels = list(labels) if labels else [c.speaker or "unnamed" for c in clips]
+    rows = [_sheet_items(c, at, n_samples) for c in clips]
+    lay = sheet_layout(width, height, [len(items) for items, _ in rows], columns)
     own = mannequin is None
     m = mannequin or Mannequin(width, height)
     try:
         sheet = Image.new("RGB", lay["size"], overlay.WHITE)
         d = ImageDraw.Draw(sheet)
-        s = overlay.scale(width, height)
-        title = clip.text or "(no text)"
-        if clip.speaker and clip.text:
-            title = f"{clip.speaker}: {clip.text}"
-        tf = overlay.font(max(9, round(15 * s)), bold=True)
-        max_w = lay["size"][0] - 2 * max(4, round(8 * s))
-        if d.textlength(title, font=tf) > max_w:
-            while len(title) > 1 and d.textlength(title + "…", font=tf) > max_w:
-                title = title[:-1]
-            title += "…"
-        d.text((max(4, round(8 * s)), lay["header"] / 2), title, font=tf, fill=overlay.INK, anchor="lm")
-        panel = _Panel(m, clip, None)
-        wf = overlay.font(max(9, round(17 * s)), bold=True)
-        sf = overlay.font(max(8, round(12 * s)))
-        for k, f in enumerate(frames):
-            r, c = divmod(k, lay["cols"])
-            x = c * width
-            y = lay["header"] + r * (height + lay["caption"])
-            sheet.paste(panel.image(f, word=False, legend=False), (x, y))
-            word = overlay.word_at(clip.words, (f + 0.5) / FPS)
-            cy = y + height
-            d.text((x + width / 2, cy + lay["caption"] * 0.38), word or "—", font=wf,
-                   fill=overlay.INK if word else overlay.SOFT_INK, anchor="mm")
-            d.text((x + width / 2, cy + lay["caption"] * 0.80), f"frame {f} · {f / FPS:.2f} s", font=sf,
-                   fill=overlay.SOFT_INK, anchor="mm")
-            if c:
-                d.line([(x, y), (x, cy + lay["caption"] - 1)], fill=overlay.TRACK, width=1)
+        pad, (big, mid, small) = lay["pad"], lay["fonts"]
+        if title is None:
+            title = " / ".join(c.text for c in clips if c.text) or "(no text)"
+        tf = overlay.font(big, bold=True)
+        d.text((pad, lay["title"] / 2), _fit(d, title, tf, lay["size"][0] - 2 * pad), font=tf, fill=overlay.INK,
+               anchor="lm")
+        panels: list[SheetPanel] = []
+        for r, (clip, (items, note)) in enumerate(zip(clips, rows)):
+            top = lay["row_tops"][r]
+            color = label_color(tints[r])
+            # The band: the label in white on the row's colour (as in the animation), then what the row shows.
+            bh = lay["band"]
+            d.rectangle([0, top, lay["size"][0] - 1, top + bh - 1], fill=overlay.TRACK)
+            nf = overlay.font(mid, bold=True)
+            x = pad
+            chip = d.textbbox((x + pad, top + bh / 2), labels[r], font=nf, anchor="lm")
+            d.rectangle([x, top + 2, chip[2] + pad, top + bh - 3], fill=color)
+            d.text((x + pad, top + bh / 2), labels[r], font=nf, fill=overlay.WHITE, anchor="lm")
+            x = chip[2] + 2 * pad
+            d.text((x, top + bh / 2), _fit(d, note, overlay.font(small), lay["size"][0] - x - pad),
+                   font=overlay.font(small), fill=overlay.SOFT_INK, anchor="lm")
+            panel = _Panel(m, clip, None, view=view, tint=tints[r])
+            for k, (f, gesture, word, caption) in enumerate(items):
+                line, c = divmod(k, lay["cols"])
+                x = c * width
+                y = top + bh + line * (height + lay["caption"])
+                sheet.paste(panel.image(f, word=False, legend=False), (x, y))
+                cy = y + height
+                placed = []
+                for i, (text, bold, dim) in enumerate(caption):
+                    if not text:
+                        continue
+                    size_px = (big, mid, small)[i]
+                    font = overlay.font(size_px, bold=bold)
+                    text = _fit(d, text, font, width - 2 * pad)
+                    centre = (x + width / 2, cy + lay["caption_lines"][i])
+                    fill = overlay.SOFT_INK if dim else overlay.INK
+                    d.text(centre, text, font=font, fill=fill, anchor="mm")
+                    placed.append((text, centre, size_px, bold, fill))
+                if c:
+                    d.line([(x, y), (x, cy + lay["caption"] - 1)], fill=overlay.TRACK, width=1)
+                panels.append(SheetPanel(r, labels[r], f, gesture, word, (x, y, x + width, y + height), placed))
         buf = io.BytesIO()
         sheet.save(buf, format="PNG", optimize=False)
         atomic_write(path, buf.getvalue())
-        return {"frames": frames, "width": sheet.width, "height": sheet.height, "platform": m.platform}
+        return {"frames": [p.frame for p in panels], "panels": panels, "width": sheet.width, "height": sheet.height,
+                "platform": m.platform}
     finally:
         if own:
             m.close()

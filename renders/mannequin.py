@@ -1,13 +1,29 @@
-"""An offscreen shaded mannequin: one pyrender scene, node poses updated per frame.
+"""An offscreen shaded mannequin: its parts built once as one mesh, posed on the CPU per frame.
 
-The meshes (trimesh primitives) are built once; :meth:`Mannequin.render` only moves the
-nodes. Hands are a palm (a flattened box) and the thumb and four fingers, three capsules each,
-placed on the hand joints of :mod:`core.hands` (drawn a little thicker than life so that a
-pointing index or a thumbs up reads at 240x240). The camera is fixed at a three-quarter view from the front-right of the character
-(who faces +z), so its right hand is on the left of the picture.
+The parts are trimesh primitives (capsules along the bones, spheres at the joints, a head with
+eyes and a nose); hands are a palm (a flattened box) and the thumb and four fingers, three
+capsules each, placed on the hand joints of :mod:`core.hands` (drawn a little thicker than
+life so that a pointing index or a thumbs up reads at 240x240). :meth:`Mannequin.render`
+computes every part's transform for a frame (batched numpy), moves the mesh's vertices and
+draws it in one call (:class:`renders.gl.MeshRenderer`).
+
+Views (:data:`VIEWS`): the camera circles the character (who faces +z) and the lights move
+with it, so every view is lit alike:
+
+- ``three-quarter`` (the default): from the front-right (the character's right hand is on the
+  left of the picture) and from above, so that depth shows as height: a hand pointing at the
+  listener drops down the picture, one pointing to the character's left stays level;
+- ``front``: facing the character at eye height (its right hand on your left; depth is lost);
+- ``side``: its right side, the character facing the right of the picture (depth is left-right);
+- ``top``: from straight above, its front down the picture (its right hand on your left, as from
+  the front).
+
+``tint`` colours the body (clothes) of one render, to tell speakers apart (:data:`TINTS`).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -16,20 +32,51 @@ from core.interrupts import interrupts_deferred
 from core.skeleton import BONE_LENGTHS
 from core.skeleton import JOINT_INDEX as J
 from renders import gl
-from renders.rotations import align_z, frame_from, transform
+from renders.rotations import frame_from, shortest_arcs, transform
 
 BACKGROUND = (236, 239, 243)
 BODY = (0.25, 0.36, 0.55)
 SKIN = (0.80, 0.62, 0.48)
 JOINT_COLOR = (0.17, 0.24, 0.37)
+EYE_COLOR = (0.15, 0.17, 0.2)
 
-#: Camera: looks at TARGET from AZIMUTH degrees off the character's front (towards its
-#: right, -x), slightly from above; vertical field of view in degrees.
+#: Body colours (linear RGB) that tell speakers apart, in speaker order: blue (the one
+#: speaker's colour), green, plum, teal, dark red, slate; none of them near the skin's hue.
+#: The joints are a darker shade.
+TINTS = ((0.25, 0.36, 0.55), (0.20, 0.42, 0.20), (0.40, 0.20, 0.48), (0.10, 0.40, 0.42),
+         (0.50, 0.12, 0.10), (0.30, 0.30, 0.32))
+_JOINT_SHADE = np.array(JOINT_COLOR) / np.array(BODY)
+
+#: Camera: looks at TARGET from DISTANCE, with a vertical field of view of YFOV degrees.
 TARGET = np.array([0.0, 1.39, 0.0])
-AZIMUTH = 30.0
-ELEVATION = 6.0
 DISTANCE = 2.95
 YFOV = 30.0
+
+
+@dataclass(frozen=True)
+class View:
+    """A camera position: ``azimuth`` degrees round from the character's front towards its
+    right (-x), ``elevation`` degrees above the horizontal."""
+
+    azimuth: float
+    elevation: float
+
+
+VIEWS = {
+    "three-quarter": View(32.0, 24.0),
+    "front": View(0.0, 6.0),
+    "side": View(90.0, 6.0),
+    "top": View(0.0, 90.0),
+}
+DEFAULT_VIEW = "three-quarter"
+
+#: Lights (direction towards the light, colour, intensity) as seen from the camera of
+#: LIGHTS_VIEW; other views turn them with the camera.
+_LIGHTS = (((-0.6, 0.9, 0.9), (1.0, 0.97, 0.92), 2.4),
+           ((0.9, 0.2, 0.7), (0.85, 0.9, 1.0), 0.9),
+           ((0.2, 0.6, -1.0), (1.0, 1.0, 1.0), 0.8))
+_LIGHTS_VIEW = View(30.0, 6.0)
+AMBIENT = (0.18, 0.18, 0.2)
 
 # (name, parent joint, child joint, radius): capsules drawn along bones.
 _LIMBS = (
@@ -51,21 +98,65 @@ _PALM_HALF_THICKNESS = 0.015
 _REST_HAND = local_hand_joints(HandTrack.rest(1).fingers[0, 0])
 
 
-def camera_pose() -> np.ndarray:
-    az = np.radians(AZIMUTH)
-    el = np.radians(ELEVATION)
+def speaker_tint(index: int) -> tuple[float, float, float]:
+    """The body colour of the ``index``-th speaker of a take (:data:`TINTS`, round again after six)."""
+    return TINTS[index % len(TINTS)]
+
+
+def camera_pose(view: str = DEFAULT_VIEW) -> np.ndarray:
+    """The camera's pose (4, 4) for ``view`` (a name of :data:`VIEWS`): it looks along its own -z."""
+    return _camera(VIEWS[view])
+
+
+def _camera(v: View) -> np.ndarray:
+    az, el = np.radians(v.azimuth), np.radians(v.elevation)
     # Front is +z; the character's right is -x.
-    eye = TARGET + DISTANCE * np.array([-np.sin(az) * np.cos(el), np.sin(el), np.cos(az) * np.cos(el)])
-    return transform(_look_frame(eye - TARGET), eye)  # the camera looks along its own -z
+    back = np.array([-np.sin(az) * np.cos(el), np.sin(el), np.cos(az) * np.cos(el)])
+    # Straight above, "up" in the picture is the character's back (its front is down the picture).
+    up = np.array([0.0, 1.0, 0.0]) if abs(back[1]) < 0.999 else np.array([np.sin(az), 0.0, -np.cos(az)])
+    return transform(_look_frame(back, up), TARGET + DISTANCE * back)
 
 
-def _look_frame(back: np.ndarray) -> np.ndarray:
-    """Rotation whose -z looks against ``back`` with +y as close to world up as possible."""
+def _look_frame(back: np.ndarray, up=np.array([0.0, 1.0, 0.0])) -> np.ndarray:
+    """Rotation whose -z looks against ``back`` with +y as close to ``up`` as possible."""
     z = back / np.linalg.norm(back)
-    x = np.cross(np.array([0.0, 1.0, 0.0]), z)
+    x = np.cross(up, z)
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     return np.stack([x, y, z], axis=1)
+
+
+def projection(width: int, height: int) -> np.ndarray:
+    """The perspective projection (4, 4) of a ``width`` x ``height`` picture (near 0.5 m, far 10 m)."""
+    t = np.tan(np.radians(YFOV) / 2)
+    n, f = 0.5, 10.0
+    p = np.zeros((4, 4))
+    p[0, 0] = 1.0 / (width / height * t)
+    p[1, 1] = 1.0 / t
+    p[2, 2] = (f + n) / (n - f)
+    p[2, 3] = 2 * f * n / (n - f)
+    p[3, 2] = -1.0
+    return p
+
+
+def project(points: np.ndarray, width: int, height: int, view: str = DEFAULT_VIEW) -> np.ndarray:
+    """Pixel coordinates (..., 2) (x right, y down) of world ``points`` (..., 3) in a
+    ``width`` x ``height`` render from ``view``."""
+    cam = camera_pose(view)
+    p = np.asarray(points, np.float64)
+    clip = np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1) @ (projection(width, height) @ np.linalg.inv(cam)).T
+    ndc = clip[..., :2] / clip[..., 3:4]
+    return np.stack([(ndc[..., 0] + 1) * width / 2, (1 - ndc[..., 1]) * height / 2], axis=-1)
+
+
+def _lights(v: View) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(direction the light shines along, linear radiance) in world coordinates for ``v``."""
+    turn = _camera(v)[:3, :3] @ _camera(_LIGHTS_VIEW)[:3, :3].T
+    out = []
+    for towards, color, intensity in _LIGHTS:
+        d = turn @ np.asarray(towards, np.float64)
+        out.append((-d / np.linalg.norm(d), np.asarray(color) * intensity))
+    return out
 
 
 class Mannequin:
@@ -73,90 +164,108 @@ class Mannequin:
 
     def __init__(self, width: int = 320, height: int = 320) -> None:
         self.width, self.height = int(width), int(height)
-        self.pyrender, self.renderer, self.platform = gl.start(self.width, self.height)
         # trimesh computes the meshes' vertex normals inside ``except BaseException`` (it falls
         # back from scipy.sparse on any error): a Ctrl-C landing there was logged as a warning and
-        # the render ran on to the end (seen in CI). Hold it while the scene is built.
-        try:
-            with interrupts_deferred():
-                self._build_scene()
-        except BaseException:
-            self.close()  # the GL context is released even when the build is interrupted
-            raise
+        # the render ran on to the end (seen in CI). Hold it while the mesh is built.
+        with interrupts_deferred():
+            indices = self._build_mesh()
+        self.renderer = gl.MeshRenderer(self.width, self.height, vertices=self._local, normals=self._local_normals,
+                                        part=self._part_of_vertex, indices=indices, n_lights=len(_LIGHTS))
+        self.platform = self.renderer.platform
+        self._projection = projection(self.width, self.height)
+        self._cameras: dict[str, tuple] = {}
+        self.scene: gl.Frame | None = None  # the last frame drawn
 
-    def _build_scene(self) -> None:
+    # -- the mesh --------------------------------------------------------------------------
+
+    def _build_mesh(self):
         import trimesh
 
-        pr = self.pyrender
-        self.scene = pr.Scene(bg_color=[c / 255 for c in BACKGROUND] + [1.0], ambient_light=[0.18, 0.18, 0.2])
-        self._nodes: dict[str, object] = {}
+        parts: list[tuple[str, object, tuple, float]] = []  # (name, mesh, colour, roughness)
 
-        def mat(rgb, rough=0.75):
-            return pr.MetallicRoughnessMaterial(baseColorFactor=list(rgb) + [1.0], metallicFactor=0.0,
-                                                roughnessFactor=rough)
-
-        def add(name, tm, material):
-            mesh = pr.Mesh.from_trimesh(tm, material=material, smooth=True)
-            self._nodes[name] = self.scene.add(mesh, name=name)
+        def add(name, tm, rgb, rough=0.75):
+            parts.append((name, tm, rgb, rough))
 
         # Torso: a capsule widened across the shoulders, built along +y, about 0.42 m tall.
+        z_to_y = transform(np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]), [0, 0, 0])
         torso = trimesh.creation.capsule(height=0.30, radius=0.1, count=[16, 16])
-        torso.apply_transform(transform(np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]), [0, 0, 0]))  # z -> y
+        torso.apply_transform(z_to_y)
         torso.apply_scale([1.55, 1.0, 0.95])
-        add("torso", torso, mat(BODY))
+        add("torso", torso, "body")
         hips = trimesh.creation.capsule(height=0.06, radius=0.1, count=[16, 16])
-        hips.apply_transform(transform(np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]), [0, 0, 0]))
+        hips.apply_transform(z_to_y)
         hips.apply_scale([1.45, 1.0, 0.95])
-        add("hips", hips, mat(JOINT_COLOR))
-        neck = trimesh.creation.capsule(height=0.07, radius=0.042, count=[12, 12])
-        add("neckpiece", neck, mat(SKIN))
+        add("hips", hips, "joint")
+        add("neckpiece", trimesh.creation.capsule(height=0.07, radius=0.042, count=[12, 12]), SKIN)
         head = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
         head.apply_scale([0.092, 0.112, 0.102])
-        add("head", head, mat(SKIN, 0.6))
-        nose = trimesh.creation.cone(radius=0.022, height=0.05, sections=12)  # along +z
-        add("nose", nose, mat(SKIN, 0.6))
+        add("head", head, SKIN, 0.6)
+        add("nose", trimesh.creation.cone(radius=0.022, height=0.05, sections=12), SKIN, 0.6)  # along +z
         for eye in ("eye_l", "eye_r"):
-            add(eye, trimesh.creation.icosphere(subdivisions=1, radius=0.014), mat((0.15, 0.17, 0.2), 0.4))
+            add(eye, trimesh.creation.icosphere(subdivisions=1, radius=0.014), EYE_COLOR, 0.4)
         for name, a, b, r in _LIMBS:
-            cap = trimesh.creation.capsule(height=BONE_LENGTHS[b], radius=r, count=[12, 12])
-            add(name, cap, mat(BODY))
+            add(name, trimesh.creation.capsule(height=BONE_LENGTHS[b], radius=r, count=[12, 12]), "body")
         for j, r in _BALLS:
-            add("ball_" + j, trimesh.creation.icosphere(subdivisions=2, radius=r), mat(JOINT_COLOR))
-        self._segments = []  # (node name, parent hand joint index or -1 for the wrist, child index)
+            add("ball_" + j, trimesh.creation.icosphere(subdivisions=2, radius=r), "joint")
+        self._segments = []  # (side index, parent hand joint, child hand joint), in part order
         for side in SIDES:
-            palm = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
-            add(side + "_palm", palm, mat(SKIN, 0.6))
-            wrist = trimesh.creation.icosphere(subdivisions=2, radius=0.026)
-            add(side + "_wristball", wrist, mat(SKIN, 0.6))
+            add(side + "_palm", trimesh.creation.box(extents=[1.0, 1.0, 1.0]), SKIN, 0.6)
+            add(side + "_wristball", trimesh.creation.icosphere(subdivisions=2, radius=0.026), SKIN, 0.6)
+        for side in SIDES:
             for d, digit in enumerate(DIGITS):
                 for k in range(3):
                     a, b = 4 * d + k, 4 * d + k + 1
                     length = float(np.linalg.norm(_REST_HAND[b] - _REST_HAND[a]))
                     cap = trimesh.creation.capsule(height=length, radius=_FINGER_RADIUS[digit], count=[8, 8])
-                    name = f"{side}_{HAND_JOINTS[b]}"
-                    add(name, cap, mat(SKIN, 0.6))
-                    self._segments.append((name, SIDES.index(side), a, b))
+                    add(f"{side}_{HAND_JOINTS[b]}", cap, SKIN, 0.6)
+                    self._segments.append((SIDES.index(side), a, b))
 
-        cam = pr.PerspectiveCamera(yfov=np.radians(YFOV), aspectRatio=self.width / self.height, znear=0.5, zfar=10.0)
-        self.scene.add(cam, pose=camera_pose())
-        key = pr.DirectionalLight(color=[1.0, 0.97, 0.92], intensity=2.4)
-        fill = pr.DirectionalLight(color=[0.85, 0.9, 1.0], intensity=0.9)
-        rim = pr.DirectionalLight(color=[1.0, 1.0, 1.0], intensity=0.8)
-        self.scene.add(key, pose=transform(_look_frame(np.array([-0.6, 0.9, 0.9])), [0, 0, 0]))
-        self.scene.add(fill, pose=transform(_look_frame(np.array([0.9, 0.2, 0.7])), [0, 0, 0]))
-        self.scene.add(rim, pose=transform(_look_frame(np.array([0.2, 0.6, -1.0])), [0, 0, 0]))
+        self._names = [p[0] for p in parts]
+        self._index = {name: i for i, name in enumerate(self._names)}
+        counts = [len(tm.vertices) for _, tm, _, _ in parts]
+        self._part_of_vertex = np.repeat(np.arange(len(parts)), counts)
+        self._local = np.concatenate([np.asarray(tm.vertices, np.float64) for _, tm, _, _ in parts])
+        self._local_normals = np.concatenate([np.asarray(tm.vertex_normals, np.float64) for _, tm, _, _ in parts])
+        offsets = np.cumsum([0] + counts[:-1])
+        indices = np.concatenate([np.asarray(tm.faces, np.int64) + o for (_, tm, _, _), o in zip(parts, offsets)])
+        self._kinds = np.array([{"body": 1, "joint": 2}.get(c, 0) if isinstance(c, str) else 0
+                                for _, _, c, _ in parts])[self._part_of_vertex]
+        self._fixed_colors = np.array([(0, 0, 0) if isinstance(c, str) else c for _, _, c, _ in parts])[self._part_of_vertex]
+        self._roughness = np.array([r for *_, r in parts])[self._part_of_vertex]
+        self._materials: dict[tuple, np.ndarray] = {}
+        self._matrices = np.tile(np.eye(4), (len(parts), 1, 1))
+        # Batched parts: limbs and finger segments are capsules along +z between two points.
+        self._limb_rows = np.array([self._index[n] for n, *_ in _LIMBS])
+        self._limb_joints = np.array([(J[a], J[b]) for _, a, b, _ in _LIMBS])
+        self._ball_rows = np.array([self._index["ball_" + j] for j, _ in _BALLS])
+        self._ball_joints = np.array([J[j] for j, _ in _BALLS])
+        first = self._index[SIDES[0] + "_" + HAND_JOINTS[1]]
+        self._segment_rows = np.arange(first, first + len(self._segments))
+        self._segment_index = np.array(self._segments)
+        return indices
+
+    def materials(self, tint=BODY) -> np.ndarray:
+        """Per-vertex material (V, 4: linear RGB, roughness) with the body in ``tint``."""
+        key = tuple(float(c) for c in tint)
+        if key not in self._materials:
+            body = np.asarray(key)
+            colors = np.where(self._kinds[:, None] == 1, body,
+                              np.where(self._kinds[:, None] == 2, body * _JOINT_SHADE, self._fixed_colors))
+            self._materials[key] = np.concatenate([colors, self._roughness[:, None]], axis=1).astype(np.float32)
+        return self._materials[key]
 
     # -- per frame ---------------------------------------------------------------------
 
     def _set(self, name: str, matrix: np.ndarray) -> None:
-        self.scene.set_pose(self._nodes[name], matrix)
+        self._matrices[self._index[name]] = matrix
 
     def pose(self, positions: np.ndarray, hands: np.ndarray | None = None) -> None:
-        """Move the nodes to joint ``positions`` (10, 3) in metres and the hands to hand
+        """Move the parts to joint ``positions`` (10, 3) in metres and the hands to hand
         joints ``hands`` (2, 20, 3) (:func:`core.hands.hand_positions`; relaxed when None)."""
         p = np.asarray(positions, dtype=np.float64)
         if hands is None:
             hands = hand_positions(p[None], HandTrack.rest(1))[0]
+        hands = np.asarray(hands, dtype=np.float64)
         spine, neck, nose, top = p[J["spine"]], p[J["neck"]], p[J["nose"]], p[J["head_top"]]
         ls, rs = p[J["left_shoulder"]], p[J["right_shoulder"]]
         # Torso frame: y along the spine, x across the shoulders (to the character's left).
@@ -167,26 +276,30 @@ class Mannequin:
         self._set("torso", transform(torso, spine + 0.48 * up))
         self._set("hips", transform(torso, spine - 0.02 * up / max(np.linalg.norm(up), 1e-9)))
         # Head frame: y from the neck to the head top, z towards the nose.
-        head_up = top - neck
-        head = frame_from(head_up, nose - neck)
+        head = frame_from(top - neck, nose - neck)
         hu = head[:, 1]
         hz = head[:, 2]
         center = top - 0.105 * hu - 0.01 * hz
         self._set("head", transform(head, center))
         neck_dir = center - neck
-        self._set("neckpiece", transform(align_z(neck_dir), neck + 0.45 * neck_dir))
+        self._set("neckpiece", transform(shortest_arcs(np.array([0.0, 0.0, 1.0]), neck_dir), neck + 0.45 * neck_dir))
         self._set("nose", transform(head, center + 0.092 * hz - 0.012 * hu))
         for eye, sx in (("eye_l", 1.0), ("eye_r", -1.0)):
-            pos = center + head @ np.array([0.036 * sx, 0.02, 0.084])
-            self._set(eye, transform(head, pos))
-        for name, a, b, _ in _LIMBS:
-            pa, pb = p[J[a]], p[J[b]]
-            self._set(name, transform(align_z(pb - pa), 0.5 * (pa + pb)))
-        for j, _ in _BALLS:
-            self._set("ball_" + j, transform(np.eye(3), p[J[j]]))
-        self._pose_hands(p, np.asarray(hands, dtype=np.float64))
+            self._set(eye, transform(head, center + head @ np.array([0.036 * sx, 0.02, 0.084])))
+        m = self._matrices
+        # Capsules between two points: the limbs, then the finger segments.
+        pa, pb = p[self._limb_joints[:, 0]], p[self._limb_joints[:, 1]]
+        s, a, b = self._segment_index[:, 0], self._segment_index[:, 1], self._segment_index[:, 2]
+        pa = np.concatenate([pa, hands[s, a]])
+        pb = np.concatenate([pb, hands[s, b]])
+        rows = np.concatenate([self._limb_rows, self._segment_rows])
+        m[rows, :3, :3] = shortest_arcs(np.array([0.0, 0.0, 1.0]), pb - pa)
+        m[rows, :3, 3] = 0.5 * (pa + pb)
+        m[self._ball_rows, :3, :3] = np.eye(3)
+        m[self._ball_rows, :3, 3] = p[self._ball_joints]
+        self._pose_palms(p, hands)
 
-    def _pose_hands(self, p: np.ndarray, hands: np.ndarray) -> None:
+    def _pose_palms(self, p: np.ndarray, hands: np.ndarray) -> None:
         index, little = HAND_JOINTS.index("index_mcp"), HAND_JOINTS.index("little_mcp")
         for s, side in enumerate(SIDES):
             wrist = p[J[side + "_wrist"]]
@@ -197,31 +310,34 @@ class Mannequin:
             frame = frame_from(along, np.cross(across, along))  # y to the knuckles, z out of one face
             width = float(np.linalg.norm(across)) + 0.022
             length = float(np.linalg.norm(along))
-            m = transform(frame @ np.diag([width, length, 2 * _PALM_HALF_THICKNESS]), wrist + 0.5 * along)
-            self._set(side + "_palm", m)
+            self._set(side + "_palm", transform(frame @ np.diag([width, length, 2 * _PALM_HALF_THICKNESS]),
+                                                wrist + 0.5 * along))
             self._set(side + "_wristball", transform(np.eye(3), wrist))
-        for name, s, a, b in self._segments:
-            pa = hands[s, a]
-            pb = hands[s, b]
-            self._set(name, transform(align_z(pb - pa), 0.5 * (pa + pb)))
 
-    def render(self, positions: np.ndarray, hands: np.ndarray | None = None) -> np.ndarray:
-        """An image of joint ``positions`` (10, 3) and hand joints ``hands`` (2, 20, 3)."""
+    def render(self, positions: np.ndarray, hands: np.ndarray | None = None, *, view: str = DEFAULT_VIEW,
+               tint=BODY) -> np.ndarray:
+        """An image of joint ``positions`` (10, 3) and hand joints ``hands`` (2, 20, 3), seen
+        from ``view`` (:data:`VIEWS`), the body in ``tint`` (linear RGB)."""
+        if view not in VIEWS:
+            raise ValueError(f"unknown view '{view}': use {', '.join(VIEWS)}")
         self.pose(positions, hands)
+        if view not in self._cameras:
+            cam = camera_pose(view)
+            self._cameras[view] = (self._projection @ np.linalg.inv(cam), cam[:3, 3], _lights(VIEWS[view]))
+        vp, eye, lights = self._cameras[view]
+        self.scene = gl.Frame(self._matrices, self.materials(tint), vp, eye, lights, AMBIENT, BACKGROUND)
         # PyOpenGL drops exceptions raised inside its argument conversion, KeyboardInterrupt
         # included (a Ctrl-C landing there was lost and the render ran on): hold it for the frame.
         with interrupts_deferred():
-            color, _ = self.renderer.render(self.scene)
-        return np.ascontiguousarray(color[:, :, :3])
+            color = self.renderer.render(self.scene)
+        return color
 
     def close(self) -> None:
-        try:
-            self.renderer.delete()
-        except Exception:  # noqa: BLE001 - releasing the GL context is best effort: a broken GL stack raises
-            pass  # anything here (TypeError from PyOpenGL's EGL import on this machine), and it must not hide the render's own result or error
+        self.renderer.delete()
 
     def __enter__(self):
         return self
 
     def __exit__(self, *exc):
         self.close()
+

@@ -17,23 +17,6 @@ def _perpendicular(a: np.ndarray) -> np.ndarray:
     return _unit(np.cross(a, axis))
 
 
-def shortest_arc(a, b) -> np.ndarray:
-    """The 3x3 rotation of least angle that turns direction ``a`` into direction ``b``.
-
-    For opposite directions (a 180 degree turn, where the axis is not unique) the axis is a
-    fixed perpendicular of ``a``, so the result is deterministic.
-    """
-    a = _unit(a)
-    b = _unit(b)
-    v = np.cross(a, b)
-    c = float(np.dot(a, b))
-    if c < -1.0 + 1e-9:
-        axis = _perpendicular(a)
-        return 2.0 * np.outer(axis, axis) - np.eye(3)
-    vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    return np.eye(3) + vx + vx @ vx * (1.0 / (1.0 + c))
-
-
 def frame_from(up, forward_hint) -> np.ndarray:
     """A rotation whose columns are (x, y, z) with y along ``up`` and z towards ``forward_hint``."""
     y = _unit(up)
@@ -43,11 +26,6 @@ def frame_from(up, forward_hint) -> np.ndarray:
     z = _unit(z)
     x = np.cross(y, z)
     return np.stack([x, y, z], axis=1)
-
-
-def align_z(direction) -> np.ndarray:
-    """A rotation that turns +z into ``direction`` (for meshes built along +z)."""
-    return shortest_arc(np.array([0.0, 0.0, 1.0]), direction)
 
 
 def transform(rotation: np.ndarray, translation) -> np.ndarray:
@@ -60,10 +38,10 @@ def transform(rotation: np.ndarray, translation) -> np.ndarray:
 # -- batched helpers (arrays of directions / rotations, leading axes broadcast) -------------------
 
 def shortest_arcs(a, b) -> np.ndarray:
-    """Batched :func:`shortest_arc`: directions (..., 3) -> rotations (..., 3, 3).
+    """The rotations of least angle that turn directions ``a`` into ``b``: (..., 3) -> (..., 3, 3).
 
-    Same formula and the same fixed perpendicular for opposite directions, so one frame gives
-    the same matrix as the scalar version."""
+    For opposite directions (a 180 degree turn, where the axis is not unique) the axis is a
+    fixed perpendicular of ``a``, so the result is deterministic."""
     a = _unit(np.asarray(a, dtype=np.float64))
     b = _unit(np.asarray(b, dtype=np.float64))
     a, b = np.broadcast_arrays(a, b)

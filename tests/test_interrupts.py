@@ -105,7 +105,12 @@ def test_ctrl_c_at_any_moment_of_render_start_up_exits_130(tmp_path, delay):
     """A real `sgt render SCRIPT.sgt`: SIGINT ``delay`` seconds after numpy loads (the command
     has started: imports of torch, speech, the generator, pyrender and GL follow)."""
     gif = tmp_path / "out.gif"
-    p = subprocess.Popen([sys.executable, "-m", "sgt_tui.cli", "render", str(EXAMPLE), "-o", str(gif)],
+    # the example's lines three times: a render long enough to be going at the last delay
+    text = EXAMPLE.read_text()
+    lines = [line for line in text.splitlines() if line.startswith("guide:")]
+    script = tmp_path / "long.sgt"
+    script.write_text(text + "\n".join(lines * 2) + "\n")
+    p = subprocess.Popen([sys.executable, "-m", "sgt_tui.cli", "render", str(script), "-o", str(gif)],
                          cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 120

@@ -234,17 +234,19 @@ def test_add_refuses_text_that_is_not_utf8(tmp_path, capsys):
 
 
 def test_sheet_views_face_the_camera_and_show_the_side():
-    from core.skeleton import ROOT_POSITION
-    from renders.library_sheet import FRONT, SIDE, _turned
+    """The sheet's default views (renders.library_sheet.VIEWS) are the mannequin's front and
+    side cameras: the character (facing +z) faces the front camera, and in the side view it
+    faces the right of the picture."""
+    from renders.library_sheet import VIEWS
     from renders.mannequin import TARGET, camera_pose
 
-    cam = camera_pose()
-    to_camera = (cam[:3, 3] - TARGET) * [1, 0, 1]
-    to_camera /= np.linalg.norm(to_camera)
-    front = _turned(ROOT_POSITION + [0, 0, 1], FRONT) - ROOT_POSITION
-    side = _turned(ROOT_POSITION + [0, 0, 1], SIDE) - ROOT_POSITION
-    assert np.allclose(front, to_camera, atol=1e-9)  # the character faces the camera
-    assert abs(side @ to_camera) < 1e-9 and side @ cam[:3, 0] > 0.99  # in profile, facing screen right
+    assert VIEWS == ("front", "side")
+    facing = np.array([0.0, 0.0, 1.0])
+    front, side = camera_pose("front"), camera_pose("side")
+    to_camera = (front[:3, 3] - TARGET) * [1, 0, 1]
+    assert np.allclose(to_camera / np.linalg.norm(to_camera), facing, atol=1e-9)  # faces the camera
+    to_camera = (side[:3, 3] - TARGET) * [1, 0, 1]
+    assert abs(to_camera @ facing) < 1e-9 and facing @ side[:3, 0] > 0.99  # in profile, facing screen right
 
 
 def test_sheet_draws_each_gesture_front_and_side(tmp_path, capsys):

@@ -27,6 +27,10 @@ def register(subparsers) -> None:
                        help="write the PNG here ('-': standard output, not a terminal)")
     sheet.add_argument("--tag", action="append", default=[], help="only gestures with this tag")
     sheet.add_argument("--columns", type=_columns, default=5, metavar="N", help="gestures per row (default 5)")
+    sheet.add_argument("--size", default="150", metavar="N|WxH", help="pixels of one view (default 150)")
+    sheet.add_argument("--view", type=_views, default=("front", "side"), metavar="VIEW[,VIEW...]",
+                       help="camera views per gesture, side by side: front, side, three-quarter, top "
+                            "(default front,side)")
     sheet.add_argument("--dir", action="append", default=[], metavar="D", help="extra gesture folder")
 
     ad = sub.add_parser("add", help="save a span of a motion file as a new gesture")
@@ -174,16 +178,32 @@ def _columns(text: str) -> int:
     return n
 
 
+def _views(text: str) -> tuple[str, ...]:
+    import argparse
+
+    from sgt_tui.commands.render import VIEWS
+
+    views = tuple(v.strip() for v in text.split(","))
+    for v in views:
+        if v not in VIEWS:
+            raise argparse.ArgumentTypeError(f"unknown view '{v}': use {', '.join(VIEWS)}, comma-separated")
+    if len(set(views)) != len(views):
+        raise argparse.ArgumentTypeError(f"a view is named twice in '{text}'")
+    return views
+
+
 def _sheet(args) -> int:
     import sys
     from pathlib import Path
 
     from library import load_library
     from sgt_tui.commands.common import STDOUT, output_file, shown
+    from sgt_tui.commands.render import parse_size
     from sgt_tui.errors import InputError, UsageError
 
     if args.output != STDOUT and Path(args.output).suffix.lower() != ".png":
         raise UsageError(f"-o {args.output}: expected a .png file")
+    size = parse_size(args.size)
     lib = load_library(_folders(args.dir))
     for name in args.names:
         if name not in lib:
@@ -201,14 +221,16 @@ def _sheet(args) -> int:
     from sgt_tui.progress import ProgressBar
 
     try:
-        m = Mannequin(150, 150)
+        m = Mannequin(*size)
     except RenderSetupError as exc:
         raise InputError(str(exc)) from None
     try:
-        info = render_library_sheet(gestures, out, columns=args.columns, mannequin=m, progress=ProgressBar("sheet"))
+        info = render_library_sheet(gestures, out, columns=args.columns, view=size, views=args.view, mannequin=m,
+                                    progress=ProgressBar("sheet"))
     finally:
         m.close()
-    print(f"wrote {shown(out)}: {len(info['names'])} gestures, {info['width']}x{info['height']}", file=sys.stderr)
+    print(f"wrote {shown(out)}: {len(info['names'])} gestures ({', '.join(info['views'])}), "
+          f"{info['width']}x{info['height']}", file=sys.stderr)
     return 0
 
 

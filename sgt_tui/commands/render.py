@@ -15,13 +15,24 @@ clock, from the script the take was generated from). Every frame shows a shaded
 mannequin per speaker, side by side (one with --speaker NAME), the word being spoken,
 a timeline of the controls (pose in green, style in red), a playhead and the time.
 
---sheet also writes a PNG contact sheet: frames sampled along the take with the words
-under them. --compare renders a second take beside the first, labelled (one speaker).
+--sheet also writes a PNG contact sheet, a row per speaker (wrapped when long): with
+--sheet-at strokes (the default) a picture at every pose control's stroke, captioned with
+the gesture, the word it marks and the frame; with --sheet-at even, 8 evenly spaced frames
+with the word spoken then. Speakers are told apart by a label and the colour of the body.
+--view chooses the camera: three-quarter (default: from the front-right and above, so a
+point at the listener drops down the picture), front, side (the character's right side:
+depth shows left-right) or top. --compare renders a second take beside the first,
+labelled (one speaker).
+
 Without --utterance the whole performance is rendered: each speaker's track, listening
 between its lines. Motion files from before the performance clock (version 1) have no
 tracks: their utterances are rendered one after another, and an MP4 has no sound.
 
 Offscreen GL: EGL, falling back to OSMesa (set SGT_GL=egl|osmesa to choose)."""
+
+
+#: The camera views (renders.mannequin.VIEWS; spelled out here so that --help imports no numpy).
+VIEWS = ("three-quarter", "front", "side", "top")
 
 
 def register(sub) -> None:
@@ -33,8 +44,12 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", metavar="OUT", required=True,
                    help="write the .gif or .mp4 here ('-': a GIF on standard output, not a terminal)")
     p.add_argument("--sheet", metavar="PNG", help="also write a contact sheet PNG")
+    p.add_argument("--sheet-at", choices=("strokes", "even"), default="strokes",
+                   help="the sheet's pictures: every pose control's stroke (default) or 8 evenly spaced frames")
+    p.add_argument("--view", choices=VIEWS, default="three-quarter",
+                   help="camera: three-quarter (default), front, side (depth left-right) or top")
     p.add_argument("--compare", metavar="MOTION", help="render this second take side by side")
-    p.add_argument("--size", metavar="WxH", default="320x320", help="frame size in pixels (default 320x320)")
+    p.add_argument("--size", metavar="WxH", default="320x320", help="frame size in pixels, WxH or N (default 320x320)")
     p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (0-based)")
     p.add_argument("--speaker", metavar="NAME", help="only this speaker's track")
     add_script_options(p)
@@ -49,15 +64,16 @@ def add_script_options(p) -> None:
 
 
 def parse_size(text: str) -> tuple[int, int]:
+    """``WxH`` or ``N`` (square) in pixels, each 16..4096; a UsageError otherwise."""
     from sgt_tui.errors import UsageError
 
     parts = text.lower().replace("×", "x").split("x")
     try:
-        w, h = (int(parts[0]), int(parts[1])) if len(parts) == 2 else (None, None)
+        w, h = (int(parts[0]), int(parts[-1])) if len(parts) in (1, 2) else (None, None)
     except ValueError:
         w = h = None
     if w is None or h is None:
-        raise UsageError(f"--size must look like 320x320, not '{text}'")
+        raise UsageError(f"--size must look like 320x320 or 320, not '{text}'")
     if not (16 <= w <= 4096 and 16 <= h <= 4096):
         raise UsageError(f"--size {text}: width and height must be between 16 and 4096")
     return w, h
@@ -77,6 +93,7 @@ def run(args) -> int:
     from pathlib import Path
 
     from core.fileio import same_file
+    from renders.clips import speaker_name
     from sgt_tui.commands.clips import load_performance
     from sgt_tui.commands.common import STDOUT, inputs_of, one_stdout, output_file, shown
     from sgt_tui.errors import UsageError
@@ -93,17 +110,19 @@ def run(args) -> int:
     if sheet_out is not None and args.output != STDOUT and (args.sheet == args.output or same_file(args.sheet, args.output)):
         raise UsageError(f"-o and --sheet name one file ({args.sheet}): the sheet would overwrite the animation")
     take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
-    clips, labels = _panel_clips(take, args.speaker, args.input)
+    clips, labels, tints = _panel_clips(take, args.speaker, args.input)
+    rows = labels or tuple(speaker_name(c.speaker) for c in clips)  # the sheet's rows
     if args.compare:
         if len(clips) > 1:
             raise UsageError(f"--compare shows one speaker beside another take: choose one with --speaker "
                              f"({', '.join(labels)})")
         other = load_performance(args.compare, args.utterance, engine=args.engine, seed=args.seed)
         clips += _panel_clips(other, args.speaker, args.compare)[0][:1]
+        tints = tints * 2  # one speaker, two takes: the labels tell them apart
         a, b = Path(args.input).stem, Path(args.compare).stem
         if a == b:
             a, b = str(args.input), str(args.compare)
-        labels = (f"A {a}", f"B {b}")
+        labels = rows = (f"A {a}", f"B {b}")
     audio = rate = None
     if video:
         audio, rate = _audio(take, args.input)
@@ -123,30 +142,35 @@ def run(args) -> int:
         if video:
             try:
                 info = render_mp4(clips, out, labels=labels, audio=audio, sample_rate=rate, size=size,
-                                  progress=ProgressBar("render"), mannequin=m)
+                                  progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints)
             except VideoError as exc:
                 raise InputError(str(exc)) from None
             sound = "with sound" if audio is not None else "no sound"
         else:
             info = render_gif(clips[0], out, size=size, others=clips[1:], labels=labels,
-                              progress=ProgressBar("render"), mannequin=m)
+                              progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints)
             sound = ""
         print(f"wrote {shown(out)}: {info['frames']} frames, {info['duration_s']:.2f} s, "
               f"{info['width']}x{info['height']}, {info['bytes'] / 1024:.0f} KiB"
               f"{', ' + sound if sound else ''} ({info['platform']})", file=sys.stderr)
         if sheet_out is not None:
-            s = render_sheet(clips[0], sheet_out, size=size, mannequin=m)
-            print(f"wrote {shown(sheet_out)}: {len(s['frames'])} frames, {s['width']}x{s['height']}", file=sys.stderr)
+            s = render_sheet(clips, sheet_out, labels=rows, size=size, at=args.sheet_at, view=args.view, tints=tints,
+                             title=f"{Path(args.input).name} · {args.view} view", mannequin=m)
+            what = "strokes" if args.sheet_at == "strokes" else "frames"
+            print(f"wrote {shown(sheet_out)}: {len(s['frames'])} {what} of {len(clips)} "
+                  f"{'row' if len(clips) == 1 else 'rows'}, {s['width']}x{s['height']}", file=sys.stderr)
     finally:
         m.close()
     return 0
 
 
 def _panel_clips(take, speaker: str | None, name: str):
-    """The clips to draw side by side, and their labels: each speaker's track on the
-    performance clock (only ``speaker``'s when given), or, without tracks, the utterances
-    one after another."""
+    """The clips to draw side by side, their labels and their tints: each speaker's track on
+    the performance clock (only ``speaker``'s when given), or, without tracks, the utterances
+    one after another. A speaker's tint is its place among the take's speakers, so it keeps
+    its colour with --speaker."""
     from renders.clips import concat_clips, speaker_name, track_clip
+    from renders.mannequin import speaker_tint
     from sgt_tui.errors import UsageError
 
     names = [speaker_name(t.speaker) for t in take.tracks] or list(dict.fromkeys(speaker_name(c.speaker) for c in take.clips))
@@ -156,9 +180,10 @@ def _panel_clips(take, speaker: str | None, name: str):
         tracks = [t for t in take.tracks if speaker is None or speaker_name(t.speaker) == speaker]
         clips = [track_clip(t, take.clips) for t in tracks]
         labels = tuple(speaker_name(t.speaker) for t in tracks) if len(tracks) > 1 else None
-        return clips, labels
+        return clips, labels, [speaker_tint(names.index(speaker_name(t.speaker))) for t in tracks]
     chosen = [c for c in take.clips if speaker is None or speaker_name(c.speaker) == speaker]
-    return [concat_clips(chosen)], None
+    tint = speaker_tint(names.index(speaker) if speaker is not None and len(names) > 1 else 0)
+    return [concat_clips(chosen)], None, [tint]
 
 
 def _audio(take, name: str):
