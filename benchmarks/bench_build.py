@@ -1,27 +1,31 @@
-"""Benchmark: `sgt build` from scratch, with nothing changed, and with one line changed.
+"""Benchmark: `sgt build` from scratch, with nothing changed, and with one line changed,
+for today's tree and an earlier revision in the same run (benchmarks/against.py).
 
-    python benchmarks/bench_build.py [--utterances 10000] [--per-script 100] [--jobs 2] [--engine neural]
+    python benchmarks/bench_build.py [--before 742c655] [--utterances 10000] [--per-script 100] [--jobs 2]
     python benchmarks/bench_build.py --threads [--utterances 40]   # 1 process x 2 threads or 2 x 1?
 
 Makes a game-sized source tree: ``--utterances`` lines in scripts of ``--per-script`` lines
 each, in folders of ten scripts. Each line is a sentence of 6-16 words from a fixed
 vocabulary (all distinct), a third of them with a pose control, a sixth with a style span,
-a few with a pause, two speakers with their own voices. Then times the whole command
-(`python -m sgt_tui.cli build SRC -o OUT -q`, interpreter start and imports included):
+a few with a pause, two speakers with their own voices. Each tree (``--before REV`` first,
+exported by git, then today's; ``--before none``: today's only) builds its own copy of it,
+with its own sgt cache, and each build is the whole command (`python -m sgt_tui.cli build
+SRC -o OUT -q`, interpreter start and imports included, cwd the tree):
 
 1. from scratch: an empty sgt cache (speech timing and utterances), ``--jobs`` workers;
-2. a rebuild with nothing changed (target: under 5 s);
-3. one line changed in one script (target: under 3 s), repeated on other lines, median.
+2. a rebuild with nothing changed (target: under 5 s), ``--repeat`` times, the trees in turn;
+3. one line changed in one script (target: under 3 s), the same lines in both copies, in turn.
 
+Each figure comes with the CPU time the build used (its processes and all they started) and
+the load average: the machine is shared, and wall times move with what else runs.
 Before each timed build the page cache is written back (``os.sync()``, untimed), so that a
 build does not pay for the previous one's writes (2 GB of outputs after 10,000 utterances).
-``--reuse DIR`` keeps the tree in DIR, and a second run with it times only the rebuilds.
+``--reuse DIR`` keeps the copies in DIR, and a second run with it times only the rebuilds.
 
-Targets (issue 12): 10,000 utterances from scratch in under 10 minutes on this machine's 2
+Targets (issue 21): 10,000 utterances from scratch in at most 5 minutes on this machine's 2
 cores. ``--threads`` measures instead the choice of one torch thread per worker: the same
 utterances generated (warm speech cache) by one process with 2 torch threads and by 2
 worker processes with one thread each.
-Figures vary with machine load (`uptime` is printed): quote them with it.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from __future__ import annotations
 import argparse
 import os
 import random
+import resource
 import shutil
 import statistics
 import subprocess
@@ -36,6 +41,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from against import add_before_option, env_for, trees
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -72,18 +79,30 @@ def make_tree(root: Path, n: int, per_script: int, seed: int = 0) -> list[Path]:
     return scripts
 
 
-def run_build(src: Path, out: Path, env: dict, jobs: int, engine: str) -> float:
-    cmd = [sys.executable, "-m", "sgt_tui.cli", "build", str(src), "-o", str(out), "-q", "--jobs", str(jobs),
-           "--engine", engine]
-    # Write back what earlier builds left in the page cache first (2 GB after 10,000 utterances),
-    # so that a build's fsyncs do not wait for the previous build's files (untimed).
-    os.sync()
-    t0 = time.perf_counter()
-    proc = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True)
-    dt = time.perf_counter() - t0
-    if proc.returncode != 0:
-        raise SystemExit(f"build failed ({proc.returncode}): {proc.stderr[-2000:]}")
-    return dt
+class Copy:
+    """One tree's copy of the sources, its output folder and its sgt cache."""
+
+    def __init__(self, label: str, tree: Path, folder: Path) -> None:
+        self.label, self.tree = label, tree
+        self.src, self.out = folder / "src", folder / "out"
+        self.env = env_for(tree, SGT_CACHE_DIR=str(folder / "cache"))
+
+    def build(self, jobs: int, engine: str) -> tuple[float, float]:
+        """(wall seconds, CPU seconds of the build and every process it started)."""
+        cmd = [sys.executable, "-m", "sgt_tui.cli", "build", str(self.src), "-o", str(self.out), "-q", "--jobs",
+               str(jobs), "--engine", engine]
+        # Write back what earlier builds left in the page cache first (2 GB after 10,000 utterances),
+        # so that a build's fsyncs do not wait for the previous build's files (untimed).
+        os.sync()
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, env=self.env, cwd=self.tree, capture_output=True, text=True, check=False)
+        dt = time.perf_counter() - t0
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if proc.returncode != 0:
+            raise SystemExit(f"{self.label}: build failed ({proc.returncode}): {proc.stderr[-2000:]}")
+        cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+        return dt, cpu
 
 
 def load() -> str:
@@ -91,41 +110,54 @@ def load() -> str:
 
 
 def bench_builds(args) -> None:
-    reuse = args.reuse is not None and (Path(args.reuse) / "out" / "manifest.json").is_file()
     tmp = Path(args.reuse) if args.reuse else Path(tempfile.mkdtemp(prefix="sgt-bench-build-"))
     try:
-        src, out = tmp / "src", tmp / "out"
-        env = {**os.environ, "PYTHONPATH": str(ROOT), "SGT_CACHE_DIR": str(tmp / "cache")}
-        if reuse:  # a tree built by an earlier run: only the rebuilds
-            scripts = sorted(src.rglob("*.sgt"))
-            print(f"{tmp}: {len(scripts)} scripts built before; rebuilds only, --jobs {args.jobs}, load {load()}")
-        else:
-            scripts = make_tree(src, args.utterances, args.per_script)
-            print(f"{args.utterances} utterances in {len(scripts)} scripts, --jobs {args.jobs}, engine {args.engine}, "
-                  f"{os.cpu_count()} CPUs, load {load()}")
-            t = run_build(src, out, env, args.jobs, args.engine)
-            size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
-            print(f"from scratch: {t:.1f} s ({t / args.utterances * 1000:.1f} ms per utterance, "
-                  f"{args.utterances / t:.1f} utterances/s); outputs {size / 2**20:.0f} MiB; load after {load()}")
-        if args.utterances and args.scratch_only:
-            return
-        times = [run_build(src, out, env, args.jobs, args.engine) for _ in range(args.repeat)]
-        print(f"nothing changed: median {statistics.median(times):.2f} s, min {min(times):.2f} s "
-              f"(target < 5 s; {args.repeat} runs); load {load()}")
-        rng = random.Random(1)
-        times = []
-        for _ in range(args.repeat):
-            path = rng.choice(scripts)
-            lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
-            i = rng.randrange(5, len(lines))
-            lines[i] = lines[i].rstrip("\n").rstrip(".") + " again.\n"
-            path.write_text("".join(lines), encoding="utf-8")
-            times.append(run_build(src, out, env, args.jobs, args.engine))
-        print(f"one line changed: median {statistics.median(times):.2f} s, min {min(times):.2f} s "
-              f"(target < 3 s; {args.repeat} runs); load {load()}")
+        with trees(args.before) as pairs:
+            copies = [Copy(label, tree, tmp / f"tree{i}") for i, (label, tree) in enumerate(pairs)]
+            print(f"{args.utterances} utterances in scripts of {args.per_script}, --jobs {args.jobs}, engine "
+                  f"{args.engine}, {os.cpu_count()} CPUs; trees: {', '.join(c.label for c in copies)}")
+            for c in copies:
+                if args.reuse and (c.out / "manifest.json").is_file():  # built by an earlier run: rebuilds only
+                    print(f"{c.label}: {c.out} built before; rebuilds only")
+                    continue
+                shutil.rmtree(c.src, ignore_errors=True)
+                make_tree(c.src, args.utterances, args.per_script)
+                print(f"{c.label}: from scratch, load before {load()} ...", flush=True)
+                t, cpu = c.build(args.jobs, args.engine)
+                size = sum(p.stat().st_size for p in c.out.rglob("*") if p.is_file())
+                print(f"{c.label}: from scratch {t:.1f} s ({t / args.utterances * 1000:.1f} ms per utterance, "
+                      f"{args.utterances / t:.1f} utterances/s), CPU {cpu:.0f} s ({cpu / t:.2f} cores); outputs "
+                      f"{size / 2**20:.0f} MiB; load after {load()}", flush=True)
+            if args.scratch_only:
+                return
+            times: dict[str, list] = {c.label: [] for c in copies}
+            for _ in range(args.repeat):
+                for c in copies:
+                    times[c.label].append(c.build(args.jobs, args.engine))
+            for c in copies:
+                walls = [t for t, _ in times[c.label]]
+                print(f"{c.label}: nothing changed: median {statistics.median(walls):.2f} s, min {min(walls):.2f} s "
+                      f"(target < 5 s; {args.repeat} runs); load {load()}")
+            times = {c.label: [] for c in copies}
+            rng = random.Random(1)
+            for _ in range(args.repeat):
+                scripts = sorted(copies[0].src.rglob("*.sgt"))
+                pick = rng.randrange(len(scripts))
+                line = None
+                for c in copies:
+                    path = sorted(c.src.rglob("*.sgt"))[pick]
+                    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
+                    line = line if line is not None else rng.randrange(5, len(lines))
+                    lines[line] = lines[line].rstrip("\n").rstrip(".") + " again.\n"
+                    path.write_text("".join(lines), encoding="utf-8")
+                    times[c.label].append(c.build(args.jobs, args.engine))
+            for c in copies:
+                walls = [t for t, _ in times[c.label]]
+                print(f"{c.label}: one line changed: median {statistics.median(walls):.2f} s, min {min(walls):.2f} s "
+                      f"(target < 3 s; {args.repeat} runs); load {load()}")
     finally:
         if args.keep or args.reuse:
-            print(f"kept {tmp} (rerun the rebuilds with --reuse {tmp})")
+            print(f"kept {tmp} (rerun the rebuilds with --reuse {tmp} --before {args.before})")
         else:
             shutil.rmtree(tmp, ignore_errors=True)
 
@@ -193,8 +225,9 @@ def main() -> None:
     ap.add_argument("--threads", action="store_true", help="measure 1 process x 2 threads against 2 x 1 instead")
     ap.add_argument("--scratch-only", action="store_true", help="only the build from scratch")
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
-    ap.add_argument("--reuse", metavar="DIR", help="build the tree in DIR and keep it; if DIR holds one built "
-                    "before, time only the rebuilds")
+    ap.add_argument("--reuse", metavar="DIR", help="build the copies in DIR and keep them; if DIR holds copies "
+                    "built before, time only the rebuilds")
+    add_before_option(ap)
     args = ap.parse_args()
     (bench_threads if args.threads else bench_builds)(args)
 

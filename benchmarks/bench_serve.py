@@ -1,12 +1,17 @@
 """Benchmark: sgt serve under load, and the streaming engine's latency and motion.
 
     python benchmarks/bench_serve.py [--clients 8] [--seconds 60] [--workers 2] [--stream-only]
+    python benchmarks/bench_serve.py --load-only [--before 742c655] [--rounds 2]
 
 Starts `sgt serve` on 127.0.0.1 (a free port, loopback only) in its own process and prints
 1. load: CLIENTS concurrent clients for SECONDS, each posting one 5 s utterance after another
    (plain text, real espeak-ng speech timing, the neural engine; 16 sentences in turn, so the
    speech cache warms up as a game's dialogue would): latency p50/p95/p99, throughput, errors
-   (anything but 200) and the server's memory (RSS) at the start and the end;
+   (anything but 200) and the server's memory (RSS) at the start and the end. With ``--before
+   REV`` (default 742c655, the code before issue 21; ``none``: today's only) the same load runs
+   against a server of that revision too (benchmarks/against.py), the two alternating
+   ``--rounds`` times, each server with its own fresh speech cache, so that both see the same
+   machine; goal (issue 21): p95 at most 200 ms with 0 errors at 8 clients;
 2. streaming: the stated lookahead and the measured one (time advancing frame by frame, each
    word sent when it starts: how far the known speech runs ahead of the last decided frame
    after each message), the compute per network call (median, p99), and how the stream's
@@ -32,6 +37,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+
+from against import add_before_option, trees  # noqa: E402
 
 SENTENCES = [
     "Welcome to the mall! The shops you want are over there, past the fountain.",
@@ -62,11 +69,11 @@ def free_port() -> int:
 class Server:
     """`sgt serve` in a child process on 127.0.0.1; stopped with SIGINT on exit."""
 
-    def __init__(self, *args: str, env: dict | None = None) -> None:
+    def __init__(self, *args: str, env: dict | None = None, tree: Path = ROOT) -> None:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.proc = subprocess.Popen([sys.executable, "-m", "sgt_tui.cli", "serve", "--port", str(self.port), *args],
-                                     cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})},
+                                     cwd=tree, env={**os.environ, "PYTHONPATH": str(tree), **(env or {})},
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
     def __enter__(self) -> "Server":
@@ -273,20 +280,43 @@ def main() -> int:
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--stream-only", action="store_true")
+    ap.add_argument("--load-only", action="store_true", help="skip the streaming figures")
+    ap.add_argument("--rounds", type=int, default=1, help="load runs per tree, alternating (default 1)")
+    add_before_option(ap)
     args = ap.parse_args()
-    stream_figures()
+    if not args.load_only:
+        stream_figures()
     if args.stream_only:
         return 0
-    with Server("--workers", str(args.workers), "--queue", str(2 * args.clients)) as server:
-        post(server.url + "/v1/generate", {"text": SENTENCES[0]})  # one warm-up request
-        rss_start = server.rss_mb()
-        r = load(server.url, args.clients, args.seconds)
-        rss_end = server.rss_mb()
-    print(f"load: {args.clients} clients x {args.seconds:g} s, 5 s utterances, {args.workers} workers: "
-          f"{r['requests']} requests, {r['errors']} errors (statuses {r['statuses']}), "
-          f"throughput {r['throughput']:.1f}/s")
-    print(f"  latency p50 {r['p50'] * 1000:.0f} ms, p95 {r['p95'] * 1000:.0f} ms, p99 {r['p99'] * 1000:.0f} ms; "
-          f"server RSS {rss_start:.0f} MiB at the start, {rss_end:.0f} MiB at the end")
+    import tempfile
+
+    print(f"load: {args.clients} clients x {args.seconds:g} s, 5 s utterances, {args.workers} workers; "
+          f"load average before {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
+    with trees(args.before) as measured, tempfile.TemporaryDirectory() as tmp:
+        runs: dict[str, list[dict]] = {label: [] for label, _ in measured}
+        for r in range(args.rounds):
+            for k, (label, tree) in enumerate(measured):
+                cache = Path(tmp) / f"cache{r}-{k}"  # each server warms its own speech cache, as a fresh one would
+                with Server("--workers", str(args.workers), "--queue", str(2 * args.clients), tree=tree,
+                            env={"SGT_CACHE_DIR": str(cache)}) as server:
+                    post(server.url + "/v1/generate", {"text": SENTENCES[0]})  # one warm-up request
+                    rss_start = server.rss_mb()
+                    res = load(server.url, args.clients, args.seconds)
+                    res["rss"] = (rss_start, server.rss_mb())
+                runs[label].append(res)
+                print(f"  {label:16s} round {r + 1}: {res['requests']} requests, {res['errors']} errors (statuses "
+                      f"{res['statuses']}), {res['throughput']:.1f}/s; latency p50 {res['p50'] * 1000:.0f} ms, "
+                      f"p95 {res['p95'] * 1000:.0f} ms, p99 {res['p99'] * 1000:.0f} ms; server RSS "
+                      f"{res['rss'][0]:.0f} -> {res['rss'][1]:.0f} MiB", flush=True)
+    p95 = {label: statistics.median(r["p95"] for r in rs) for label, rs in runs.items()}
+    for label, rs in runs.items():
+        errors = sum(r["errors"] for r in rs)
+        print(f"{label}: p95 {p95[label] * 1000:.0f} ms (median of {len(rs)} rounds), {errors} errors"
+              f"{' -> ok' if p95[label] <= 0.2 and not errors else ''}")
+    if len(p95) == 2:
+        before, now = p95.values()
+        print(f"now / before (p95): {now / before:.2f} ({before / now:.1f}x faster); load average after "
+              f"{os.getloadavg()[0]:.2f}")
     return 0
 
 

@@ -5,7 +5,8 @@ gesture specs, evaluation JSON, corpus shards, weights, the editor's saves):
 
 - **A regular file** (or a new one) is replaced atomically: a temporary file in the same
   folder, ``fsync``, ``os.replace``. A reader or a crash sees the old file or the new one,
-  never half of either. The file keeps its permissions (a new one gets 0o666 less the umask),
+  never half of either. (Cache entries are written with ``durable=False``: no ``fsync``, so a
+  crash of the machine may leave one empty or short, which its reader treats as a miss.) The file keeps its permissions (a new one gets 0o666 less the umask),
   and a read-only file is refused, not silently replaced.
 - **A symbolic link** is followed: its final target is replaced atomically and the link stays
   a link.
@@ -53,9 +54,11 @@ class OutputPathError(OutputError):
     """The output path names the wrong kind of thing: a folder, a socket, a path under a file."""
 
 
-def atomic_write(path: Path | str | BinaryIO, data: bytes) -> None:
+def atomic_write(path: Path | str | BinaryIO, data: bytes, *, durable: bool = True) -> None:
     """Write ``data`` to ``path`` by the module's rules; ``path`` may also be a binary stream
-    (``sys.stdout.buffer``), which is written and flushed."""
+    (``sys.stdout.buffer``), which is written and flushed. ``durable=False`` skips the
+    ``fsync`` (for cache entries whose readers check them: a process killed mid-write still
+    leaves the old file or the new one; only a crash of the machine can leave a short file)."""
     if hasattr(path, "write"):
         try:
             path.write(data)  # type: ignore[union-attr]
@@ -70,7 +73,7 @@ def atomic_write(path: Path | str | BinaryIO, data: bytes) -> None:
     if in_place:
         _write_in_place(target, data, shown)
     else:
-        _replace(target, data, shown)
+        _replace(target, data, shown, durable)
 
 
 def atomic_write_text(path: Path | str | BinaryIO, text: str) -> None:
@@ -280,7 +283,7 @@ def _mode_for(path: str) -> int:
         return 0o666 & ~umask
 
 
-def _replace(target: str, data: bytes, shown: str) -> None:
+def _replace(target: str, data: bytes, shown: str, durable: bool = True) -> None:
     folder = os.path.dirname(target)
     make_folder(folder)
     try:
@@ -301,7 +304,8 @@ def _replace(target: str, data: bytes, shown: str) -> None:
             os.fchmod(f.fileno(), _mode_for(target))
             f.write(data)
             f.flush()
-            os.fsync(f.fileno())
+            if durable:
+                os.fsync(f.fileno())
         os.replace(tmp, target)
     except BaseException as exc:
         try:

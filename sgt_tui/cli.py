@@ -44,12 +44,21 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--version", action="version", version=f"sgt {_version()}")
+    parser.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
         module = importlib.import_module(f"sgt_tui.commands.{name}")
         module.register(sub)
     return parser
+
+
+class _Version(argparse.Action):
+    """``--version``: the installed version, looked up only when asked (importlib.metadata
+    costs 10 ms of every command's start otherwise)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"sgt {_version()}")  # on standard output, as argparse's own version action does
+        parser.exit()
 
 
 def _version() -> str:

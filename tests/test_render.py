@@ -282,7 +282,7 @@ def test_help_does_not_import_heavy_libraries():
 
     code = ("import sys; from sgt_tui.cli import build_parser; build_parser(); "
             "bad = [m for m in ('pyrender', 'OpenGL', 'trimesh', 'PIL', 'torch', 'librosa', 'textual', 'scipy', "
-            "'onnxruntime', 'fastapi', 'uvicorn', 'pydantic') "
+            "'onnxruntime', 'fastapi', 'uvicorn', 'pydantic', 'importlib.metadata') "
             "if m in sys.modules]; "
             "print(bad); sys.exit(1 if bad else 0)")
     from pathlib import Path
@@ -290,6 +290,15 @@ def test_help_does_not_import_heavy_libraries():
     r = subprocess.run([sys.executable, "-c", code], cwd=Path(__file__).resolve().parent.parent,
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_version_is_looked_up_when_asked(capsys):
+    from importlib.metadata import version
+
+    from sgt_tui.cli import main
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out == f"sgt {version('sgt')}\n"
 
 
 def _skin_pixels(image: np.ndarray) -> np.ndarray:

@@ -157,6 +157,20 @@ def test_cache_hit_skips_engine(tmp_path, monkeypatch):
         synthesize(text, spans, [(6, 0.4)], cache_dir=tmp_path)
 
 
+def test_a_short_cached_wav_is_a_miss_and_is_made_again(tmp_path):
+    """Speech cache entries are written without fsync (a crash of the machine can leave a WAV
+    short while its JSON survives): the JSON records the WAV's size, and a WAV of another size
+    is a miss, synthesized again, never read as speech."""
+    text = "Cache me if you can."
+    spans = spans_of(text)
+    first = synthesize(text, spans, cache_dir=tmp_path)
+    wav = Path(first.audio_path)
+    whole = wav.read_bytes()
+    wav.write_bytes(whole[: len(whole) // 2])
+    again = synthesize(text, spans, cache_dir=tmp_path)
+    assert again == first and wav.read_bytes() == whole
+
+
 def test_default_cache_dir_env(monkeypatch, tmp_path):
     """SGT_CACHE_DIR, else XDG_CACHE_HOME (absolute only, as the XDG spec says), else ~/.cache."""
     monkeypatch.setenv("SGT_CACHE_DIR", str(tmp_path / "x"))

@@ -44,4 +44,11 @@ def read_json(path: Path) -> dict | None:
 
 
 def write_json(path: Path, data: dict) -> None:
-    atomic_write(path, json_bytes(data, indent=1))
+    """Write a cache entry's JSON (not fsynced: :func:`read_json` takes a damaged one for a miss)."""
+    atomic_write(path, json_bytes(data, indent=1), durable=False)
+
+
+def write_bytes(path: Path, data: bytes) -> None:
+    """Write a cache entry's data file (not fsynced: the entry's JSON records its size, which its
+    reader checks)."""
+    atomic_write(path, data, durable=False)

@@ -39,7 +39,6 @@ from typing import Sequence
 
 import numpy as np
 
-from core.fileio import atomic_write
 from core.words import TimedWord
 
 from . import _espeak, audio, cache
@@ -469,9 +468,10 @@ def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tu
                                   LEAD_IN, TAIL)
     words = _build_words(clean, spans, starts, ends, sr, len(out))
     cdir.mkdir(parents=True, exist_ok=True)
-    atomic_write(wav_path, audio.wav_bytes(out, sr))
+    wav = audio.wav_bytes(out, sr)
+    cache.write_bytes(wav_path, wav)
     meta = {"key": key, "source": "espeak-ng", "sample_rate": sr, "duration": len(out) / sr,
-            "words": [[w.word, w.start, w.end] for w in words]}
+            "words": [[w.word, w.start, w.end] for w in words], "wav_bytes": len(wav)}
     cache.write_json(meta_path, meta)
     return Speech(wav_path, sr, len(out) / sr, words, "espeak-ng")
 
@@ -483,7 +483,9 @@ def _load_cached(wav_path: Path, meta_path: Path, key: str, n_words: int) -> Spe
     try:
         if meta is None or meta.get("key") != key or len(meta["words"]) != n_words:
             return None
+        if "wav_bytes" in meta and wav_path.stat().st_size != int(meta["wav_bytes"]):
+            return None  # a short WAV (the entry is written without fsync): made again
         words = [TimedWord(str(t), float(a), float(b)) for t, a, b in meta["words"]]
         return Speech(wav_path, int(meta["sample_rate"]), float(meta["duration"]), words, str(meta["source"]))
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, OSError):
         return None

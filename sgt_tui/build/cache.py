@@ -108,4 +108,5 @@ class BuildCache:
         return Entry.from_bytes(data, key)
 
     def put_bytes(self, key: str, data: bytes) -> None:
-        atomic_write(self.path(key), data)
+        """Store an entry (not fsynced: a damaged entry is a miss, :meth:`Entry.from_bytes`)."""
+        atomic_write(self.path(key), data, durable=False)
