@@ -601,6 +601,45 @@ Fix: use a name `sgt voices` lists.
     example="@voice en-uss\nhello\n",
 )
 
+UNKNOWN_SPEAKER = rule(
+    "SGT212", "unknown-speaker", WARNING,
+    "'@{directive}' is for speaker '{name}', but no line has that speaker: it applies to nothing",
+    "start the lines of '{name}' with '{name}: ', or name a speaker the script has",
+    """
+`@voice`, `@rate` and `@pitch` take a speaker (`@voice robot: en-us+m3`) and apply to the
+lines that start with that speaker (`robot: Hello.`). Speaker names are compared exactly, so
+a misspelt name (`@voice knigth: ...` for `knight:` lines) or another case (`@voice Knight:`)
+sets the voice of a speaker that never speaks, and the real speaker keeps the default
+voice, rate or pitch without a word from `compile`. It is a warning: the script still
+compiles. (A script with no utterance yet is not checked.)
+
+Example: `@voice knigth: en-gb` above lines that start with `knight:`.
+
+Fix: correct the name to the speaker's (the fix offers the closest speaker of the script),
+or remove the directive.
+""",
+    example="@voice knigth: en-gb\nknight: Halt, who goes there?\n",
+)
+
+SPEAKER_CASE = rule(
+    "SGT213", "speaker-case", WARNING,
+    "speaker '{name}' differs from '{first}' only in case: they are two speakers",
+    "write '{first}:' on the lines of '{name}' (speaker names are case-sensitive)",
+    """
+Speaker names are case-sensitive: `Knight:` and `knight:` are two speakers, each with its
+own track (its own body in `sgt render`, its own motion file track), its own voice settings
+and its own listening motion, and one never waits for the other's gestures. That is almost
+never what was meant. The warning is on the first line of the later spelling; the note
+points at the first line of the first one.
+
+Example: `knight: Halt.` followed by `Knight: Who goes there?`.
+
+Fix: use one spelling (the fix rewrites every line of the later spelling to the first);
+if they really are two characters, give them names that differ in more than case.
+""",
+    example="knight: Halt.\nKnight: Who goes there?\n",
+)
+
 # -- 3xx: values ------------------------------------------------------------------------
 
 BAD_NUMBER = rule(
@@ -750,20 +789,62 @@ Fix: move the words inside the span, or remove it.
 
 BAD_GAP = rule(
     "SGT310", "bad-gap", ERROR,
-    "'@gap' needs a duration from 0s to {max}s, not '{text}'",
-    "for example: @gap 0.8s   or   @gap 1500ms",
+    "'@gap' needs a duration from {lo} to {hi}s{where}, not '{text}'",
+    "for example: @gap 0.8s   or   @gap 1500ms{negative}",
     """
 A script is one performance: its utterances play one after another on one clock, with a
 gap of silence between the end of one line's speech and the start of the next (0.5 s by
 default). `@gap DURATION` in the header sets that gap for every line; between two
 utterances it sets the gap before the next one only (a longer beat before an answer).
 The duration has a unit, `ms` or `s`, and lies from 0 s to the maximum in the message.
+Between two utterances it may also be negative (`@gap -400ms`): the next line interrupts,
+starting that long before the speech so far ends. In the header it may not: a negative gap
+for every line would make every speaker interrupt every line, its own included.
 
-Example: `@gap long` or `@gap 2` (no unit) or `@gap 90s`.
+Example: `@gap long` or `@gap 2` (no unit) or `@gap 90s`, or `@gap -1s` in the header.
 
-Fix: give a duration with its unit inside the range: `@gap 2s`.
+Fix: give a duration with its unit inside the range: `@gap 2s`; put a negative gap just
+before the line that interrupts.
 """,
     example="@gap 2\nguide: hello\n",
+)
+
+SILENT_UTTERANCE = rule(
+    "SGT311", "silent-utterance", WARNING,
+    "this utterance has no words: it plays as a silent line that delays the next one",
+    "remove the line, or write what {who} says",
+    """
+An utterance with no words (`merchant:` alone, or only pauses, style tags and punctuation)
+is still a line of the performance: its speech is the speech engine's silence (about 0.2 s
+for espeak-ng, plus any `[pause]`), the speaker's track plays a speaking clip over it, and
+the next line waits for it and its gap. It is a warning rather than an error because it
+compiles and plays as described; it is usually a line whose words were forgotten or moved.
+For a silence between two lines, `@gap` says it directly. (A pose control in such an
+utterance is an error, empty-utterance, and is reported instead.)
+
+Example: `merchant:` on a line of its own between two lines of `knight`.
+
+Fix: remove the line (the fix blanks it), write its words, or use `@gap 1s` before the next
+line for a silence.
+""",
+    example="knight: Halt.\nmerchant:\nknight: Who goes there?\n",
+)
+
+HOLD_FORM = rule(
+    "SGT312", "hold-form", ERROR,
+    "'hold {value}' needs '=' between the option and its duration",
+    "write hold={value}",
+    """
+The pose option `hold` takes its duration after an equals sign, with no space in the
+value: `hold=300ms`, `hold=1.5s`. Written as `hold 300ms` the tag would hold two options,
+`hold` without a duration and an unknown option `300ms`; this one error says what was meant
+instead. A number without a unit gets both readings as fixes.
+
+Example: `guide: [pose:nod hold 300ms] Yes.`
+
+Fix: `[pose:nod hold=300ms]`.
+""",
+    example="guide: [pose:nod hold 300ms] Yes.\n",
 )
 
 # -- 4xx: speech and timing -------------------------------------------------------------
@@ -928,6 +1009,53 @@ No script triggers it on a working installation.
 Fix: try again; if it persists, try another voice or rephrase the line, and report the
 script (with `espeak-ng --version`).
 """,
+)
+
+SELF_INTERRUPTION = rule(
+    "SGT409", "self-interruption", WARNING,
+    "'@gap {gap}' would make {who} talk over {over}: this line starts {late} s later{how}, when that line is over",
+    "a negative '@gap' lets one speaker interrupt another; a speaker's own lines never overlap",
+    """
+A negative `@gap` before a line (`@gap -400ms`) starts its speech that long before the
+speech so far ends: the line's speaker interrupts, and both voices are heard (the
+interrupted speaker finishes its line under the interruption). One speaker has one body
+and one voice, so its own lines never overlap: a line waits until the same speaker's
+previous line is over (its speech and its gestures' retraction). Here that moves the line
+later than the `@gap` asks, by the amount in the message; when the line before is the same
+speaker's, the negative gap has no effect at all.
+
+When the same speaker's previous line is further back, whether it is still playing depends
+on word times, so `sgt check` (estimated timing) and `sgt compile` (real speech) may differ
+a little; it is a warning for that reason, as the overlap of pose controls is.
+
+Example: `knight: Halt, who goes there?`, `@gap -400ms`, `knight: Answer me.`
+
+Fix: remove the `@gap` (the fix does it when the line before is the same speaker's), or
+put the negative gap before a line of another speaker.
+""",
+    example="knight: Halt, who goes there?\n@gap -400ms\nknight: Answer me.\n",
+)
+
+INTERRUPTION_TOO_LONG = rule(
+    "SGT410", "interruption-too-long", WARNING,
+    "'@gap {gap}' reaches back before {limit}: this line starts {late} s later than it asks{how}",
+    "an interruption starts at the earliest with the previous line's speech",
+    """
+A negative `@gap` lets a line start before the speech so far ends (an interruption), by
+at most the previous line's speech: lines still start in the order they are written, so
+an interruption starts at the earliest together with the line it interrupts (and no
+line's motion starts before the performance's first frame). A longer negative gap is cut
+to that, and the line starts later than it asks by the amount in the message. It is a
+warning: how long the previous line's speech is depends on word times (`sgt check`
+estimates them; `sgt compile` uses the real speech).
+
+Example: `knight: Halt.`, `@gap -5s`, `merchant: Who goes there?` ("Halt." lasts well
+under 5 s).
+
+Fix: use a shorter negative gap (the fix gives the previous line's length with the timing
+the warning was made with), or move the line earlier in the script.
+""",
+    example="knight: Halt.\n@gap -5s\nmerchant: Who goes there?\n",
 )
 
 # -- 5xx: gesture specs and configuration ------------------------------------------------

@@ -140,8 +140,13 @@ def compile_file(
         plans.append(_utterance_plan(script, utt, t, lib, timing == "estimate", diags))
     if progress:
         progress(len(selected), len(selected), "")
-    diags = sorted(diags, key=sort_key)
     plan = Plan(source=str(path), fps=FPS, seed=script.header.seed, utterances=plans)
+    if utterances is None and plan.moved:  # the whole performance: interruptions not started as asked
+        by_index = {u.index: u for u in script.utterances}
+        diags += interruption_diagnostics(script.path, plan, [(by_index[u.index], 0) for u in plan.utterances],
+                                          script.source.replace("\r\n", "\n").replace("\r", "\n").split("\n"),
+                                          timing == "estimate")
+    diags = sorted(diags, key=sort_key)
     return CompileResult(script, plan if not any(d.is_error for d in diags) else None, diags)
 
 
@@ -153,6 +158,48 @@ def compile_text(text: str, path: Path | str = "<text>", **options) -> CompileRe
     ``options`` are :func:`compile_file`'s (``timing``, ``utterances``, ``library``, ...).
     """
     return compile_file(path, source=text, **options)
+
+
+#: The codes :func:`interruption_diagnostics` reports (they depend on the whole performance).
+INTERRUPTION_CODES = frozenset({rules.SELF_INTERRUPTION.code, rules.INTERRUPTION_TOO_LONG.code})
+
+
+def interruption_diagnostics(file: str, plan: Plan, utterances, source_lines: list[str], estimated: bool) -> list[Diagnostic]:
+    """Warnings for the interruptions (negative ``@gap``) that ``plan``'s clock started later
+    than asked (:attr:`dsl.plan.Plan.moved`), at their ``@gap``. ``utterances``: for each of
+    the plan's utterances, its :class:`~dsl.script.Utterance` and the lines to add to its
+    places (the editor analyses a script in pieces; 0 otherwise); ``source_lines``: the text."""
+    out: list[Diagnostic] = []
+    how = " (with estimated timing; real speech may differ)" if estimated else ""
+    for m in plan.moved:
+        utt, shift = utterances[m.index]
+        g = utt.gap_where
+        if g is None:
+            continue
+        line = g.line + shift
+        text = source_lines[line - 1][g.col - 1 : g.col - 1 + g.length] if line <= len(source_lines) else f"{utt.gap:g}s"
+        late = f"{m.late:.2f}"
+        other, oshift = utterances[m.other]
+        ow = other.words[0].where if other.words else None
+        oplace = (ow.line + oshift, ow.col, ow.length) if ow else (other.line + oshift, 1, 1)
+        if m.why == "self":
+            who, over = ((f"'{utt.speaker}'", "its own previous line") if utt.speaker is not None else
+                         ("this line", "the previous line without a speaker (lines without one are one speaker)"))
+            fixes = (rules.delete(line, 1, g.col + g.length - 1, "remove the '@gap'"),) if m.other == m.index - 1 else ()
+            out.append(rules.SELF_INTERRUPTION.at(
+                file, line, g.col, g.length, gap=text, who=who, over=over, late=late, how=how, fixes=fixes,
+                related=(Related("that line: a speaker's own lines never overlap", file, *oplace),)))
+            continue
+        if m.why == "start":
+            limit, reach = "the start of the previous line's speech", math.floor(m.reach * 1000 + 1e-6)
+            fixes = (rules.replacements(file, line, g.col, g.length, [f"-{reach}ms"],
+                                        "start with the previous line: '@gap {}'") if reach > 0 else ())
+            related = (Related("the previous line, interrupted from its start", file, *oplace),)
+        else:
+            limit, fixes, related = "the performance's first frame (this line's gestures start before its speech)", (), ()
+        out.append(rules.INTERRUPTION_TOO_LONG.at(file, line, g.col, g.length, gap=text, limit=limit, late=late,
+                                                  how=how, fixes=fixes, related=related))
+    return out
 
 
 def _timing(script: Script, utt: Utterance, mode: str, cache_dir, diags: list[Diagnostic]) -> Timing | None:

@@ -11,6 +11,7 @@
     @preset excited = speed:+2 space:+1.5
     @audio rec/line1.wav timings=rec/line1.TextGrid   # for the next utterance
     @gap 0.8s                 # silence between lines (header); before the next line (later)
+    @gap -400ms               # (not in the header) the next line starts 0.4 s before the speech so far ends
 
 All but ``@audio`` and ``@gap`` belong to the header, before the first utterance. A setting given twice
 (the same directive for the same speaker, a preset of the same name, the same folder, two
@@ -105,12 +106,18 @@ def apply_directive(ctx: DirectiveContext, text: str, line: int, first_utterance
     handler(ctx, args, line, Span(line, 1, len(name) + 1))
 
 
-def _speaker_and_rest(args: list[Arg]) -> tuple[str, list[Arg]]:
+def _speaker_and_rest(ctx: DirectiveContext, args: list[Arg], line: int, directive: str) -> tuple[str, list[Arg]]:
+    """The speaker a per-speaker directive names ("" for none) and its other arguments; the
+    name and its place are recorded in the header (:data:`core.rules.UNKNOWN_SPEAKER`)."""
     if args and args[0].text.endswith(":") and len(args[0].text) > 1:
-        return args[0].text[:-1], args[1:]
-    if len(args) >= 2 and args[1].text == ":":
-        return args[0].text, args[2:]
-    return "", args
+        name, rest = args[0].text[:-1], args[1:]
+    elif len(args) >= 2 and args[1].text == ":":
+        name, rest = args[0].text, args[2:]
+    else:
+        return "", args
+    quoted = args[0].length > len(args[0].text)  # '"knight":' is written with its quotes
+    ctx.header.speaker_refs.append((name, Span(line, args[0].col + quoted, len(name)), directive))
+    return name, rest
 
 
 def _set_voice(ctx: DirectiveContext, speaker: str, key: str, value, where: Span) -> None:
@@ -146,7 +153,7 @@ def _int_in_range(ctx, arg: Arg, line: int, what: str, lo: int, hi: int) -> int 
 
 
 def _do_voice(ctx, args, line, where):
-    speaker, rest = _speaker_and_rest(args)
+    speaker, rest = _speaker_and_rest(ctx, args, line, "voice")
     arg = _need_one(ctx, rest, line, where, "voice", "@voice en-us   or   @voice guide: en-gb")
     if arg is None:
         return
@@ -156,7 +163,7 @@ def _do_voice(ctx, args, line, where):
 
 
 def _do_rate(ctx, args, line, where):
-    speaker, rest = _speaker_and_rest(args)
+    speaker, rest = _speaker_and_rest(ctx, args, line, "rate")
     arg = _need_one(ctx, rest, line, where, "rate", "@rate 160")
     if arg is not None:
         value = _int_in_range(ctx, arg, line, "speaking rate (words per minute)", *RATE_RANGE)
@@ -165,7 +172,7 @@ def _do_rate(ctx, args, line, where):
 
 
 def _do_pitch(ctx, args, line, where):
-    speaker, rest = _speaker_and_rest(args)
+    speaker, rest = _speaker_and_rest(ctx, args, line, "pitch")
     arg = _need_one(ctx, rest, line, where, "pitch", "@pitch 50")
     if arg is not None:
         value = _int_in_range(ctx, arg, line, "pitch", *PITCH_RANGE)
@@ -265,9 +272,15 @@ def _do_gap(ctx, args, line, where):
     arg = _need_one(ctx, args, line, where, "gap", "@gap 0.8s")
     if arg is None:
         return
-    seconds = parse_duration(arg.text)
-    if seconds is None or not 0 <= seconds <= MAX_GAP:
-        ctx.report(rules.BAD_GAP, line, arg.col, arg.length, text=arg.text, max=f"{MAX_GAP:g}")
+    negative = arg.text.startswith("-")
+    seconds = parse_duration(arg.text[1:] if negative else arg.text)
+    if seconds is not None and negative:
+        seconds = -seconds  # between two lines: the next one interrupts (see Plan.lay_out)
+    lo = 0.0 if ctx.in_header else -MAX_GAP
+    if seconds is None or not lo <= seconds <= MAX_GAP:
+        ctx.report(rules.BAD_GAP, line, arg.col, arg.length, text=arg.text, lo=f"{lo:g}s", hi=f"{MAX_GAP:g}",
+                   where=" in the header" if ctx.in_header else " (negative: the next line interrupts)",
+                   negative="; a negative gap goes just before the line that interrupts" if ctx.in_header and negative else "")
         return
     span = Span(line, arg.col, arg.length)
     if ctx.in_header:

@@ -35,6 +35,7 @@ from dsl.script import (
     Utterance,
     WordToken,
 )
+from dsl.speakers import speaker_diagnostics
 from dsl.styles import parse_style_value
 
 #: A spoken word: letters or digits, with inner apostrophes or hyphens ("don't", "left-hand").
@@ -50,6 +51,8 @@ _TAG_HINT = "tags look like [pose:point_right x2 flip hold=500ms] or [pause 300m
 _STYLE_HINT = "style tags look like <speed:-1 space:+0.5> ... </> or <happy>; write '\\<' for a literal '<'"
 #: Characters that hide in a script (see rules BIDI_CONTROL, INVISIBLE_CHARACTER, NUL_CHARACTER).
 _SUSPICIOUS_RE = re.compile("[\x00\u200b\u200e\u200f\u2060\ufeff\u202a-\u202e\u2066-\u2069]+")
+#: What follows ``hold`` when its '=' is missing (``hold 300ms``, ``hold 2``).
+_HOLD_VALUE_RE = re.compile(r"(?:\d+(?:\.\d*)?|\.\d+)(?:ms|s)?")
 _BIDI = frozenset("\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
 
 
@@ -161,18 +164,34 @@ class _Analyser:
             if first_utterance is None:  # the header is complete: now the gesture names are known
                 self._resolve_names(header)
                 first_utterance = Span(stmt.line, 1, max(1, len(stmt.text.split("\n", 1)[0])))
+            before = len(self.diags)
             utt = self.utterance(stmt, len(utterances), header)
+            if not utt.words and not any(d.is_error for d in self.diags[before:]):
+                self._silent(stmt)
             utt.voice = header.voice_for(utt.speaker)
             utt.audio, ctx.pending_audio = ctx.pending_audio, None
             if ctx.pending_gap is not None:
-                utt.gap, ctx.pending_gap = ctx.pending_gap[0], None
+                (utt.gap, utt.gap_where), ctx.pending_gap = ctx.pending_gap, None
             utterances.append(utt)
         if ctx.pending_audio is not None:
             self.diags.append(rules.DANGLING_AUDIO.at(self.file, audio_line, 1, 6))
         if ctx.pending_gap is not None:
             self.diags.append(rules.DANGLING_GAP.at(self.file, ctx.pending_gap[1].line, 1, 4))
         self.diags.extend(ctx.diagnostics)
+        if utterances:
+            self.diags.extend(speaker_diagnostics(self.file, header, [
+                (u.speaker, Span(u.line, 1, len(u.speaker))) for u in utterances if u.speaker]))
         return header, utterances
+
+    def _silent(self, stmt: Statement) -> None:
+        """Warn about an utterance with no words (and no error), with a fix that blanks its lines."""
+        edits = tuple(TextEdit(line, col, len(piece), "")
+                      for piece, line, col in zip(stmt.text.split("\n"), stmt._lines, stmt._cols) if piece)
+        line, col = stmt.position(0)
+        first = stmt.text.split("\n", 1)[0]
+        who = f"'{stmt.speaker}'" if stmt.speaker else "it"
+        self.diags.append(rules.SILENT_UTTERANCE.at(self.file, line, col, len(first), who=who,
+                                                    fixes=(Fix("remove the line", edits),)))
 
     def _resolve_names(self, header: Header) -> None:
         names = self._names_source(header) if callable(self._names_source) else self._names_source
@@ -353,7 +372,9 @@ class _Analyser:
             ok = False
         speed, flip, hold = 1, False, 0.0
         seen: dict[str, tuple[int, int]] = {}
-        for key, value, a0, a1 in args:
+        args = list(args)
+        while args:
+            key, value, a0, a1 = args.pop(0)
             apos, alen = base + a0, a1 - a0
             group = "speed" if key in ("x1", "x2", "x3") else key
             if group in seen and key in POSE_OPTIONS:
@@ -364,7 +385,10 @@ class _Analyser:
                             fixes=(Fix("remove the earlier one", (TextEdit(line, col, seen[group][1], ""),)),)
                             if line == stmt.position(apos)[0] else ())
             seen[group] = (apos, alen)
-            if key in ("x1", "x2", "x3") and value is None:
+            if key == "hold" and value is None and args and args[0][1] is None and _HOLD_VALUE_RE.fullmatch(args[0][0]):
+                self._hold_form(stmt, apos, base + args[0][3] - apos, args.pop(0)[0])
+                ok = False
+            elif key in ("x1", "x2", "x3") and value is None:
                 speed = int(key[1])
             elif key == "flip" and value is None:
                 flip = True
@@ -398,6 +422,14 @@ class _Analyser:
         else:
             mark.after_word = len(starts) - 1
         utt.poses.append(mark)
+
+    def _hold_form(self, stmt, offset: int, length: int, value: str) -> None:
+        """``hold 300ms`` (a space for the '='): one error, fixed by ``hold=300ms``; a bare
+        number gets both units."""
+        texts = [f"hold={value}"] if value.endswith("s") else [f"hold={value}ms", f"hold={value}s"]
+        (l0, _), (l1, _) = stmt.position(offset), stmt.position(offset + length - 1)
+        fixes = tuple(self.replace(stmt, offset, length, t, f"write {t}") for t in texts) if l0 == l1 else ()
+        self.report(stmt, offset, length, rules.HOLD_FORM, value=value, hint="write " + " or ".join(texts), fixes=fixes)
 
     def _bad_duration(self, stmt, offset: int, length: int, what: str, text: str | None) -> None:
         """A duration without a unit gets fixes that add one; a missing one says so."""
@@ -475,7 +507,7 @@ class _Analyser:
             inside = [i for i, w in enumerate(utt.words) if w.start >= span.offset and w.end <= span.end_offset]
             if inside:
                 span.first_word, span.last_word = inside[0], inside[-1]
-            else:
+            elif utt.words:  # (no words at all: silent-utterance, or an error, says so once)
                 self.report(stmt, span.offset, span.where.length, rules.EMPTY_SPAN)
 
 

@@ -3,10 +3,20 @@ and where it plays on the performance clock.
 
 A script is one performance (:meth:`Plan.lay_out`): its utterances play in order on one
 clock. Utterance ``i + 1``'s speech starts ``gap`` seconds (``@gap``, default
-:data:`dsl.script.DEFAULT_GAP`) after utterance ``i``'s speech ends, rounded up to a whole
-frame; its motion starts ``audio_offset`` (its lead-in) before its speech. A speaker's
-utterances never overlap on its own track: a line waits until the same speaker's previous
-motion (its retraction) is over. The first utterance's motion starts at 0.
+:data:`dsl.script.DEFAULT_GAP`) after the speech so far ends (utterance ``i``'s, unless an
+earlier one still talks: see below), rounded up to a whole frame; its motion starts
+``audio_offset`` (its lead-in) before its speech. A speaker's utterances never overlap on
+its own track: a line waits until the same speaker's previous motion (its retraction) is
+over. The first utterance's motion starts at 0.
+
+Overlapping speech: a negative ``gap`` (``@gap -400ms`` before a line) starts the line's
+speech that long before the speech so far ends; the speaker interrupts, and the interrupted
+speaker finishes its line under it (both voices are in the mix, each on its own track). An
+interruption starts at the earliest with the previous line's speech (lines start in script
+order), and never before its own speaker's previous line is over; where either moves it
+later than its gap asks, :attr:`Plan.moved` says so (the compiler's warnings
+``self-interruption`` and ``interruption-too-long``). Without a negative gap the clock is
+the one above, to the frame.
 
 ``plan.json`` is deterministic and human-readable (reviewable in a diff); ``--npz`` holds the
 arrays the generator consumes (layout owned by :mod:`core.controls`). Both are written by
@@ -165,12 +175,36 @@ class UtterancePlan:
         }
 
 
+@dataclass(frozen=True)
+class Moved:
+    """An interruption (a negative gap) :meth:`Plan.lay_out` started later than it asked:
+    utterance ``index`` (its place in :attr:`Plan.utterances`) asked for its speech at frame
+    ``asked`` and got ``frame``, because of ``why``: "self" (its own speaker's utterance
+    ``other`` was still playing), "start" (it would have started before utterance ``other``,
+    the one it interrupts: ``reach`` is the most it may reach back, seconds) or "clock" (its
+    lead-in would have started before frame 0)."""
+
+    index: int
+    why: str
+    asked: int
+    frame: int
+    other: int | None
+    reach: float
+
+    @property
+    def late(self) -> float:
+        """Seconds later than asked."""
+        return (self.frame - self.asked) / FPS
+
+
 @dataclass
 class Plan:
     source: str
     fps: int
     seed: int
     utterances: list[UtterancePlan]
+    #: Interruptions the clock started later than their gap asks (set by :meth:`lay_out`).
+    moved: list[Moved] = field(default_factory=list, repr=False)
 
     def __post_init__(self) -> None:
         self.lay_out()
@@ -186,15 +220,28 @@ class Plan:
         return list(dict.fromkeys(u.speaker for u in self.utterances))
 
     def lay_out(self) -> None:
-        """Place the utterances on the performance clock (see the module's docstring)."""
-        speech_end = 0.0
-        track_end: dict = {}
+        """Place the utterances on the performance clock (see the module's docstring), and
+        record in :attr:`moved` the interruptions (negative gaps) it had to start later."""
+        speech_end = 0.0  # the latest end of speech so far (seconds)
+        track_end: dict = {}  # speaker -> (first frame its track is free, its last utterance's number)
+        audio_prev = 0  # the previous utterance's first audio frame
+        self.moved = []
         for n, u in enumerate(self.utterances):
             lead = int(round(u.lead_in * FPS))
-            audio = lead if n == 0 else int(math.ceil((speech_end + u.gap) * FPS - 1e-6))
-            u.start_frame = max(0, audio - lead, track_end.get(u.speaker, 0))
-            speech_end = u.start + u.lead_in + u.speech_duration
-            track_end[u.speaker] = u.start_frame + u.n_frames
+            asked = audio = lead if n == 0 else int(math.ceil((speech_end + u.gap) * FPS - 1e-6))
+            free, mine = track_end.get(u.speaker, (0, None))
+            if n and u.gap < 0:  # an interruption: not before the line it interrupts starts
+                audio = max(audio, audio_prev)
+            u.start_frame = max(0, audio - lead, free)
+            if n and u.gap < 0 and u.start_frame + lead > asked:
+                if u.start_frame == free and free > max(0, audio - lead):
+                    self.moved.append(Moved(n, "self", asked, u.start_frame + lead, mine, 0.0))
+                else:
+                    limit = "start" if audio > asked and audio - lead >= 0 else "clock"
+                    self.moved.append(Moved(n, limit, asked, u.start_frame + lead, n - 1, speech_end - audio_prev / FPS))
+            audio_prev = u.start_frame + lead
+            speech_end = max(speech_end, u.start + u.lead_in + u.speech_duration)
+            track_end[u.speaker] = (u.start_frame + u.n_frames, n)
 
     def to_dict(self) -> dict:
         return {

@@ -91,6 +91,7 @@ class Utterance:
     voice: Voice = field(default_factory=Voice)
     audio: AudioRef | None = None
     gap: float | None = None  # seconds of silence before this line (``@gap`` just before it); None: the header's
+    gap_where: Span | None = None  # the value of that ``@gap`` (negative: this line interrupts)
 
     display: str = ""  # the text as a reader sees it: no tags, whitespace collapsed
 
@@ -115,6 +116,8 @@ class Header:
     library_where: dict[Path, Span] = field(default_factory=dict)
     presets: dict[str, dict[str, float]] = field(default_factory=dict)
     voice_where: dict[str, Span] = field(default_factory=dict)  # speaker ("" = default) -> directive
+    #: Every speaker a per-speaker directive names: (name, where the name is, directive), in order.
+    speaker_refs: list[tuple[str, Span, str]] = field(default_factory=list)
     #: Where each setting was last given ("seed", "voice:SPEAKER", "preset:NAME", ...), for
     #: the duplicate rule's note.
     settings_where: dict[str, Span] = field(default_factory=dict)

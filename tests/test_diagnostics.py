@@ -37,7 +37,7 @@ CASES = {
     "speakers": "mall guide: Hello\nJosé: hola\ng:hello\nguide: Lo[pose:nod]ok there\n",
     "hidden_characters": "guide: hel\u200blo \u202eereht\x00\x00 x\n",
     "duplicates": "@seed 1\n@seed 2\n@voice bob: en-us\n@voice bob: en-gb\n@preset p = speed:1 speed:2\n"
-                  "guide: <speed:1 speed:2>a</> [pose:wave flip flip hold=1s hold=2s] b\n",
+                  "guide: <speed:1 speed:2>a</> [pose:wave flip flip hold=1s hold=2s] b\nbob: c\n",
 }
 
 

@@ -13,10 +13,15 @@ text:
 - the tail: lines after the last utterance (a dangling ``@audio``, say), analysed the same way.
 
 Diagnostics of the stand-in and the repeated header are dropped; the rest are moved to their
-real lines. A keystroke inside one utterance re-analyses one chunk. The result equals the
-whole-file analysis (a test compares them), with one deliberate difference: timing-dependent
-warnings (overlapping pose controls) and the estimated plan of an utterance are available even
-when *another* utterance has errors, so the timeline keeps working while the user types.
+real lines. What depends on the whole script is computed on the whole script instead: the
+speakers (:func:`dsl.speakers.speaker_diagnostics`: a directive naming no line's speaker,
+names that differ only in case) from the header and the lines, and the interruptions that
+the performance clock had to start later (:func:`dsl.compiler.interruption_diagnostics`) from
+the chunks' plans laid out together. A keystroke inside one utterance re-analyses one chunk.
+The result equals the whole-file analysis (a test compares them), with one deliberate
+difference: timing-dependent warnings (overlapping pose controls) and the estimated plan of an
+utterance are available even when *another* utterance has errors, so the timeline keeps
+working while the user types.
 """
 
 from __future__ import annotations
@@ -28,9 +33,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from core.diagnostics import ERROR, WARNING, Diagnostic, sort_key
-from dsl.compiler import compile_file
-from dsl.lines import split_statements
+from core.skeleton import FPS
+from dsl.compiler import INTERRUPTION_CODES, compile_file, interruption_diagnostics
+from dsl.lines import split_lines, split_statements
 from dsl.parser import analyse
+from dsl.plan import Plan
+from dsl.script import Span
+from dsl.speakers import CODES as SPEAKER_CODES
+from dsl.speakers import speaker_diagnostics
 from library import load_library
 
 STAND_IN = "x"  # the stand-in utterance put before a chunk (its diagnostics are dropped)
@@ -213,6 +223,12 @@ class Analyser:
                 c = chunk("tail", tail)
                 shift = prev_end + 1 - c.canonical_start
                 diags += [_moved(d, shift, c.canonical_start) for d in c.diagnostics]
+        if utts:  # what depends on the whole script (the chunks' own are dropped: see _analyse)
+            diags += speaker_diagnostics(str(self.path), header, [(s.speaker, Span(s.line, 1, len(s.speaker)))
+                                                                  for s in utts if s.speaker])
+            if (all(i.plan is not None for i in infos) and any(i.plan.gap < 0 for i in infos)
+                    and not any(d.is_error for d in diags)):
+                diags += self._interruptions(infos, text)
         self._chunks, self.chunks_analysed = used, analysed[0]
         self.progress = (len(utts), len(utts))
         diags.sort(key=sort_key)
@@ -221,6 +237,15 @@ class Analyser:
             if d.file == str(self.path):
                 by_line.setdefault(d.line, []).append(d)
         return Analysis(diags, infos, script_header, lib, by_line)
+
+    def _interruptions(self, infos: list[UtteranceInfo], text: str) -> list[Diagnostic]:
+        """The interruptions of the whole performance, from the chunks' estimated plans laid out
+        together (on copies: a chunk's plan is cached as its chunk laid it out)."""
+        plan = Plan(str(self.path), FPS, 0, [dataclasses.replace(i.plan) for i in infos])
+        if not plan.moved:
+            return []
+        return interruption_diagnostics(str(self.path), plan, [(i.utterance, i.line_shift) for i in infos],
+                                        split_lines(text), True)
 
     def _header(self, prefix_text: str):
         hit = self._headers.get(prefix_text)
@@ -236,7 +261,9 @@ class Analyser:
             source_lines, start = prefix + [STAND_IN] + body, len(prefix) + 2
         result = compile_file(self.path, timing="estimate", library=lib, source="\n".join(source_lines))
         mine = str(self.path)
-        own = [d for d in result.diagnostics if d.file == mine and (d.line >= start or kind == "first")]
+        whole = SPEAKER_CODES | INTERRUPTION_CODES  # about the whole script: run() computes them on it
+        own = [d for d in result.diagnostics
+               if d.file == mine and (d.line >= start or kind == "first") and d.code not in whole]
         extra = [d for d in result.diagnostics if d.file != mine]
         script = result.script
         utt = script.utterances[-1] if script.utterances and kind != "tail" else None
