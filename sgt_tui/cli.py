@@ -56,7 +56,7 @@ class _Version(argparse.Action):
     """``--version``: the installed version, looked up only when asked (importlib.metadata
     costs 10 ms of every command's start otherwise)."""
 
-    def __call__(self, parser, namespace, values, option_string=None):
+    def __call__(self, parser, *_):  # (namespace, values, option_string)
         print(f"sgt {_version()}")  # on standard output, as argparse's own version action does
         parser.exit()
 

@@ -17,8 +17,9 @@ def readme_api_example() -> str:
 
 
 def test_readme_python_api_example_runs(tmp_path, monkeypatch):
+    """From a fresh folder, as a notebook elsewhere would run it (it used to read examples/
+    relative to the current folder)."""
     code = readme_api_example()
-    (tmp_path / "examples").symlink_to(ROOT / "examples")  # the example's paths are the repository's
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
     exec(compile(code, "README.md (Python API)", "exec"), namespace)
@@ -28,7 +29,7 @@ def test_readme_python_api_example_runs(tmp_path, monkeypatch):
     clip = namespace["clips"][1]
     assert f"{tuple(clip.poses.shape)}, {tuple(clip.positions.shape)}" == shapes
     # the files it asked for, and nothing else
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["examples", "take.bvh", "take.gif"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["take.bvh", "take.gif"]
     assert (tmp_path / "take.gif").read_bytes().startswith(b"GIF89a")
     assert (tmp_path / "take.bvh").read_text().startswith("HIERARCHY")
     # from text: a plan, then motion from the plan and from the text, no file involved
@@ -36,3 +37,13 @@ def test_readme_python_api_example_runs(tmp_path, monkeypatch):
     assert namespace["result"].plan is not None and take.clips and take.clips[0].n_frames == take.plan.utterances[0].n_frames
     assert [w.word for w in take.plan.utterances[0].words[:2]] == ["Welcome", "to"]
     assert [c.name for c in take.plan.utterances[0].controls if c.kind == "pose"] == ["open_arms", "point_right"]
+
+
+def test_example_path_names_the_shipped_examples():
+    import pytest
+
+    from dsl import example_path
+
+    assert example_path("lecture") == example_path("lecture.sgt") == ROOT / "examples" / "lecture.sgt"
+    with pytest.raises(FileNotFoundError, match="there are: game_dialogue, lecture, mall_guide"):
+        example_path("nope")
