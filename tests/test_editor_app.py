@@ -131,7 +131,8 @@ def test_timeline_follows_the_utterance_at_the_cursor(tmp_path):
         kinds = {s.kind: s for s in tl.data.spans}
         assert kinds["pose"].name == "point_right" and kinds["style"].name == "speed"
         text = str(tl.render())
-        assert "[point_right" in text and "<speed" in text and "shelf" in text
+        pose = next(line for line in text.split("\n") if line.startswith("pose"))
+        assert "point" in pose and "*" in pose and "<speed" in text and "shelf" in text  # the name, its stroke
         app.area.move_cursor((10, 3))
         await pilot.pause()
         assert any(s.kind == "pause" for s in tl.data.spans) and "‥pause" in str(tl.render())
@@ -502,7 +503,8 @@ def test_crowded_pose_spans_stay_visible_at_80x24(tmp_path):
     async def steps(pilot):
         rows = str(app.timeline.render()).split("\n")
         pose = [r for r in rows if r.startswith("pose")]
-        assert len(pose) == 1 and "[wave" in pose[0] and "[point_right" in pose[0]
+        assert len(pose) == 1 and "[wave" in pose[0] and "point_right" in pose[0]
+        assert "*" in pose[0] and "!" in pose[0]  # wave's stroke on time, point_right's late (it waits)
 
     drive(app, steps)
 

@@ -496,6 +496,29 @@ def test_overlapping_pose_spans_are_marked_when_their_rows_do_not_fit():
     assert start - 1 <= marks[0][0] <= start + len("[wave")  # where it starts, or just after that label
 
 
+def test_the_timeline_marks_where_each_stroke_lands_and_which_are_late():
+    """Issue 22: the editor's timeline marks each pose control's stroke at its frame ("*"), and
+    a stroke that lands two frames or more after its word with "!" (what SGT401 warns about)."""
+    from dsl.compiler import compile_file
+
+    text = "guide: Look [pose:point_left x3] [pose:point_right x3] there now, [pose:wave] friend.\n"
+    u = compile_file("<s>.sgt", source=text, timing="estimate").plan.utterances[0]
+    width = 126
+    rows, _ = layout(from_plan(u), width + 6)
+    pose_rows = [r for r in rows if r.lane in ("pose", "")]
+    marks = {(a, c) for r in pose_rows for a, b, c in r.marks if c.startswith("stroke")}
+    controls = [c for c in u.controls if c.kind == "pose"]
+    assert len(marks) == len(controls) == 3
+    for c in controls:
+        at = 6 + min(width - 1, c.stroke_frame * width // u.n_frames)
+        late = c.stroke_frame - c.word_frame >= 2
+        assert (at, "stroke-late" if late else "stroke") in marks, (c.name, at, marks)
+        row = next(r for r in pose_rows if any(a == at for a, _, cls in r.marks if cls.startswith("stroke")))
+        assert row.text[at] == ("!" if late else "*")
+    assert sum(c.stroke_frame - c.word_frame >= 2 for c in controls) == 1  # point_right is late; the others are not
+    assert any("[point_left" in r.text for r in pose_rows) and any("[wave" in r.text for r in pose_rows)
+
+
 # -- files that are not scripts, save as ------------------------------------------------------------------------
 
 def test_non_regular_files_are_refused_before_they_are_opened(tmp_path):

@@ -26,6 +26,8 @@ MARK_STYLES = {
     "pose": Style(color="green", bold=True),
     "style": Style(color="red", bold=True),
     "pause": Style(dim=True),
+    "stroke": Style(color="green", bold=True, underline=True),  # where the stroke lands: "*"
+    "stroke-late": Style(color="yellow", bold=True, underline=True),  # a late stroke: "!"
 }
 
 

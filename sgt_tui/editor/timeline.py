@@ -8,7 +8,10 @@ Rows, each starting with its lane name so nothing depends on colour::
     style       <helpful speed:+0.5 space:+1~~~~~~~>
 
 Pose-control spans are ``[name ...]`` filled with ``=``, style spans ``<name ...>`` filled
-with ``~``, pauses ``‥pause‥`` in the words row. A label too long for its span is cut where
+with ``~``, pauses ``‥pause‥`` in the words row. A pose span marks where its stroke lands with
+``*`` (``[wave=*===]``), or ``!`` when the stroke lands two frames or more after its word (a
+late stroke, which ``sgt check`` warns about with SGT401); the label goes before the mark where
+it fits, else after it. A label too long for its span is cut where
 one of its items ends (or before a value's colon) and ends with ``…``: ``<speed…~>``, never
 ``speed:+0`` for +0.5. Overlapping spans go to extra rows; when there is no room for them (at
 80x24 there is one row a kind) each hidden span is marked ``+`` where it starts (just after a
@@ -36,6 +39,11 @@ class Span:
     start: int  # frame
     end: int  # frame, exclusive
     label: str
+    stroke: int | None = None  # a pose control's stroke frame
+    late: bool = False  # its stroke lands two frames or more after its word
+
+#: A stroke this many frames or more after its word is marked late (as dsl.realize.LATE_WARN warns).
+LATE = 2
 
 
 @dataclass
@@ -93,7 +101,9 @@ def from_clip(clip, timing: str = "speech") -> TimelineData:
 
 
 def _data(words, controls, n_frames: int, timing: str) -> TimelineData:
-    spans = [Span(c.kind, c.name, c.start_frame, c.end_frame, _label(c.kind, c.name, c.options)) for c in controls]
+    spans = [Span(c.kind, c.name, c.start_frame, c.end_frame, _label(c.kind, c.name, c.options), c.stroke_frame,
+                  c.stroke_frame is not None and c.word_frame is not None and c.stroke_frame - c.word_frame >= LATE)
+             for c in controls]
     return TimelineData(list(words), spans, n_frames, timing)
 
 
@@ -116,13 +126,28 @@ def fit_label(label: str, width: int) -> str:
     return label[: width - 1] + "…"
 
 
-def _span_text(label: str, width: int, kind: str) -> str:
+def _span_text(label: str, width: int, kind: str, mark: tuple[int, str] | None = None) -> str:
+    """The span's cells; ``mark``: (cell within the span, character) of its stroke, drawn there
+    with the label before it when it fits there, else after it when it fits there, else on
+    the side with more room (cut where an item ends)."""
     open_, close, fill = {"pose": ("[", "]", "="), "style": ("<", ">", "~")}.get(kind, ("‥", "‥", "‥"))
     if width <= 1:
-        return open_[:width]
+        return open_[:width] if mark is None else mark[1]
     inner = width - 2
-    text = fit_label(label, inner)
-    return open_ + text + fill * (inner - len(text)) + close
+    cells = list(open_ + fit_label(label, inner).ljust(inner, fill) + close)
+    if mark is None:
+        return "".join(cells)
+    at, char = min(max(mark[0], 0), width - 1), mark[1]
+    cells[1:-1] = [fill] * inner
+    before, after = at - 1, width - 2 - at  # free cells inside the brackets on each side of the mark
+    if len(label) <= before or (len(label) > after and before >= after):
+        text = fit_label(label, max(0, before))
+        cells[1 : 1 + len(text)] = text
+    else:
+        text = fit_label(label, max(0, after))
+        cells[at + 1 : at + 1 + len(text)] = text
+    cells[at] = char
+    return "".join(cells)
 
 
 def layout(data: TimelineData | None, width: int, playhead: int | None = None, max_lanes: int = 2) -> tuple[list[Row], int | None]:
@@ -180,8 +205,14 @@ def layout(data: TimelineData | None, width: int, playhead: int | None = None, m
             for sp in lane:
                 a = col(sp.start)
                 b = max(a + 1, min(w, int(round(sp.end * w / n))))
-                _put(buf, a, _span_text(sp.label, b - a, kind))
+                mark = None
+                if kind == "pose" and sp.stroke is not None:
+                    mark = (col(sp.stroke) - a, "!" if sp.late else "*")
+                _put(buf, a, _span_text(sp.label, b - a, kind, mark))
                 lm.append((a, b, kind))
+                if mark is not None:
+                    at = a + min(max(mark[0], 0), b - a - 1)
+                    lm.append((at, at + 1, "stroke-late" if sp.late else "stroke"))
             name = kind if li == 0 else ""
             if hidden and li == len(shown) - 1:  # no room for their rows: a marker where each starts
                 for sp in hidden:
