@@ -53,11 +53,42 @@ def import_optional(name: str):
         return import_module(name)
 
 
+_SEEN: list[int] = []  # SIGINTs the handler of :func:`noting_interrupts` has seen
+
+
+@contextmanager
+def noting_interrupts():
+    """While the block runs, SIGINT raises KeyboardInterrupt as Python's default handler does,
+    and is remembered (:func:`caused_by_interrupt` then counts any error as Ctrl-C): a
+    KeyboardInterrupt raised inside a C extension's import can come out as an unrelated
+    ImportError with nothing in its chain (numpy's ``PyCapsule_Import could not import
+    module "datetime"``, seen in CI). Main thread only, and only over Python's default handler
+    (an ignored SIGINT stays ignored); the handler before is put back after."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or previous is not signal.default_int_handler:
+        yield
+        return
+
+    def handler(signum, frame):
+        _SEEN.append(signum)
+        raise KeyboardInterrupt
+
+    _SEEN.clear()
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def caused_by_interrupt(exc: BaseException | None) -> bool:
     """Whether ``exc`` is Ctrl-C in disguise: a KeyboardInterrupt, or an error whose cause or
     context chain holds one (Python 3.11 turns a KeyboardInterrupt raised while a class body
     sets up its fields, ``__set_name__``, into a RuntimeError caused by it; libraries wrap what
-    they catch the same way)."""
+    they catch the same way); or any error once :func:`noting_interrupts`'s handler has seen a
+    SIGINT (a C extension may have dropped the KeyboardInterrupt from the chain)."""
+    if _SEEN and exc is not None:
+        return True
     seen = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):

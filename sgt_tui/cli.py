@@ -16,7 +16,7 @@ import importlib
 import sys
 
 from core.fileio import OutputError, OutputPathError
-from core.interrupts import caused_by_interrupt
+from core.interrupts import caused_by_interrupt, noting_interrupts
 from sgt_tui.errors import InputError, UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
@@ -72,7 +72,13 @@ def _version() -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Run one command; returns the exit status. Errors become one line on stderr (the status
-    codes are in :mod:`sgt_tui.commands.common`), never a traceback."""
+    codes are in :mod:`sgt_tui.commands.common`), never a traceback; ctrl+c is "interrupted"
+    and 130, whatever a library turns it into (:func:`core.interrupts.noting_interrupts`)."""
+    with noting_interrupts():
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     command = "sgt"
     try:
         parser = build_parser()

@@ -256,3 +256,26 @@ def test_ctrl_c_while_onnxruntime_loads_is_not_taken_for_a_missing_package(monke
     finally:  # drop the fake module (monkeypatch puts a real one back if there was one)
         sys.modules.pop("onnxruntime", None)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_ctrl_c_that_a_c_extension_turns_into_an_unrelated_error_is_still_interrupted(monkeypatch, capsys):
+    """A SIGINT while numpy's C extension imports ``datetime`` came out as ``ImportError:
+    PyCapsule_Import could not import module "datetime"`` with no KeyboardInterrupt in its chain
+    (seen in CI: a traceback and exit 1 after ctrl+c). Once the command's handler has seen a
+    SIGINT, any error is the interrupt; the handler before is put back after the command."""
+    import sgt_tui.commands.check as check
+    from sgt_tui.cli import main
+
+    def run(args):
+        try:  # what the extension does: the KeyboardInterrupt is dropped, a plain error raised
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        except KeyboardInterrupt:
+            pass
+        raise ImportError('PyCapsule_Import could not import module "datetime"')
+
+    monkeypatch.setattr(check, "run", run)
+    before = signal.getsignal(signal.SIGINT)
+    assert main(["check", str(EXAMPLE)]) == 130
+    assert capsys.readouterr().err == "interrupted\n"
+    assert signal.getsignal(signal.SIGINT) is before
