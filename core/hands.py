@@ -326,23 +326,35 @@ def _towards(v: np.ndarray, target: np.ndarray, angle: np.ndarray) -> np.ndarray
     return _unit(v * np.cos(angle)[..., None] + perp * np.sin(angle)[..., None])
 
 
-def hand_frames(forearm: np.ndarray, palm: np.ndarray, side: str) -> np.ndarray:
+def hand_frames(forearm: np.ndarray, palm: np.ndarray, side: str, upper_arm: np.ndarray | None = None) -> np.ndarray:
     """Hand orientations (..., 3, 3), columns (thumb side, along the fingers, out of the palm),
     for forearm directions (elbow -> wrist, (..., 3)) and palm targets (..., 3).
 
     The hand turns about the forearm until its palm faces the target's part square to the
     forearm, then the wrist bends (at most :data:`MAX_WRIST_BEND`) towards the rest of it: a
-    palm facing where the forearm points is a raised hand ("stop"), an extension."""
+    palm facing where the forearm points is a raised hand ("stop"), an extension.
+
+    Where the target runs nearly along the forearm it says little about the roll, and the
+    hand takes the forearm's neutral roll instead: with ``upper_arm`` (shoulder -> elbow
+    directions) and a bent elbow, the palm facing across the bend (thumb up for a forearm
+    held in front: no twist between elbow and wrist); else, or for a straight arm, "down",
+    then "in"."""
     d = _unit(np.asarray(forearm, dtype=np.float64))
     n = _unit(np.asarray(palm, dtype=np.float64))
-    # the target square to the forearm; near-parallel targets fall back to "down" then "in",
-    # continuously, so the roll never flips within a frame's motion
+    # the target square to the forearm; near-parallel targets fall back to the neutral roll,
+    # then "down", then "in", continuously, so the roll never flips within a frame's motion
     down = palm_direction("down", side) * np.ones_like(d)
     inward = palm_direction("in", side) * np.ones_like(d)
+    fallbacks = [(down, 1.0), (inward, 1.0)]
+    if upper_arm is not None:
+        u = _unit(np.asarray(upper_arm, dtype=np.float64))
+        neutral = np.cross(d, u) if side == "right" else np.cross(u, d)  # as long as the sine of the elbow's bend
+        # trusted in full from a bend of 17 degrees, fading out as the arm straightens
+        fallbacks.insert(0, (neutral, np.clip(np.linalg.norm(neutral, axis=-1, keepdims=True) / 0.3, 0.0, 1.0)))
     v = _reject(n, d)
-    for fallback in (down, inward):
+    for fallback, weight in fallbacks:
         short = np.maximum(0.0, 0.25 - np.linalg.norm(v, axis=-1, keepdims=True))
-        v = v + short * _unit(_reject(fallback, d))
+        v = v + short * weight * _unit(_reject(fallback, d))
     p = _unit(v)
     # the wrist bends towards the target's part along the forearm
     along = np.clip(np.sum(n * d, axis=-1), -1.0, 1.0)
@@ -355,6 +367,77 @@ def hand_frames(forearm: np.ndarray, palm: np.ndarray, side: str) -> np.ndarray:
     return np.stack([t, h, p2], axis=-1)
 
 
+#: The most a hand turns relative to its forearm in one frame to follow its palm target, about
+#: the forearm (pronation, "roll") and across it (the wrist's bend), degrees (375 degrees/s
+#: each at 15 fps): see :func:`steady_palms`.
+MAX_ROLL_STEP = 25.0
+MAX_BEND_STEP = 25.0
+
+
+def steady_palms(positions: np.ndarray, track: HandTrack, max_roll: float = MAX_ROLL_STEP,
+                 max_bend: float = MAX_BEND_STEP) -> HandTrack:
+    """``track`` with palm targets that :func:`hand_frames` follows without a hand flipping or
+    snapping.
+
+    :func:`hand_frames` chooses each frame's hand on its own, and no rule that does so can be
+    continuous everywhere: where the palm target runs nearly along the forearm (the end of a
+    wave or a "stop", the arm swinging down past it) a slight move of the arm turns the hand
+    round by up to 180 degrees in one frame, while the wrist sits at its bend limit on both
+    sides; and a forearm swinging fast past a still target bends the wrist from one limit to
+    the other in a frame or two. Here each hand's roll about the forearm (measured against the
+    previous frame's, carried along as the forearm turns) changes by at most ``max_roll``
+    degrees a frame, and its bend by at most ``max_bend``: where the hand :func:`hand_frames`
+    would choose runs ahead, the hand turns towards it at that speed. On those frames the palm
+    target becomes the direction the palm then faces, which :func:`hand_frames` reproduces
+    exactly (a wrist bent at most :data:`MAX_WRIST_BEND` keeps more than the fallback's share
+    of the target square to the forearm), so every reader of the track (renders, exports)
+    draws the same hands; other frames keep their targets. ``positions`` (T, 10, 3): the
+    body's joints on the track's frames."""
+    x = np.asarray(positions, dtype=np.float64)
+    palm = track.palm.astype(np.float64).copy()
+    if len(x) < 2:
+        return HandTrack(palm.astype(track.palm.dtype), track.fingers)
+    roll_limit, bend_limit = math.radians(max_roll), math.radians(max_bend)
+    for s, side in enumerate(SIDES):
+        forearm = x[:, JOINT_INDEX[f"{side}_wrist"]] - x[:, JOINT_INDEX[f"{side}_elbow"]]
+        upper = x[:, JOINT_INDEX[f"{side}_elbow"]] - x[:, JOINT_INDEX[f"{side}_shoulder"]]
+        d = _unit(forearm)
+        normal = hand_frames(forearm, palm[:, s], side, upper)[..., 2]
+        bend = np.arcsin(np.clip(np.sum(normal * d, axis=-1), -1.0, 1.0))
+        roll = _unit(_reject(normal, d))  # the roll's direction: the palm square to the forearm
+        # each frame's roll change, the previous roll carried onto this frame's forearm
+        carried = _carry(roll[:-1], d[:-1], d[1:])
+        step = np.arctan2(np.sum(np.cross(carried, roll[1:]) * d[1:], axis=-1), np.sum(carried * roll[1:], axis=-1))
+        if np.abs(step).max() <= roll_limit + 1e-9 and np.abs(np.diff(bend)).max() <= bend_limit + 1e-9:
+            continue
+        wanted = np.concatenate([[0.0], np.cumsum(step)])
+        got_roll, got_bend = _follow(wanted, roll_limit), _follow(bend, bend_limit)
+        late = (np.abs(got_roll - wanted) > 1e-9) | (np.abs(got_bend - bend) > 1e-9)
+        turned = _rotate(roll[late], d[late], (got_roll - wanted)[late])
+        b = got_bend[late][:, None]
+        palm[late, s] = turned * np.cos(b) + d[late] * np.sin(b)
+    return HandTrack(palm.astype(track.palm.dtype), track.fingers)
+
+
+def _follow(wanted: np.ndarray, limit: float) -> np.ndarray:
+    """``wanted`` (T,) followed from its first value, moving at most ``limit`` a step."""
+    got = wanted.copy()
+    for t in range(1, len(got)):  # a scalar recursion: microseconds a frame
+        got[t] = got[t - 1] + min(limit, max(-limit, wanted[t] - got[t - 1]))
+    return got
+
+
+def _carry(v: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Vectors ``v`` (n, 3) turned by the least rotation that takes unit ``a`` to unit ``b``."""
+    axis = np.cross(a, b)
+    sin = np.linalg.norm(axis, axis=-1)
+    cos = np.clip(np.sum(a * b, axis=-1), -1.0, 1.0)
+    angle = np.arctan2(sin, cos)
+    safe = sin > 1e-9
+    unit_axis = np.where(safe[:, None], axis / np.maximum(sin, 1e-12)[:, None], 0.0)
+    return np.where(safe[:, None], _rotate(v, unit_axis, angle), v)
+
+
 def hand_positions(positions: np.ndarray, track: HandTrack) -> np.ndarray:
     """World positions of the hand joints (T, 2, 20, 3) (side order :data:`SIDES`) from the
     body's joint positions (T, 10, 3) and a hand track."""
@@ -364,6 +447,7 @@ def hand_positions(positions: np.ndarray, track: HandTrack) -> np.ndarray:
     for s, side in enumerate(SIDES):
         wrist = x[:, JOINT_INDEX[f"{side}_wrist"]]
         forearm = wrist - x[:, JOINT_INDEX[f"{side}_elbow"]]
-        frames = hand_frames(forearm, track.palm[:, s], side)  # (T, 3, 3)
+        upper = x[:, JOINT_INDEX[f"{side}_elbow"]] - x[:, JOINT_INDEX[f"{side}_shoulder"]]
+        frames = hand_frames(forearm, track.palm[:, s], side, upper)  # (T, 3, 3)
         out[:, s] = wrist[:, None, :] + np.einsum("tij,tkj->tki", frames, local[:, s])
     return out

@@ -24,8 +24,8 @@ from typing import Sequence
 
 import numpy as np
 
-from core.hands import HandTrack, interpolate_hands
-from core.skeleton import FPS, MIRROR_BONE_PERMUTATION, frame_count, mirror_pose
+from core.hands import HandTrack, interpolate_hands, steady_palms
+from core.skeleton import FPS, MIRROR_BONE_PERMUTATION, frame_count, mirror_pose, positions_from_pose
 from library import retime
 from library.config import configured_sources
 from library.spec import GestureSpec, LibraryProblem, SpecError, interpolate, read_spec
@@ -141,7 +141,9 @@ class Gesture:
             times, dirs = self._timeline()
             ts = np.zeros(self.n_frames(speed)) if len(times) == 1 else retime.frame_times(times, self._frames(speed))
             key_times = np.array([k.time for k in self.spec.keyframes])
-            base = (interpolate(times, dirs, ts), interpolate_hands(key_times, self.spec.key_palms, self.spec.key_fingers, ts))
+            poses = interpolate(times, dirs, ts)
+            hands = interpolate_hands(key_times, self.spec.key_palms, self.spec.key_fingers, ts)
+            base = (poses, steady_palms(positions_from_pose(poses), hands))  # no hand flips through the forearm
             self._base[key] = base
         poses, hands = base
         bones, sides = self.spec.bone_mask, self.spec.hand_sides

@@ -110,7 +110,8 @@ def _turn(a: np.ndarray, b: np.ndarray, fraction: float, inward: float) -> np.nd
 def motion_hands(poses: np.ndarray, layers=()) -> HandTrack:
     """Hands for generated body motion: :func:`beat_hands`, then each ``(track, weight)`` of
     ``layers`` in order (gesture hands and their weights, (T,) in [0, 1]; a weight of 1 is
-    exact there), then :func:`limit_speed`."""
+    exact there), then :func:`limit_speed`. (The performance then keeps each hand's roll about
+    the forearm continuous on the speaker's track: :func:`core.hands.steady_palms`.)"""
     track = beat_hands(poses)
     for gestures, weight in layers:
         track = with_gestures(track, gestures, weight)

@@ -28,7 +28,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from core.controls import ControlArrays
-from core.hands import SIDES, HandTrack, slerp
+from core.hands import SIDES, HandTrack, slerp, steady_palms
 from core.motion import MotionClip, Track
 from core.skeleton import BONE_INDEX, FPS, N_BONES, normalize_pose, positions_from_pose, slerp_poses
 from model.hands import limit_speed, with_gestures
@@ -178,7 +178,8 @@ def perform(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None
     blend of :mod:`model.postprocess` over the whole track, its requests at their frames): the
     easing between utterances and the listening motion can never cut into a stroke, which is
     on its word. Hands likewise: the utterances' hands eased into relaxed hands, then the pose
-    controls' hands exact on their frames, then the hands' speed limit. The returned clips are
+    controls' hands exact on their frames, then the hands' speed limit, then their roll about
+    the forearm kept continuous (:func:`core.hands.steady_palms`). The returned clips are
     the tracks' frames of each utterance (the same numbers), with the utterances' words and
     controls: the track is the product, the clip a view of it."""
     exact = exact or Exact()
@@ -208,7 +209,9 @@ def perform(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None
                                         max_step_deg=exact.max_step_deg, bones=requests.bone_mask)
         if hand_mask.any():
             hands = limit_speed(with_gestures(hands, gesture_hands, hand_mask))
-        track = Track(speaker, np.asarray(poses, np.float32), hands=hands)
+        poses = np.asarray(poses, np.float32)
+        hands = steady_palms(positions_from_pose(poses), hands)  # no hand flips about the forearm, cuts included
+        track = Track(speaker, poses, hands=hands)
         tracks.append(track)
         for u, c in own:
             at = slice(u.start_frame, u.start_frame + c.n_frames)

@@ -113,10 +113,20 @@ def continuous_quats(q) -> np.ndarray:
     return q
 
 
-def matrix_to_axis_angle(m) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) -> axis-angle vectors (..., 3): axis times angle in
-    radians, angle in [0, pi]."""
-    q = matrix_to_quat(m)
+def axis_rotations(axis, angles) -> np.ndarray:
+    """Rotations (T, 3, 3) by ``angles`` (T,) radians about one unit ``axis`` (3,) (Rodrigues)."""
+    a = np.asarray(axis, dtype=np.float64)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    t = np.asarray(angles, dtype=np.float64)[:, None, None]
+    return np.eye(3) + np.sin(t) * k + (1.0 - np.cos(t)) * (k @ k)
+
+
+def continuous_axis_angle(m) -> np.ndarray:
+    """Rotation matrices (T, ..., 3, 3) -> axis-angle vectors (T, ..., 3) that never jump
+    between frames: from sign-continuous quaternions (:func:`continuous_quats`), so an angle
+    passing pi goes on to 2 pi instead of flipping the axis (2 pi apart from the previous
+    frame's vector, a one-frame spin for a tool that interpolates them)."""
+    q = continuous_quats(matrix_to_quat(m))
     v = q[..., :3]
     s = np.linalg.norm(v, axis=-1, keepdims=True)
     angle = 2.0 * np.arctan2(s, q[..., 3:4])

@@ -35,7 +35,7 @@ from core.skeleton import FPS
 from renders.rigs import SMPLX
 from renders.rigs.retarget import retarget_clip
 from renders.rigs.smplx import HAND_JOINT_NAMES, JOINT_NAMES
-from renders.rotations import matrix_to_axis_angle
+from renders.rotations import continuous_axis_angle
 
 COORDINATES = "y-up, right-handed, metres, body facing +z (the SMPL-X model frame; not AMASS's z-up)"
 
@@ -43,7 +43,7 @@ COORDINATES = "y-up, right-handed, metres, body facing +z (the SMPL-X model fram
 def smplx_arrays(clip: MotionClip) -> dict[str, np.ndarray]:
     motion = retarget_clip(SMPLX, clip)
     T = motion.n_frames
-    aa = matrix_to_axis_angle(motion.local).astype(np.float32)  # (T, bones, 3)
+    aa = continuous_axis_angle(motion.local).astype(np.float32)  # (T, bones, 3), no jumps between frames
     f = np.float32
     global_orient, body_pose = aa[:, 0], aa[:, 1:22].reshape(T, 63)
     hand = {side: aa[:, [SMPLX.index[f"{side}_{n}"] for n in HAND_JOINT_NAMES]].reshape(T, 45)

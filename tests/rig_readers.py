@@ -85,6 +85,7 @@ def read_glb_pygltflib(path) -> dict:
         "heads": {names[j]: world[j][:, :3, 3] for j in joints},
         "rotations": {names[j]: world[j][:, :3, :3] @ rest[j][:3, :3].T for j in joints},
         "world": {names[j]: world[j] for j in joints},
+        "rest_world": {names[j]: rest[j] for j in joints},
         "rest_heads": {names[j]: rest[j][:3, 3] for j in joints},
         "extensions": g.extensions or {},
         "node_names": [n.name for n in g.nodes],

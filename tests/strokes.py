@@ -6,7 +6,8 @@ per speaker: a :class:`model.generate.Take`, a motion file read back, a service 
 returns every broken promise as a line of text: a stroke more than :data:`MAX_STROKE_DEG`
 degrees from its gesture's stroke pose on a bone it drives, a stroke more than
 :data:`MAX_LATE` frames from its word without a warning saying why, a bone turning faster
-than :data:`MAX_DEG_PER_S`, a hand turning more than :data:`MAX_HAND_TURN` degrees in a frame.
+than :data:`MAX_DEG_PER_S`, a hand turning more than :data:`MAX_HAND_TURN` degrees in a frame
+relative to its forearm (:func:`hand_turns`).
 :func:`scripts` makes the scripts it is run on.
 """
 
@@ -66,21 +67,47 @@ def check(clips, tracks, library, warned: set | None = None, hands: bool = True)
 
 
 def hand_turns(track) -> np.ndarray | None:
-    """Degrees each hand (its frame: the palm's axes) turns between frames, (T-1, 2)."""
-    from core.hands import SIDES, hand_frames
+    """Degrees each hand turns between frames relative to its forearm, (T-1, 2): the hand as
+    renders and exports draw it (:func:`core.hands.hand_positions`: its frame from the wrist,
+    the middle finger's knuckle and the knuckles' line), less what the forearm's own swing
+    carries (the previous frame's hand turned by the least rotation from the previous forearm
+    direction to this one). A hand that flips about its forearm, or a wrist that snaps from
+    one bend to the other, turns by that much; an arm swinging fast carries its hand along."""
+    from core.hands import HAND_JOINTS, SIDES, hand_positions
     from core.skeleton import JOINT_INDEX, positions_from_pose
 
     if track.hands is None:
         return None
     pos = positions_from_pose(track.poses)
+    joints = hand_positions(pos, track.hands)  # (T, 2, 20, 3)
+    k = {name: i for i, name in enumerate(HAND_JOINTS)}
     out = []
     for s, side in enumerate(SIDES):
-        forearm = pos[:, JOINT_INDEX[f"{side}_wrist"]] - pos[:, JOINT_INDEX[f"{side}_elbow"]]
-        r = hand_frames(forearm, track.hands.palm[:, s], side)  # (T, 3, 3) rotations
-        rel = np.einsum("tij,tik->tjk", r[:-1], r[1:])  # R_t^T R_{t+1}
+        wrist = pos[:, JOINT_INDEX[f"{side}_wrist"]]
+        along = _unit(joints[:, s, k["middle_mcp"]] - wrist)
+        across = joints[:, s, k["index_mcp"]] - joints[:, s, k["little_mcp"]]
+        across = _unit(across - np.sum(across * along, -1, keepdims=True) * along)
+        r = np.stack([across, along, np.cross(across, along)], axis=-1)  # (T, 3, 3)
+        forearm = _unit(wrist - pos[:, JOINT_INDEX[f"{side}_elbow"]])
+        carried = _least_rotation(forearm[:-1], forearm[1:]) @ r[:-1]
+        rel = np.einsum("tji,tjk->tik", carried, r[1:])
         cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)
         out.append(np.degrees(np.arccos(cos)))
     return np.stack(out, axis=1)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _least_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotations (n, 3, 3) of least angle taking unit vectors ``a`` to ``b`` (n, 3) (Rodrigues)."""
+    v = np.cross(a, b)
+    c = np.sum(a * b, axis=-1)
+    k = np.zeros(a.shape[:-1] + (3, 3))
+    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    k[..., 1, 0], k[..., 2, 0], k[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return np.eye(3) + k + (k @ k) / (1.0 + np.maximum(c, -1.0 + 1e-9))[..., None, None]
 
 
 # -- the scripts ---------------------------------------------------------------------------------

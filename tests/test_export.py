@@ -13,12 +13,16 @@ from core.skeleton import BONE_INDEX, FPS, JOINTS, POSE_DIM, REST_POSE, normaliz
 from core.words import TimedWord
 
 
-def _library_clip(names=("wave", "point_right", "open_arms", "shrug", "point_up", "clap")) -> MotionClip:
+def _library_clip(names=("wave", "point_right", "open_arms", "shrug", "point_up", "clap"), speeds=(1,),
+                  flips=(False,)) -> MotionClip:
+    """The gestures ``names`` played one after another at each of ``speeds``, each ``flips``,
+    then point_right flipped."""
     from core.hands import concat
     from library import load_library
 
     lib = load_library(use_config=False)
-    clips = [lib.get(n).clip() for n in names] + [lib.get("point_right").clip(flip=True)]
+    clips = [lib.get(n).clip(speed=sp, flip=f) for n in names for sp in speeds for f in flips]
+    clips.append(lib.get("point_right").clip(flip=True))
     return MotionClip(poses=np.concatenate([c.poses for c in clips]), words=[TimedWord("hi", 0.0, 0.3)],
                       controls=[Control("pose", "wave", 0, 5)], hands=concat([c.hands for c in clips]))
 

@@ -366,3 +366,69 @@ def test_terminal_figure_marks_hand_shapes():
     # without hands: the old figure, a blob at each wrist
     plain = stick_figure(pos[0], 40, 20)
     assert plain != fist_lines and len(plain) == 20
+
+
+# -- hands that never flip (issue 22) ----------------------------------------------------------
+
+def test_no_library_gesture_turns_a_hand_more_than_45_degrees_a_frame():
+    """Every gesture at every speed, flipped too, as renders and exports draw its hands: no hand
+    turns more than 45 degrees between frames relative to its forearm (tests/strokes.py's
+    hand_turns). The end of wave, open_arms and stop turned a hand by up to 180 degrees in one
+    frame while its palm target moved at most 30: the wrist sat at its bend limit on both."""
+    from types import SimpleNamespace
+
+    from strokes import MAX_HAND_TURN, hand_turns
+
+    worst = []
+    for g in load_library(use_config=False).gestures.values():
+        for speed in (1, 2, 3):
+            for flip in (False, True):
+                c = g.clip(speed=speed, flip=flip)
+                if c.n_frames > 1:
+                    worst.append((float(hand_turns(SimpleNamespace(poses=c.poses, hands=c.hands)).max()), g.name, speed, flip))
+    worst.sort()
+    assert worst[-1][0] <= MAX_HAND_TURN, worst[-5:]
+    assert len(worst) == 6 * len(load_library(use_config=False).names())
+
+
+def test_steady_palms_turns_a_flipping_hand_at_a_bounded_speed_and_is_a_fixed_point():
+    """A forearm swinging fast past a palm target that runs nearly along it (the end of a
+    "stop"): per frame, hand_frames rolls the hand about the forearm by 73 degrees in a frame
+    (nearer the target, hand_frames's neutral fallback takes over; farther, less); steady_palms makes it roll at most MAX_ROLL_STEP a frame (its wrist bent at most
+    MAX_BEND_STEP further), and hand_frames of its palm targets gives exactly the hands it chose."""
+    from strokes import _least_rotation
+
+    from core.hands import MAX_BEND_STEP, MAX_ROLL_STEP, hand_frames, steady_palms
+    from core.skeleton import BONE_INDEX, JOINT_INDEX, REST_POSE, positions_from_pose
+
+    n = 4
+    poses = np.repeat(REST_POSE[None], n, 0).reshape(n, 9, 3).copy()
+    pitch = np.radians(np.linspace(60, -60, n))  # the forearm from 60 degrees up to 60 down, 40 a frame (600 deg/s)
+    poses[:, BONE_INDEX["right_wrist"]] = np.stack([np.zeros(n), np.sin(pitch), np.cos(pitch)], -1)
+    poses = poses.reshape(n, 27)
+    side = np.radians(15.5)  # the target 15.5 degrees off the forearm's sweep: its part square to the forearm swings round
+    target = np.array([np.sin(side), 0.0, np.cos(side)])
+    track = HandTrack(np.repeat(np.stack([palm_direction("in", "left"), target])[None], n, 0).astype(np.float32),
+                      HandTrack.rest(n).fingers)
+    pos = positions_from_pose(poses)
+    forearm = pos[:, JOINT_INDEX["right_wrist"]] - pos[:, JOINT_INDEX["right_elbow"]]
+    upper = pos[:, JOINT_INDEX["right_elbow"]] - pos[:, JOINT_INDEX["right_shoulder"]]
+    d = forearm / np.linalg.norm(forearm, axis=-1, keepdims=True)
+
+    def roll_steps(palm):
+        f = hand_frames(forearm, palm, "right", upper)
+        r = f[..., 2] - np.sum(f[..., 2] * d, -1, keepdims=True) * d  # the palm square to the forearm
+        r /= np.linalg.norm(r, axis=-1, keepdims=True)
+        carried = np.einsum("tij,tj->ti", _least_rotation(d[:-1], d[1:]), r[:-1])  # by the forearm's swing
+        return f, np.degrees(np.arccos(np.clip(np.sum(carried * r[1:], -1), -1, 1)))
+
+    _, before = roll_steps(track.palm[:, 1])
+    assert before.max() > 2.5 * MAX_ROLL_STEP  # the roll's jump this is about (73 degrees in a frame)
+    steady = steady_palms(pos, track)
+    frames, after = roll_steps(steady.palm[:, 1])
+    assert after.max() <= MAX_ROLL_STEP + 1e-6, after
+    np.testing.assert_allclose(steady.palm[:, 0], track.palm[:, 0])  # the left hand had nothing to steady
+    # a fixed point: hand_frames of the targets it wrote are the hands it chose
+    np.testing.assert_allclose(frames[..., 2], steady.palm[:, 1], atol=1e-5)
+    np.testing.assert_allclose(steady_palms(pos, steady).palm, steady.palm, atol=1e-5)
+    assert MAX_BEND_STEP <= 45

@@ -35,7 +35,7 @@ def lib():
 
 def _take_problems(text: str, engine: str, lib) -> list[str]:
     take = generate(source=text, engine=engine, timing="estimate", library=lib)
-    return strokes.check(take.clips, take.tracks, lib, strokes.warned_marks(take.diagnostics), hands=False)
+    return strokes.check(take.clips, take.tracks, lib, strokes.warned_marks(take.diagnostics))
 
 
 def test_there_are_200_scripts_of_every_kind():
@@ -85,7 +85,7 @@ def test_build_outputs_keep_the_strokes(tmp_path, lib):
         motion = load_motion_file(tmp_path / "out" / f"{name.replace('.sgt', '')}.json")
         warned = strokes.warned_marks(compile_file(src / f"{name.replace('.sgt', '')}.sgt", timing="speech",
                                                    library=lib).diagnostics)
-        problems = strokes.check(motion.clips, motion.tracks, lib, warned, hands=False)
+        problems = strokes.check(motion.clips, motion.tracks, lib, warned)
         assert not problems, (name, problems[:5])
 
 
@@ -103,7 +103,7 @@ def test_service_answers_keep_the_strokes(tmp_path, lib):
             (tmp_path / "answer.json").write_text(json.dumps(answer["motion"]))
             motion = load_motion_file(tmp_path / "answer.json")
             warned = {(d["line"], d["col"]) for d in answer["diagnostics"] if d.get("code") == "SGT401"}
-            problems = strokes.check(motion.clips, motion.tracks, lib, warned, hands=False)
+            problems = strokes.check(motion.clips, motion.tracks, lib, warned)
             assert not problems, (name, problems[:5])
 
 

@@ -14,7 +14,7 @@ from core.hands import HAND_JOINTS, SIDES, hand_positions
 from core.motion import MotionClip
 from core.skeleton import BONE_NAMES, JOINTS, REST_DIRECTIONS, positions_from_pose
 from renders.rigs.rig import Aim, AimRoll, Orient, Rig, roll_direction
-from renders.rotations import shortest_arcs, triads
+from renders.rotations import axis_rotations, matrix_to_quat, shortest_arcs, triads
 
 
 @dataclass
@@ -119,11 +119,59 @@ def retarget(rig: Rig, joints: dict[str, np.ndarray], rest: dict[str, np.ndarray
         else:  # follows its parent: keeps its rest rotation relative to it
             p = parents[i]
             world[:, i] = world[:, p] @ (r0[p].T @ r0[i])
+    for i, bone in enumerate(rig.bones):
+        p = parents[i]
+        if isinstance(bone.drive, AimRoll) and p >= 0 and isinstance(rig.bones[p].drive, Aim) and parents[p] >= 0:
+            _share_twist(rig, world, r0, heads, hand=i, forearm=p, upper=parents[p])
     local = world.copy()
     has_parent = parents >= 0
     local[:, has_parent] = np.swapaxes(world[:, parents[has_parent]], -1, -2) @ world[:, has_parent]
     root = heads[0] + rig.translation_scale * (joints[rig.root_source] - rest[rig.root_source])
     return RigMotion(rig=rig, world=world, local=local, root_translation=root)
+
+
+def _share_twist(rig: Rig, world: np.ndarray, r0: np.ndarray, heads: np.ndarray, *, hand: int, forearm: int,
+                 upper: int) -> None:
+    """Spread the hand's turn about the forearm over the elbow and the wrist (``world`` is
+    changed in place, the forearm's rotations only; every bone keeps its aim, every joint its
+    place).
+
+    Aimed by the least rotation from its rest direction, a forearm keeps whatever twist that
+    rotation happens to have, so the elbow carried up to 179 degrees of twist and the wrist
+    all of the hand's pronation, up to 180 degrees: a candy-wrapper on a skinned character.
+    Here (a swing-twist decomposition) the forearm first turns relative to the upper arm by
+    the least rotation that aims it (an elbow with no twist of its own), then takes half of
+    the hand's remaining twist about the forearm's axis, unwrapped over the frames so that it
+    never jumps (:func:`_unwrap_within_runs`): the elbow and the wrist each carry half of the
+    pronation, at most 90 degrees for a hand turned round."""
+    aim = rig.aim_end(rig.bones[forearm]) - heads[forearm]
+    axis = r0[forearm].T @ (aim / np.linalg.norm(aim))  # the forearm's aim in its own frame
+    rest_local = r0[upper].T @ r0[forearm]
+    base = world[:, upper] @ rest_local  # (T, 3, 3): the forearm's rest relation to the upper arm, now
+    now = np.einsum("tji,tj->ti", base, world[:, forearm] @ axis)  # its aim in that frame
+    world[:, forearm] = base @ shortest_arcs(axis, now)
+    # the hand's rotation relative to its rest relation to the forearm, in the forearm's frame
+    dev = np.swapaxes(world[:, forearm], -1, -2) @ world[:, hand] @ (r0[hand].T @ r0[forearm])
+    q = matrix_to_quat(dev)
+    twist = _unwrap_within_runs(2.0 * np.arctan2(q[:, :3] @ axis, q[:, 3]))
+    world[:, forearm] = world[:, forearm] @ axis_rotations(axis, twist / 2.0)
+
+
+def _unwrap_within_runs(angles: np.ndarray, cut: float = 2.0 * np.pi / 3.0) -> np.ndarray:
+    """Angles (T,) radians made continuous, in runs split where one frame moves them by
+    ``cut`` or more (a cut in the motion, or a turn no arm makes in a frame), each run then
+    moved by whole turns so that its median lies in (-pi, pi]: continuous where the motion is,
+    and never a whole turn off where it is not."""
+    wrapped = np.angle(np.exp(1j * angles))
+    if len(wrapped) < 2:
+        return wrapped
+    steps = np.angle(np.exp(1j * np.diff(wrapped)))
+    out = np.concatenate([[wrapped[0]], wrapped[0] + np.cumsum(steps)])
+    starts = np.concatenate([[0], np.flatnonzero(np.abs(steps) >= cut) + 1, [len(out)]])
+    for a, b in zip(starts[:-1], starts[1:]):
+        run = out[a:b]
+        out[a:b] = run - 2.0 * np.pi * np.round(np.median(run) / (2.0 * np.pi))
+    return out
 
 
 def retarget_clip(rig: Rig, clip: MotionClip) -> RigMotion:
