@@ -274,7 +274,11 @@ class Mannequin:
         fwd = np.cross(across, up)
         torso = frame_from(up, fwd)
         self._set("torso", transform(torso, spine + 0.48 * up))
-        self._set("hips", transform(torso, spine - 0.02 * up / max(np.linalg.norm(up), 1e-9)))
+        # The hips stay upright, turning only with the torso's heading: the skeleton's root (the
+        # spine joint) is the waist, so a lean (a bow, lean_forward) bends there and the hips do
+        # not swing the other way. Turned with the whole torso, the hips' bottom went back as
+        # the chest went forward, and the lean seemed to pivot at the chest.
+        self._set("hips", transform(frame_from(np.array([0.0, 1.0, 0.0]), fwd), spine - np.array([0.0, 0.02, 0.0])))
         # Head frame: y from the neck to the head top, z towards the nose.
         head = frame_from(top - neck, nose - neck)
         hu = head[:, 1]

@@ -4,8 +4,15 @@ Inverse kinematics is analytic per chain (no iteration):
 
 - The torso frame follows sgt's torso: y from spine to neck, x along the shoulder line (right
   to left shoulder), its rotation from sgt's rest is taken out, so the robot's arms and head
-  move relative to its own torso (NAO and Pepper cannot lean like sgt's spine). Axes: NAOqi's
-  (x forward, y left, z up) = sgt's (z, x, y).
+  move relative to its own torso. Axes: NAOqi's (x forward, y left, z up) = sgt's (z, x, y).
+- HipPitch (Pepper only) keeps the torso's lean, forward or back (a bow, ``lean_forward``,
+  ``lean_back``): the angle of sgt's spine -> neck from the vertical in the plane of the
+  torso's heading. NAOqi's sign: the torso is the URDF's root and the legs hang from the hip,
+  so a positive HipPitch turns the legs (about +y: their -z towards -x) back under the torso,
+  which leans the upper body back over the wheels; a bow is negative.
+  Pepper's HipRoll and KneePitch and the torso's sideways lean and twist are not driven. NAO
+  leans only through its leg joints (whole-body balance), so its torso stays upright and its
+  arms and head keep sgt's, relative to the torso.
 - Shoulder: the upper arm (shoulder -> elbow) gives ShoulderPitch (about y) and ShoulderRoll
   (about z), correcting for the elbow's sideways offset (ElbowOffsetY). Elbow: the forearm in the
   shoulder frame gives ElbowRoll (its bend, the sign the robot's limits allow) and ElbowYaw (the
@@ -16,8 +23,15 @@ Inverse kinematics is analytic per chain (no iteration):
 - Hand (0 closed .. 1 open, Pepper 0.02 .. 0.98) is how open sgt's hand is
   (:func:`core.hands.openness`: the four fingers' mean flexion against a fist's) scaled to the
   robot's range, so a fist, a point or a thumbs up close the robot's hand and an open palm
-  opens it. WristYaw stays 0: the palm's turn about the forearm is not
-  solved yet (the robots' wrist zero is not checked against sgt's palm directions).
+  opens it.
+- WristYaw turns the hand about the forearm so that its palm faces the way sgt's palm faces,
+  square to the forearm (:func:`core.hands.hand_frames`: the palm after its turn, without the
+  wrist's bend, which the robots lack). At WristYaw 0 the robots' palms face their forearm
+  frame's -z (NAO's HandOffsetZ puts the hand 12.31 mm below the wrist axis and its
+  back-of-hand touch sensor at +z; Pepper's thumb sits at -z on the midline side), and a
+  positive WristYaw turns the palm towards the forearm frame's +y (about the URDF's x axis): a
+  right palm turning from down to up goes positive, a left one negative. The forearm frame is
+  the solved (unclamped) arm's; a palm beyond the joint's 104.5 degrees is clamped at the limit.
 
 Then every angle is clamped to the joint's range, and frame-to-frame changes to the joint's
 maximum speed (a forward pass: each frame moves at most ``velocity / 15`` radians from the
@@ -28,15 +42,17 @@ Robot data, with sources (radians, rad/s, metres):
 - NAO v6 ranges: Aldebaran's NAO joints pages (doc.aldebaran.com, "NAO - Joints", the V4.0+
   table, unchanged in v5 and v6: https://www.cs.cmu.edu/~cga/nao/doc/reference-documentation/
   nao/hardware/kinematics/nao-joints-40.html, mirror of doc.aldebaran.com/2-8/family/
-  nao_technical/joints_naov6.html). Speeds: no-load motor speed over the reduction ratio, from
-  Aldebaran's "NAO - Motors" page (motor 11 900 rpm; ratios 150.27 for ShoulderPitch, ElbowYaw,
-  HeadYaw and 173.22 for ShoulderRoll, ElbowRoll, HeadPitch, as in Aldebaran's generated URDF,
-  ros-naoqi/nao_robot naoV50). Links: "NAO - Links" (V3.3 and later): UpperArmLength 0.105,
-  ElbowOffsetY 0.015, LowerArmLength 0.05595.
+  nao_technical/joints_naov6.html). Speeds: the ``velocity`` of each joint's ``<limit>`` in
+  Aldebaran's generated URDF (ros-naoqi/nao_robot, nao_description/urdf/naoV50_generated_urdf/
+  nao.urdf): 8.26797 for HeadYaw, ShoulderPitch and ElbowYaw (reduction 150.27), 7.19407 for
+  HeadPitch, ShoulderRoll and ElbowRoll (173.22), 24.6229 for WristYaw, 8.33 for Hand. Links:
+  "NAO - Links" (V3.3 and later): UpperArmLength 0.105, ElbowOffsetY 0.015, LowerArmLength
+  0.05595.
 - Pepper (1.8): ranges, speeds and links from Aldebaran's generated URDF
   (ros-naoqi/pepper_robot, pepper_description/urdf/pepper1.0_generated_urdf/pepper.urdf, the
   values of doc.aldebaran.com/2-5/family/pepper_technical/joints_pep.html): upper arm
-  (0.1812, 0.015, 0.00013), ElbowYaw frame pitched by -0.157079 rad, forearm 0.15.
+  (0.1812, 0.015, 0.00013), ElbowYaw frame pitched by -0.157079 rad, forearm 0.15; HipPitch
+  -1.03847 .. 1.03847 at 2.93276 rad/s.
 """
 
 from __future__ import annotations
@@ -49,16 +65,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.fileio import atomic_write
-from core.hands import SIDES, openness
+from core.hands import SIDES, hand_frames, openness
 from core.motion import MotionClip
 from core.skeleton import FPS
 from renders.rigs.retarget import source_positions, source_rest
 from renders.rotations import triads
 
 ARM = ("ShoulderPitch", "ShoulderRoll", "ElbowYaw", "ElbowRoll", "WristYaw", "Hand")
+#: The head and arm joints both robots take (all of NAO's file); Pepper's adds :data:`PEPPER_EXTRA`.
 NAMES = ("HeadYaw", "HeadPitch") + tuple("L" + j for j in ARM) + tuple("R" + j for j in ARM)
-WRIST_YAW = 0.0
-_RPM = 11900 * 2 * math.pi / 60
+PEPPER_EXTRA = ("HipPitch",)
 
 
 @dataclass(frozen=True)
@@ -69,6 +85,7 @@ class Robot:
     velocity: dict[str, float]  # rad/s
     upper_arm: tuple[float, float, float]  # shoulder -> elbow in the ShoulderRoll frame, left arm
     elbow_pitch: float  # fixed pitch of the ElbowYaw frame relative to the ShoulderRoll frame
+    names: tuple[str, ...] = NAMES  # the joints written, in file order
 
 
 def _mirror(left: dict[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
@@ -91,11 +108,13 @@ NAO = Robot(
         "LElbowYaw": (-2.0857, 2.0857), "LElbowRoll": (-1.5446, -0.0349),
         "LWristYaw": (-1.8238, 1.8238), "LHand": (0.0, 1.0),
     }),
+    # rad/s: each joint's <limit velocity> in Aldebaran's generated URDF for NAO (ros-naoqi/nao_robot,
+    # nao_description/urdf/naoV50_generated_urdf/nao.urdf), the same for both arms
     velocity=_sym({
-        "HeadYaw": _RPM / 150.27, "HeadPitch": _RPM / 173.22,
-        "LShoulderPitch": _RPM / 150.27, "LShoulderRoll": _RPM / 173.22,
-        "LElbowYaw": _RPM / 150.27, "LElbowRoll": _RPM / 173.22,
-        "LWristYaw": 12300 * 2 * math.pi / 60 / 50.61, "LHand": 13206 * 2 * math.pi / 60 / 36.24,
+        "HeadYaw": 8.26797, "HeadPitch": 7.19407,
+        "LShoulderPitch": 8.26797, "LShoulderRoll": 7.19407,
+        "LElbowYaw": 8.26797, "LElbowRoll": 7.19407,
+        "LWristYaw": 24.6229, "LHand": 8.33,
     }),
     upper_arm=(0.105, 0.015, 0.0), elbow_pitch=0.0,
 )
@@ -106,13 +125,13 @@ PEPPER = Robot(
         "HeadYaw": (-2.08567, 2.08567), "HeadPitch": (-0.706858, 0.637045),
         "LShoulderPitch": (-2.08567, 2.08567), "LShoulderRoll": (0.00872665, 1.56207),
         "LElbowYaw": (-2.08567, 2.08567), "LElbowRoll": (-1.56207, -0.00872665),
-        "LWristYaw": (-1.82387, 1.82387), "LHand": (0.02, 0.98),
+        "LWristYaw": (-1.82387, 1.82387), "LHand": (0.02, 0.98), "HipPitch": (-1.03847, 1.03847),
     }),
     velocity=_sym({
         "HeadYaw": 7.33998, "HeadPitch": 9.22756, "LShoulderPitch": 7.33998, "LShoulderRoll": 9.22756,
-        "LElbowYaw": 7.33998, "LElbowRoll": 9.22756, "LWristYaw": 17.3835, "LHand": 12.56,
+        "LElbowYaw": 7.33998, "LElbowRoll": 9.22756, "LWristYaw": 17.3835, "LHand": 12.56, "HipPitch": 2.93276,
     }),
-    upper_arm=(0.1812, 0.015, 0.00013), elbow_pitch=-0.157079,
+    upper_arm=(0.1812, 0.015, 0.00013), elbow_pitch=-0.157079, names=NAMES + PEPPER_EXTRA,
 )
 
 ROBOTS = {"nao": NAO, "pepper": PEPPER}
@@ -133,12 +152,25 @@ def _rz(a):
     return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
 
 
+def _rx(a):
+    c, s = np.cos(a), np.sin(a)
+    z, o = np.zeros_like(a), np.ones_like(a)
+    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+
+
 def _frame(j: dict, primary: tuple[str, str], secondary: tuple[str, str]) -> np.ndarray:
     return triads(j[primary[1]] - j[primary[0]], j[secondary[1]] - j[secondary[0]])
 
 
+def _unit(v):
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
+
+
 def torso_directions(clip: MotionClip) -> dict[str, np.ndarray]:
-    """sgt's arm bone directions and head forward axis in the robot torso frame (NAOqi axes), (T, 3)."""
+    """sgt's arm bone directions, head forward axis and palms (the palm's direction square to
+    the forearm) in the robot torso frame (NAOqi axes), (T, 3); and ``lean`` (T,), the torso's
+    lean in radians, forward positive (spine -> neck from the vertical, in the plane of the
+    torso's heading)."""
     j, rest = source_positions(clip), source_rest()
     torso = ("spine", "neck"), ("right_shoulder", "left_shoulder")
     head = ("neck", "head_top"), ("neck", "nose")
@@ -146,15 +178,29 @@ def torso_directions(clip: MotionClip) -> dict[str, np.ndarray]:
     d_head = _frame(j, *head) @ _frame(rest, *head).T
     to_torso = _TO_NAO @ np.swapaxes(d_torso, -1, -2)  # world -> torso frame -> NAOqi axes
 
-    def unit(v):
-        return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
-
     out = {"head": to_torso @ d_head @ np.array([0.0, 0.0, 1.0])}
-    for side in ("left", "right"):
+    up = d_torso @ np.array([0.0, 1.0, 0.0])  # spine -> neck (the rest torso is upright)
+    heading = (d_torso @ np.array([0.0, 0.0, 1.0])) * np.array([1.0, 0.0, 1.0])  # its front, level
+    out["lean"] = np.arctan2(np.sum(up * _unit(heading), axis=-1), up[:, 1])
+    for s_index, side in enumerate(SIDES):
         s, e, w = (j[f"{side}_{n}"] for n in ("shoulder", "elbow", "wrist"))
-        out[f"{side}_upper"] = unit(np.einsum("tij,tj->ti", to_torso, e - s))
-        out[f"{side}_fore"] = unit(np.einsum("tij,tj->ti", to_torso, w - e))
+        out[f"{side}_upper"] = _unit(np.einsum("tij,tj->ti", to_torso, e - s))
+        out[f"{side}_fore"] = _unit(np.einsum("tij,tj->ti", to_torso, w - e))
+        # the palm as sgt draws it (core.hands.hand_frames), less the wrist's bend: square to the forearm
+        fore = _unit(w - e)
+        palm = hand_frames(fore, clip.hands.palm[:, s_index].astype(np.float64), side)[..., 2]
+        palm = _unit(palm - np.sum(palm * fore, axis=-1, keepdims=True) * fore)
+        out[f"{side}_palm"] = np.einsum("tij,tj->ti", to_torso, palm)
     return out
+
+
+def _wrist_yaw(forearm_frame: np.ndarray, palm: np.ndarray) -> np.ndarray:
+    """WristYaw (T,) in (-pi, pi] that turns the palm (the forearm frame's -z at 0) towards
+    ``palm`` (T, 3, torso frame) about the forearm frame's x. Not unwrapped: the joint turns
+    104.5 degrees either way, so a palm that needs more than that is clamped at the limit, and
+    the ElbowYaw branch flips of a nearly straight arm must not wind it round and round."""
+    v = np.einsum("tji,tj->ti", forearm_frame, palm)  # the palm in the forearm frame
+    return np.arctan2(v[:, 1], -v[:, 2])  # Rx(yaw) (0, 0, -1) = (0, sin yaw, -cos yaw)
 
 
 def _hold_undefined(values: np.ndarray, defined: np.ndarray) -> np.ndarray:
@@ -190,10 +236,11 @@ def solve_raw(clip: MotionClip, robot: Robot) -> dict[str, np.ndarray]:
         yaw = _hold_undefined(yaw, bend > math.radians(2.0))
         out[p + "ShoulderPitch"], out[p + "ShoulderRoll"] = pitch, roll
         out[p + "ElbowYaw"], out[p + "ElbowRoll"] = yaw, elbow_roll
-        out[p + "WristYaw"] = np.full_like(pitch, WRIST_YAW)
+        out[p + "WristYaw"] = _wrist_yaw(frame @ _rx(yaw) @ _rz(elbow_roll), d[f"{side}_palm"])
         lo, hi = robot.limits[p + "Hand"]  # Pepper's hands open 0.02 .. 0.98: fist and flat hand map to its ends
         out[p + "Hand"] = lo + (hi - lo) * openness(clip.hands.fingers[:, SIDES.index(side)])
-    return {n: out[n] for n in NAMES}
+    out["HipPitch"] = -d["lean"]  # NAOqi: positive HipPitch leans the upper body back
+    return {n: out[n] for n in robot.names}
 
 
 @dataclass
@@ -203,6 +250,10 @@ class Solution:
     raw: dict[str, np.ndarray]
     position_clamped: dict[str, np.ndarray]  # name -> (T,) bool
     velocity_clamped: dict[str, np.ndarray]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.robot.names
 
     @property
     def n_frames(self) -> int:
@@ -217,7 +268,7 @@ def solve(clip: MotionClip, robot: Robot) -> Solution:
     raw = solve_raw(clip, robot)
     angles, pos_c, vel_c = {}, {}, {}
     step_dt = 1.0 / FPS
-    for n in NAMES:
+    for n in robot.names:
         lo, hi = robot.limits[n]
         a = np.clip(raw[n], lo, hi)
         pos_c[n] = (raw[n] < lo - 1e-12) | (raw[n] > hi + 1e-12)
@@ -236,18 +287,19 @@ def solve(clip: MotionClip, robot: Robot) -> Solution:
 def angle_interpolation(solution: Solution) -> dict:
     """The arguments of ALMotion.angleInterpolation(names, angleLists, timeLists, isAbsolute=True)."""
     times = [round(float(t), 6) for t in solution.times()]
+    names = solution.names
     return {
-        "names": list(NAMES),
-        "angleLists": [[round(float(a), 5) for a in solution.angles[n]] for n in NAMES],
-        "timeLists": [times for _ in NAMES],
+        "names": list(names),
+        "angleLists": [[round(float(a), 5) for a in solution.angles[n]] for n in names],
+        "timeLists": [times for _ in names],
     }
 
 
 def csv_text(solution: Solution) -> str:
     buf = io.StringIO()
-    buf.write("time," + ",".join(NAMES) + "\n")
+    buf.write("time," + ",".join(solution.names) + "\n")
     for i, t in enumerate(solution.times()):
-        buf.write(f"{t:.6f}," + ",".join(f"{solution.angles[n][i]:.5f}" for n in NAMES) + "\n")
+        buf.write(f"{t:.6f}," + ",".join(f"{solution.angles[n][i]:.5f}" for n in solution.names) + "\n")
     return buf.getvalue()
 
 

@@ -505,3 +505,153 @@ def test_a_clip_says_which_limbs_it_drives_and_flip_mirrors_it(lib):
     nod = lib.get("nod")
     assert nod.spec.limbs == ("head",) and not nod.clip().hand_sides.any()
     assert lib.get("lean_forward").spec.limbs == ("torso",)
+
+
+# ---------------------------------------------------------------- strokes that read (issue 22)
+#
+# Each of these failed on the gestures as they were before issue 22's review of the library
+# sheet at 400 pixels (the old specs, played through these tests, give the figures in the
+# comments).
+
+R_HAND = 1  # core.hands.SIDES: left, right
+
+
+def _scene(lib, name):
+    """The stroke frame: joint positions (10, 3), hand joints (2, 20, 3), the right hand's
+    frame (columns: thumb side, along the fingers, out of the palm) and the clip."""
+    from core.hands import hand_frames, hand_positions
+
+    clip = lib.get(name).clip()
+    f = clip.stroke_frame
+    pos = positions_from_pose(clip.poses[f : f + 1])
+    hands = hand_positions(pos, clip.hands.take(slice(f, f + 1)))[0]
+    frame = hand_frames(pos[0, JOINT_INDEX["right_wrist"]] - pos[0, JOINT_INDEX["right_elbow"]],
+                        clip.hands.palm[f, R_HAND].astype(np.float64), "right")
+    return pos[0], hands, frame, clip
+
+
+def _digit(hands, side, digit):
+    """The unit direction of a digit (knuckle or CMC to tip) of hand ``side``."""
+    from core.hands import HAND_JOINTS
+
+    root = "thumb_mcp" if digit == "thumb" else f"{digit}_mcp"
+    v = hands[side, HAND_JOINTS.index(f"{digit}_tip")] - hands[side, HAND_JOINTS.index(root)]
+    return v / np.linalg.norm(v)
+
+
+def test_point_down_points_the_index_at_the_floor_in_front(lib):
+    pos, hands, _, _ = _scene(lib, "point_down")
+    wrist = pos[JOINT_INDEX["right_wrist"]]
+    rest = positions_from_pose(REST_POSE)[JOINT_INDEX["right_wrist"]]
+    assert _digit(hands, R_HAND, "index")[1] < -0.8  # was -0.05: the bent wrist sent it forward
+    forearm = wrist - pos[JOINT_INDEX["right_elbow"]]
+    assert forearm[1] / np.linalg.norm(forearm) < -0.7
+    assert wrist[2] > 0.3 and wrist[1] > rest[1] + 0.1  # raised in front, not a hanging arm (was 0.96 m)
+
+
+def test_thumbs_up_is_held_out_beside_the_chest_not_against_it(lib):
+    pos, hands, _, _ = _scene(lib, "thumbs_up")
+    wrist = pos[JOINT_INDEX["right_wrist"]]
+    assert _digit(hands, R_HAND, "thumb")[1] > 0.9
+    assert wrist[2] > 0.3  # well in front of the spine
+    assert abs(wrist[0]) > 0.25  # and beside the torso from the front (was 0.15: over the chest)
+
+
+def test_ok_ring_faces_the_listener(lib):
+    from core.hands import HAND_JOINTS
+
+    pos, hands, frame, _ = _scene(lib, "ok")
+    ring = hands[R_HAND, [HAND_JOINTS.index(j) for j in
+                          ("thumb_mcp", "thumb_ip", "thumb_tip", "index_mcp", "index_pip", "index_dip", "index_tip")]]
+    normal = np.linalg.svd(ring - ring.mean(axis=0))[2][2]
+    assert abs(normal[2]) > 0.8  # the ring is seen through from the front (was 0.45: edge on)
+    assert frame[2, 0] > 0.5  # its thumb side to the listener: the other fingers behind the ring
+    assert frame[2, 2] > -0.3  # the palm faces sideways or forward, not back at the speaker
+    assert pos[JOINT_INDEX["right_wrist"], 1] > 1.3
+
+
+def test_count_five_shows_five_open_fingers_to_the_listener(lib):
+    from core.hands import nearest_shape
+
+    pos, hands, frame, clip = _scene(lib, "count_five")
+    assert nearest_shape(clip.hands.fingers[clip.stroke_frame, R_HAND]) == "count5"
+    for digit in ("index", "middle", "ring", "little"):
+        assert _digit(hands, R_HAND, digit)[1] > 0.7, digit  # fingers up
+    assert frame[2, 2] > 0.7  # the palm to the listener (was -1: the back of the hand, on the heart)
+    wrist = pos[JOINT_INDEX["right_wrist"]]
+    assert wrist[1] > 1.35 and abs(wrist[0]) > 0.25  # raised by the shoulder, off the chest
+
+
+def _curls(openness, palm_up):
+    """How often an open hand (openness > 0.8) curls to closed (< 0.3) with its palm up."""
+    n, was_open = 0, False
+    for o, up in zip(openness, palm_up):
+        if o > 0.8:
+            was_open = True
+        elif o < 0.3 and was_open and up:
+            n, was_open = n + 1, False
+    return n
+
+
+def test_come_here_beckons_with_curling_fingers(lib):
+    from core.hands import hand_frames, openness
+
+    clip = lib.get("come_here").clip()
+    pos = positions_from_pose(clip.poses)
+    palm = hand_frames(pos[:, JOINT_INDEX["right_wrist"]] - pos[:, JOINT_INDEX["right_elbow"]],
+                       clip.hands.palm[:, R_HAND].astype(np.float64), "right")[..., 2]
+    assert _curls(openness(clip.hands.fingers[:, R_HAND]), palm[:, 1] > 0.5) >= 2  # was 0: an open hand throughout
+    assert openness(clip.hands.fingers[clip.stroke_frame, R_HAND]) < 0.3  # the stroke is a curl
+
+
+def test_small_keeps_a_small_gap_between_the_hands(lib):
+    pos, hands, _, _ = _scene(lib, "small")
+    gap = np.linalg.norm(hands[0][:, None] - hands[1][None], axis=-1).min()
+    assert 0.03 < gap < 0.12  # close, but not touching (was 0.003: clasped hands)
+    assert pos[JOINT_INDEX["right_wrist"], 1] > 1.15 and pos[JOINT_INDEX["left_wrist"], 1] > 1.15
+
+
+def test_take_grabs_at_arms_length_then_pulls_to_the_chest(lib):
+    from core.hands import openness
+
+    pos, _, _, clip = _scene(lib, "take")
+    wrist = pos[JOINT_INDEX["right_wrist"]]
+    assert openness(clip.hands.fingers[clip.stroke_frame, R_HAND]) < 0.2
+    assert wrist[2] > 0.4 and wrist[1] > 1.35  # the grab, out and high (was 0.18 m forward: at the chest)
+    later = positions_from_pose(clip.poses[clip.stroke_frame:])[:, JOINT_INDEX["right_wrist"], 2]
+    assert later.min() < wrist[2] - 0.2  # then it pulls back
+
+
+def test_fist_pump_pulls_the_fist_down_by_the_side(lib):
+    pos, _, _, _ = _scene(lib, "fist_pump")
+    elbow, wrist = pos[JOINT_INDEX["right_elbow"]], pos[JOINT_INDEX["right_wrist"]]
+    forearm = (wrist - elbow) / np.linalg.norm(wrist - elbow)
+    assert forearm[1] > 0.5  # the fist up (was 0.08: a forearm held level)
+    assert abs(elbow[2]) < 0.1 and elbow[1] < 1.2  # the elbow pulled down to the ribs
+
+
+def test_thumb_back_points_behind_over_the_shoulder(lib):
+    pos, hands, _, _ = _scene(lib, "thumb_back")
+    thumb = _digit(hands, R_HAND, "thumb")
+    assert thumb[2] < -0.5 and thumb[1] > 0.3  # back, over the shoulder
+    assert pos[JOINT_INDEX["right_wrist"], 1] < 1.45  # below the chin, clear of the head (was 1.53)
+    nose = pos[JOINT_INDEX["nose"]] - pos[JOINT_INDEX["neck"]]
+    assert nose[0] / np.linalg.norm(nose) < -0.2  # the head turns towards it
+
+
+def test_circle_traces_a_round_path_facing_the_listener(lib):
+    g = lib.get("circle")
+    keys = g.key_frames(1)
+    wrist = positions_from_pose(g.clip().poses)[keys[2] : keys[-2] + 1, JOINT_INDEX["right_wrist"]]
+    rel = wrist - wrist.mean(axis=0)
+    radius = np.hypot(rel[:, 0], rel[:, 1])
+    assert radius.min() > 0.12 and radius.min() / radius.max() > 0.75  # round (was 0.53: a diamond)
+    sweep = np.degrees(np.ptp(np.unwrap(np.arctan2(rel[:, 1], rel[:, 0]))))
+    assert sweep > 330  # all the way round (was 284)
+    assert np.ptp(wrist[:, 2]) < 0.05  # in a plane facing the listener
+
+
+def test_weigh_holds_one_hand_well_above_the_other(lib):
+    pos, _, _, clip = _scene(lib, "weigh")
+    assert pos[JOINT_INDEX["right_wrist"], 1] - pos[JOINT_INDEX["left_wrist"], 1] > 0.22  # was 0.18
+    assert (clip.hands.palm[clip.stroke_frame, :, 1] > 0.9).all()  # both palms up

@@ -295,3 +295,32 @@ def test_add_keeps_the_hands_by_name(tmp_path, capsys):
         assert nearest_palm(clip.hands.palm[clip.stroke_frame, r], "right") == palm
     code, out, _ = _run(capsys, "library", "show", "thumbs_up")
     assert code == 0 and "right_hand thumb_up" in out
+
+
+def _back_of_the_hips(image, row) -> int:
+    """The leftmost figure pixel of ``row`` in a side view (the character faces right): its back."""
+    from renders.mannequin import BACKGROUND
+
+    figure = np.abs(image[row].astype(int) - BACKGROUND).sum(axis=-1) > 30
+    return int(np.argmax(figure))
+
+
+def test_sheet_lean_bends_at_the_waist_not_the_chest():
+    """From the side, lean_forward and lean_back tilt the torso over hips that stay where they
+    are (the skeleton's root, the spine joint at 1 m, is the waist). The hips used to turn with
+    the torso, so their back swung out as the chest went forward, and the lean seemed to pivot
+    at the chest: the back of the hips moved 4-5 pixels at 400 (2 cm), while the neck moved 36."""
+    from renders.library_sheet import stroke_views
+    from renders.mannequin import Mannequin, project
+
+    size = 400
+    row = round(float(project(np.array([0.0, 0.9, 0.0]), size, size, "side")[1]))  # through the hips
+    lib = load_library(use_config=False)
+    with Mannequin(size, size) as m:
+        rest = stroke_views(m, lib.get("nod").clip(), ("side",))[0]  # a stroke that leaves the torso upright
+        back = _back_of_the_hips(rest, row)
+        for name in ("lean_forward", "lean_back", "bow"):
+            image = stroke_views(m, lib.get(name).clip(), ("side",))[0]
+            assert abs(_back_of_the_hips(image, row) - back) <= 2, name
+            top = np.argmax((np.abs(image.astype(int) - rest.astype(int)).sum(axis=-1) > 30).any(axis=1))
+            assert top < row - 100, name  # while the chest and head do move

@@ -443,6 +443,116 @@ def test_robot_limits_clamp_out_of_range_poses():
         assert lo - 1e-9 <= sol.angles[n].min() and sol.angles[n].max() <= hi + 1e-9
 
 
+def test_pepper_keeps_the_hip_pitch_of_bows_and_leans():
+    """Pepper leans its upper body with HipPitch (NAOqi: negative leans forward, the legs
+    hanging from the torso); NAO has no such joint in the export."""
+    from library import load_library
+    from renders.naoqi import NAMES, NAO, PEPPER, angle_interpolation, csv_text, solve
+
+    lib = load_library(use_config=False)
+    names = ("bow", "lean_forward", "lean_back", "nod")
+    sol = solve(_library_clip(names), PEPPER)
+    hip = sol.angles["HipPitch"]
+    lo, hi = PEPPER.limits["HipPitch"]
+    assert lo - 1e-9 <= hip.min() and hip.max() <= hi + 1e-9
+    assert np.abs(np.diff(hip)).max() <= PEPPER.velocity["HipPitch"] / FPS + 1e-9
+    at, stroke = 0, {}
+    for name in names:
+        g = lib.get(name)
+        stroke[name] = hip[at + g.stroke_frame()]
+        assert abs(hip[at]) < 1e-3, name  # upright at the gesture's start
+        at += g.n_frames()
+    # the torso's lean from the vertical: bow 24 degrees, lean_forward 20, lean_back 14
+    assert stroke["bow"] < -0.35 and stroke["lean_forward"] < -0.3 and stroke["lean_back"] > 0.2, stroke
+    assert abs(stroke["nod"]) < 1e-3  # a nod moves the head, not the torso
+    assert angle_interpolation(sol)["names"] == list(NAMES) + ["HipPitch"]
+    assert csv_text(sol).splitlines()[0].endswith(",RHand,HipPitch")
+    assert "HipPitch" not in solve(_library_clip(("bow",)), NAO).angles and NAO.names == NAMES
+
+
+def _palm_still(palm: str, n: int = 3) -> MotionClip:
+    """Both forearms held forward, the elbows bent square by the sides, open hands palm ``palm``."""
+    from core.hands import HandTrack
+    from core.skeleton import BONE_INDEX
+
+    pose = REST_POSE.astype(np.float64).reshape(-1, 3).copy()
+    for side, x in (("right", -0.1), ("left", 0.1)):
+        pose[BONE_INDEX[f"{side}_elbow"]] = np.array([x, -0.995, 0.0]) / np.linalg.norm([x, -0.995, 0.0])
+        pose[BONE_INDEX[f"{side}_wrist"]] = [0.0, 0.0, 1.0]
+    return MotionClip(poses=np.repeat(pose.reshape(1, -1), n, axis=0).astype(np.float32),
+                      hands=HandTrack.constant(n, ("open", "open"), (palm, palm)))
+
+
+@pytest.mark.parametrize("robot", ["nao", "pepper"])
+def test_robot_wrist_yaw_turns_the_palm_up_or_down(robot):
+    """The same arms, palms up and palms down: the wrist yaws are of opposite signs, about a
+    quarter turn each way from the palms-in hand (the robots' ElbowYaw takes the forearm's
+    other quarter turn), and the left hand mirrors the right."""
+    from renders.naoqi import ROBOTS, solve
+
+    yaw = {}
+    for palm in ("up", "in", "down"):
+        sol = solve(_palm_still(palm), ROBOTS[robot])
+        yaw[palm] = (float(sol.angles["RWristYaw"][-1]), float(sol.angles["LWristYaw"][-1]))
+        assert not sol.position_clamped["RWristYaw"].any()
+    (up, up_l), (mid, mid_l), (down, down_l) = yaw["up"], yaw["in"], yaw["down"]
+    assert up > 1.2 and down < -1.2 and abs(mid) < 0.2, yaw  # the right palm turns up with a positive yaw
+    assert up_l == pytest.approx(-up, abs=1e-6) and down_l == pytest.approx(-down, abs=1e-6) and mid_l == pytest.approx(-mid, abs=1e-6)
+
+
+@pytest.mark.parametrize("robot", ["nao", "pepper"])
+def test_robot_palms_face_where_sgt_palms_face(robot):
+    """Forward kinematics of the solved arm and WristYaw (a URDF-style chain, tests/rig_readers.py,
+    palm along the wrist frame's -z) against sgt's palm read off its hand joints (index and
+    little knuckles), square to the forearm, in the torso frame: exact before the limits."""
+    from rig_readers import CHAINS, _frame, _unit, sgt_joints, sgt_rest_joints
+    from scipy.spatial.transform import Rotation as Rot
+
+    from renders.naoqi import ROBOTS, solve
+
+    clip = _library_clip(GESTURES + HAND_GESTURES + ("beat_palm_up", "offer", "come_here"))
+    sol = solve(clip, ROBOTS[robot])
+    j, rest = sgt_joints(clip), sgt_rest_joints()
+    turn = _frame(j["neck"] - j["spine"], j["left_shoulder"] - j["right_shoulder"]) @ \
+        _frame(rest["neck"] - rest["spine"], rest["left_shoulder"] - rest["right_shoulder"]).T
+    a, c = sol.raw, CHAINS[robot]
+    for side, p in (("left", "L"), ("right", "R")):
+        rot = (Rot.from_rotvec(np.outer(a[p + "ShoulderPitch"], [0, 1, 0])) * Rot.from_rotvec(np.outer(a[p + "ShoulderRoll"], [0, 0, 1]))
+               * Rot.from_euler("xyz", c["elbow_rpy"]) * Rot.from_rotvec(np.outer(a[p + "ElbowYaw"], [1, 0, 0]))
+               * Rot.from_rotvec(np.outer(a[p + "ElbowRoll"], [0, 0, 1])) * Rot.from_rotvec(np.outer(a[p + "WristYaw"], [1, 0, 0])))
+        fore, palm = rot.apply([1.0, 0.0, 0.0]), rot.apply([0.0, 0.0, -1.0])
+        across = j[f"{side}_index_mcp"] - j[f"{side}_little_mcp"]  # to the thumb side
+        along = 0.5 * (j[f"{side}_index_mcp"] + j[f"{side}_little_mcp"]) - j[f"{side}_wrist"]
+        want = np.cross(across, along) if side == "right" else np.cross(along, across)  # out of the palm
+        want = np.einsum("tji,tj->ti", turn, want)[:, [2, 0, 1]]  # torso frame, NAOqi axes
+        want = _unit(want - np.sum(want * fore, -1, keepdims=True) * fore)
+        err = np.degrees(np.arccos(np.clip(np.sum(want * palm, -1), -1, 1)))
+        assert err.max() < 0.05, (side, err.max())
+        assert np.ptp(a[p + "WristYaw"]) > 1.0  # the wrists do turn
+
+
+def test_nao_speeds_are_the_urdf_limits():
+    """NAO's speeds are the <limit velocity> of Aldebaran's generated URDF (naoV50): 8.26797
+    rad/s for the yaw and pitch joints, 7.19407 for the roll joints and HeadPitch, 24.6229 for
+    WristYaw, 8.33 for Hand; a hand that snaps open and shut every frame moves no faster."""
+    from core.hands import HandTrack
+    from renders.naoqi import NAMES, NAO, solve
+
+    urdf = {"HeadYaw": 8.26797, "HeadPitch": 7.19407, "ShoulderPitch": 8.26797, "ShoulderRoll": 7.19407,
+            "ElbowYaw": 8.26797, "ElbowRoll": 7.19407, "WristYaw": 24.6229, "Hand": 8.33}
+    for name in NAMES:
+        assert NAO.velocity[name] == urdf[name[1:] if name[0] in "LR" else name], name
+    n = 12
+    shapes = [("fist", "open") if t % 2 else ("open", "fist") for t in range(n)]
+    hands = HandTrack(np.repeat(HandTrack.rest(1).palm, n, axis=0),
+                      np.stack([HandTrack.constant(1, s, ("in", "in")).fingers[0] for s in shapes]))
+    clip = MotionClip(poses=_hard_poses(n - 3), hands=hands)  # random arms, then the rest pose
+    sol = solve(clip, NAO)
+    for name in NAMES:
+        assert np.abs(np.diff(sol.angles[name])).max() <= NAO.velocity[name] / FPS + 1e-9, name
+    assert sol.velocity_clamped["RHand"].any() and sol.velocity_clamped["LHand"].any()
+
+
 # -- command line -----------------------------------------------------------------------------
 
 @pytest.fixture
