@@ -1,0 +1,283 @@
+"""``sgt diff``'s inputs (files, folders, git revisions, git's external-diff arguments), its
+text output and its before/after renders. What changed is :mod:`dsl.diff`'s."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+from core.fileio import make_folder
+from core.reading import read_bytes
+from sgt_tui.errors import InputError
+from sgt_tui.progress import ProgressBar
+
+SUFFIX = ".sgt"
+
+
+class DiffInputError(Exception):
+    """A version that cannot be read (``usage``: the arguments are wrong), one line for users."""
+
+    def __init__(self, message: str, usage: bool = False) -> None:
+        super().__init__(message)
+        self.usage = usage
+
+
+@dataclass
+class Pair:
+    """Two versions of one script: their texts (None: no such file on that side), the names
+    shown for them, and where their relative paths resolve."""
+
+    old_text: str | None
+    new_text: str | None
+    old_name: str
+    new_name: str
+    old_path: Path
+    new_path: Path
+
+
+def pairs_for(args: list[str]) -> list[Pair]:
+    """The script versions ``sgt diff ARGS`` compares (see its --help)."""
+    if "--" in args:
+        at = args.index("--")
+        head, paths = args[:at], args[at + 1 :]
+    else:
+        head, paths = args, []
+    if len(head) == 7 and not paths and _looks_like_git_external(head):
+        return [_external(head)]
+    if len(head) == 2 and not paths and all(os.path.exists(a) for a in head):
+        a, b = map(Path, head)
+        if a.is_dir() and b.is_dir():
+            return _folders(a, b)
+        if a.is_dir() or b.is_dir():
+            raise DiffInputError(f"compare two files or two folders, not a file and a folder ({head[0]}, {head[1]})", usage=True)
+        return [Pair(_read(a), _read(b), str(a), str(b), a, b)]
+    if not head:
+        raise DiffInputError("give two scripts, or a git revision (sgt diff HEAD~1 FILE, sgt diff A..B -- PATHS)", usage=True)
+    rev = head[0]
+    git = Git.here()
+    if git is None:
+        missing = [a for a in head if not os.path.exists(a)]
+        raise DiffInputError(f"{missing[0] if missing else head[0]}: no such file, and not in a git repository "
+                             f"(for a revision)", usage=True)
+    if ".." in rev:
+        old_rev, new_rev = git.range(rev)
+        return git.changed(old_rev, new_rev, head[1:] + paths)
+    if not git.is_revision(rev):
+        raise DiffInputError(f"{rev}: no such file, and not a git revision", usage=True)
+    return git.changed(rev, None, head[1:] + paths)
+
+
+def _read(path: Path) -> str:
+    """A script's text by the rules every command reads scripts by (regular files only, the
+    size limit); undecodable bytes are shown replaced (a diff is only read)."""
+    try:
+        data = read_bytes(path, "script")
+    except OSError as exc:
+        raise DiffInputError(f"{path}: {getattr(exc, 'reason', None) or exc.strerror or exc}") from None
+    return data.decode("utf-8-sig", "replace")
+
+
+def _folders(a: Path, b: Path) -> list[Pair]:
+    old = {p.relative_to(a).as_posix() for p in a.rglob(f"*{SUFFIX}") if p.is_file()}
+    new = {p.relative_to(b).as_posix() for p in b.rglob(f"*{SUFFIX}") if p.is_file()}
+    return [Pair(_read(a / r) if r in old else None, _read(b / r) if r in new else None, str(a / r), str(b / r),
+                 a / r, b / r) for r in sorted(old | new)]
+
+
+def _looks_like_git_external(args: list[str]) -> bool:
+    """git's external diff: path old-file old-hex old-mode new-file new-hex new-mode."""
+    hexes = (args[2], args[5])
+    return all(len(h) >= 7 and all(c in "0123456789abcdef" for c in h) for h in hexes)
+
+
+def _external(args: list[str]) -> Pair:
+    path, old_file, new_file = args[0], args[1], args[4]
+    old = None if old_file == os.devnull else _read(Path(old_file))
+    new = None if new_file == os.devnull else _read(Path(new_file))
+    return Pair(old, new, f"a/{path}", f"b/{path}", Path(path), Path(path))
+
+
+class Git:
+    """The git repository around the current folder, run as a subprocess."""
+
+    def __init__(self, top: Path) -> None:
+        self.top = top
+
+    @classmethod
+    def here(cls) -> Git | None:
+        r = _git(["rev-parse", "--show-toplevel"], Path.cwd())
+        return cls(Path(r.stdout.strip())) if r is not None and r.returncode == 0 else None
+
+    def is_revision(self, rev: str) -> bool:
+        r = _git(["rev-parse", "--verify", "--quiet", f"{rev}^{{commit}}"], self.top)
+        return r is not None and r.returncode == 0
+
+    def range(self, spec: str) -> tuple[str, str]:
+        """The (old, new) revisions of ``A..B`` (``A...B``: from their merge base); empty ends are HEAD."""
+        three = "..." in spec
+        a, b = spec.split("...", 1) if three else spec.split("..", 1)
+        a, b = a or "HEAD", b or "HEAD"
+        for rev in (a, b):
+            if not self.is_revision(rev):
+                raise DiffInputError(f"{rev}: not a git revision (in {spec})", usage=True)
+        if three:
+            r = _git(["merge-base", a, b], self.top)
+            if r is None or r.returncode != 0:
+                raise DiffInputError(f"{spec}: {a} and {b} have no common ancestor")
+            a = r.stdout.strip()
+        return a, b
+
+    def changed(self, old: str, new: str | None, paths: list[str]) -> list[Pair]:
+        """Every .sgt file that differs between ``old`` and ``new`` (None: the working tree)
+        under ``paths`` (all when empty), renames followed."""
+        where = [os.path.relpath(os.path.abspath(p), self.top) for p in paths]
+        r = _git(["diff", "--name-status", "-M", "-z", old, *([new] if new else []), "--", *(where or ["."])], self.top)
+        if r is None or r.returncode != 0:
+            raise DiffInputError(f"git diff failed: {(r.stderr.strip() if r else 'git not found')}")
+        fields = r.stdout.split("\0")
+        out = []
+        i = 0
+        while i < len(fields) and fields[i]:
+            status = fields[i]
+            if status[0] in "RC":
+                a, b = fields[i + 1], fields[i + 2]
+                i += 3
+            else:
+                a = b = fields[i + 1]
+                i += 2
+            if not (a.endswith(SUFFIX) or b.endswith(SUFFIX)):
+                continue
+            old_text = None if status[0] == "A" else self.show(old, a)
+            if status[0] == "D":
+                new_text = None
+            elif new is None:
+                new_text = _read(self.top / b)
+            else:
+                new_text = self.show(new, b)
+            out.append(Pair(old_text, new_text, f"{old}:{a}", f"{new}:{b}" if new else b, self.top / a, self.top / b))
+        if paths and not out:
+            for p in paths:  # a file named explicitly that did not change is still compared (all "same")
+                if os.path.isfile(p) and p.endswith(SUFFIX):
+                    rel = os.path.relpath(os.path.abspath(p), self.top)
+                    text = _read(Path(p))
+                    out.append(Pair(self.show(old, rel) if new is None else self.show(old, rel), text if new is None
+                                    else self.show(new, rel), f"{old}:{rel}", p if new is None else f"{new}:{rel}",
+                                    Path(p), Path(p)))
+        return out
+
+    def show(self, rev: str, rel: str) -> str | None:
+        r = _git(["show", f"{rev}:{rel}"], self.top, text=False)
+        if r is None or r.returncode != 0:
+            return None
+        return r.stdout.decode("utf-8", "replace")
+
+
+def _git(args: list[str], cwd: Path, text: bool = True):
+    try:
+        return subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=text, check=False, timeout=60)
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
+# -- text --------------------------------------------------------------------------------------
+
+_MARK = {"changed": "~", "moved": ">", "added": "+", "removed": "-", "same": "="}
+_COLOR = {"changed": "33", "moved": "36", "added": "32", "removed": "31", "same": "2"}
+
+
+def format_diff(d, *, color: bool = False, include_same: bool = False) -> str:
+    """The text of one script's diff: a header, then each utterance that changed with a line
+    per change. Marks (``~ > + -``) say the status without colour."""
+
+    def paint(code: str, text: str) -> str:
+        return f"\x1b[{code}m{text}\x1b[0m" if color else text
+
+    shown = [u for u in d.utterances if include_same or u.status != "same"]
+    c = d.counts()
+    summary = ", ".join(f"{c[k]} {k}" for k in ("changed", "moved", "added", "removed") if c[k]) or "no changes"
+    lines = [paint("1", f"{d.old_name} -> {d.new_name}") + f"  ({summary}; {c['same']} unchanged)"]
+    lines += [paint("33", f"  note: {p}") for p in d.problems]
+    for u in shown:
+        side = u.new or u.old
+        where = _where(u)
+        who = f"{side.speaker}: " if side.speaker else ""
+        lines.append(paint(_COLOR[u.status], f"{_MARK[u.status]} {where}  {who}\"{_short(side.text)}\""))
+        for ch in u.changes:
+            lines.append("    " + describe(ch))
+    return "\n".join(lines) + "\n\n"
+
+
+def _where(u) -> str:
+    if u.old is not None and u.new is not None and u.old.line != u.new.line:
+        return f"line {u.old.line} -> {u.new.line}"
+    side = u.new or u.old
+    return f"line {side.line}"
+
+
+def _short(text: str, n: int = 60) -> str:
+    return text if len(text) <= n else text[: n - 1] + "…"
+
+
+def describe(ch) -> str:
+    """One change in words."""
+    k, what, old, new = ch.kind, ch.what, ch.old, ch.new
+    if k == "text":
+        return f"text: \"{_short(str(old))}\" -> \"{_short(str(new))}\""
+    if k in ("speaker", "voice", "gap"):
+        return f"{what}: {old} -> {new}"
+    if k.endswith("-added"):
+        return f"{k.split('-')[0]} {what} added on \"{new}\""
+    if k.endswith("-removed"):
+        return f"{k.split('-')[0]} {what} removed (was on \"{old}\")" if k != "pause-removed" else f"pause removed ({old})"
+    if k.endswith("-moved"):
+        return f"{k.split('-')[0]} {what} moved from \"{old}\" to \"{new}\""
+    if k in ("pose-options", "style-values"):
+        return f"{k.split('-')[0]} {what}: {old} -> {new}"
+    if k == "pause-length":
+        return f"pause: {old:g}s -> {new:g}s"
+    if k == "retimed":
+        delta = new - old
+        return f"starts {abs(delta):.2f} s {'later' if delta > 0 else 'earlier'} ({old:.2f} -> {new:.2f} s)"
+    if k == "length":
+        return f"length: {old:.2f} -> {new:.2f} s"
+    return f"{k} {what}: {old} -> {new}"
+
+
+# -- renders -------------------------------------------------------------------------------------
+
+
+def render_changes(pairs: list[Pair], diffs, folder: Path, *, engine: str | None, size, video: bool) -> list[Path]:
+    """For each utterance both versions have and that changed (more than its start time), the
+    old take beside the new one (A old, B new) in ``folder``: ``STEM_lineNNNN.gif`` (or
+    ``.mp4``, without sound: two speeches cannot play as one) named by the new version's line.
+    Returns the files written."""
+    from model.generate import GenerateError, generate  # lazy: numpy, the engines
+    from renders.animate import render_gif, render_mp4  # lazy: PIL, GL
+    from renders.mannequin import Mannequin  # lazy: GL
+
+    make_folder(folder)
+    # an utterance that only plays at another time moves the same way: nothing to compare
+    jobs = [(p, u) for p, d in zip(pairs, diffs) for u in d.utterances if u.old is not None and u.new is not None
+            and any(c.kind != "retimed" for c in u.changes)]
+    written: list[Path] = []
+    m = Mannequin(*size)
+    try:
+        for k, (p, u) in enumerate(jobs):
+            try:
+                old = generate(p.old_path, source=p.old_text, engine=engine, utterances=[u.old.index]).clips[0]
+                new = generate(p.new_path, source=p.new_text, engine=engine, utterances=[u.new.index]).clips[0]
+            except GenerateError as exc:
+                raise InputError(f"{p.new_name}: cannot render line {u.new.line}: {exc}") from None
+            out = folder / f"{Path(p.new_path).stem}_line{u.new.line:04d}.{'mp4' if video else 'gif'}"
+            labels = ("A old", "B new")
+            bar = ProgressBar(f"render {k + 1}/{len(jobs)}")
+            if video:
+                render_mp4([old, new], out, labels=labels, size=size, mannequin=m, progress=bar)
+            else:
+                render_gif(old, out, compare=new, labels=labels, size=size, mannequin=m, progress=bar)
+            written.append(out)
+    finally:
+        m.close()
+    return written
