@@ -29,6 +29,7 @@ from core.skeleton import FPS, MIRROR_BONE_PERMUTATION, frame_count, mirror_pose
 from library import retime
 from library.config import configured_sources
 from library.spec import GestureSpec, LibraryProblem, SpecError, interpolate, read_spec
+from library.words import WORDS_FILE
 
 __all__ = ["load_library", "Library", "Gesture", "Clip", "LibraryProblem", "BUILTIN_DIR"]
 
@@ -239,7 +240,7 @@ def load_library(extra_dirs: Sequence[Path] = (), *, use_config: bool = True) ->
             lib.problems.append(LibraryProblem(folder, "", f"cannot be listed: {exc.strerror or exc}", kind="folder", source=source))
             continue
         for entry in entries:
-            if not entry.name.endswith(".toml") or entry.name.startswith("."):
+            if not entry.name.endswith(".toml") or entry.name.startswith(".") or entry.name == WORDS_FILE:
                 continue
             result = _load_file(Path(entry.path))
             if isinstance(result, LibraryProblem):

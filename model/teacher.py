@@ -41,6 +41,7 @@ from core.skeleton import (
     normalize_pose,
 )
 from library import load_library
+from library.words import load_word_rules
 from model.features import HOP, SAMPLE_RATE, load_audio
 from model import postprocess
 from model.postprocess import MAX_STEP_DEG, blend_pose_controls, smoothstep, unit_vectors
@@ -60,48 +61,9 @@ STOPWORDS = frozenset(
     will just also very much many some any such own same other each few more most nor only""".split()
 )
 
-#: Trigger words -> candidate library gestures (name, flip allowed, probability weight).
-TRIGGERS: dict[str, tuple[str, ...]] = {}
-
-
-def _add(words: str, *gestures: str) -> None:
-    for w in words.split():
-        TRIGGERS[w] = gestures
-
-
-_add("here", "point_down", "point_front")
-_add("there", "point_right", "point_left", "point_front")
-_add("this these", "point_front", "point_down")
-_add("that those yonder", "point_right", "point_left", "point_front")
-_add("you your you're yours yourself", "point_front", "offer")
-_add("me i my mine myself i'm i've i'd", "point_self")
-_add("we us our", "point_self", "open_arms")
-_add("up above high top rise sky", "point_up")
-_add("down below low bottom floor ground", "point_down")
-_add("left", "point_left")
-_add("right", "point_right", "thumbs_up")
-_add("one first single once alone only", "count_one")
-_add("two second twice both couple pair", "count_two")
-_add("three third thrice several", "count_three")
-_add("no not never don't won't can't nobody nothing none neither nor isn't doesn't didn't", "head_shake", "dismiss", "reject")
-_add("big huge large enormous giant massive vast great tall", "big")
-_add("small tiny little few bit short", "small")
-_add("hello hi hey welcome greetings", "wave", "welcome")
-_add("bye goodbye farewell", "wave")
-_add("maybe perhaps think guess wonder probably might suppose possibly", "think", "shrug", "head_tilt")
-_add("stop wait halt enough", "stop")
-_add("everything all whole everyone everybody every world always entire", "sweep", "open_arms")
-_add("yes yeah sure agree indeed exactly correct", "nod", "thumbs_up")
-_add("good excellent awesome fantastic perfect wonderful", "thumbs_up")
-_add("come follow join", "come_here")
-_add("together meet unite", "hands_together")
-_add("calm relax easy slowly gently quiet", "calm_down")
-_add("important really must absolutely truly definitely", "emphasis", "chop")
-_add("more grow increase progress continue forward further", "progressive")
-_add("win won victory hooray yay", "celebrate")
-_add("give offer take share gift", "offer", "cup")
-_add("thank thanks please sorry", "bow", "nod")
-_add("know understand idea remember", "head_tilt", "think")
+#: Trigger words -> candidate library gestures: the entries of library/words.toml the rules
+#: engine uses (:meth:`library.words.WordRules.triggers`; ``sgt suggest`` reads the same table).
+TRIGGERS: dict[str, tuple[str, ...]] = load_word_rules().triggers()
 
 #: Probability of using a trigger, before the speed factor.
 TRIGGER_PROB = 0.6

@@ -21,7 +21,7 @@ from sgt_tui.errors import InputError, UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
 COMMANDS = ("check", "compile", "explain", "say", "voices", "library_cmd", "generate", "build", "train", "render", "export", "corpus",
-            "eval", "edit", "serve", "diff")
+            "eval", "edit", "serve", "diff", "suggest")
 
 EPILOG = """\
 exit status: 0 when done; 1 for problems in the input (errors in a script, a file

@@ -55,6 +55,8 @@ ACTIONS: tuple[Act, ...] = (
     Act("f4", "style", "style", "Style the selection", "speed, space, handedness or a preset for the selected words"),
     Act("alt+left", "move_pose", "", "Pose to previous word", "move the pose control at the cursor to the previous word", (-1,)),
     Act("alt+right", "move_pose", "", "Pose to next word", "move the pose control at the cursor to the next word", (1,)),
+    Act("f6", "suggest", "", "Suggest gestures", "put the gestures the words of the utterance at the cursor call for "
+        "where it has no mark (as sgt suggest; one undo takes them back)"),
     Act("f5", "play", "play", "Play / pause", "play or pause the motion preview (15 fps)"),
     Act("ctrl+g", "job", "gen", "Generate utterance", "generate motion for the utterance at the cursor", ("generate", False)),
     Act("f8", "job", "", "Generate script", "generate motion for the whole script", ("generate", True)),

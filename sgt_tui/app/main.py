@@ -29,6 +29,7 @@ from textual.widgets import Footer, TextArea
 from textual.widgets.text_area import Selection
 
 from core.diagnostics import Diagnostic, summary
+from library.words import WordRulesError, load_word_rules
 from sgt_tui.app.actions import ACTION_NAMES, ACTIONS, ENGINE_ORDER, EditorCommands, bindings
 from sgt_tui.app.file_flow import FileFlow
 from sgt_tui.app.job_flow import JobFlow, weights_exist
@@ -441,6 +442,22 @@ class EditorApp(App):
             self.say("no suggested fix here (F2 lists every problem and its fixes)")
             return
         self.apply_action(lambda: edits.apply_fix(self.doc, fixable[0].fixes[0]))
+
+    def action_suggest(self) -> None:
+        """The gestures the words of the utterance at the cursor call for (``sgt suggest``)."""
+        a = self.ready_analysis()
+        if a is None:
+            return
+        if a.library is None:
+            self.say("the motion library is not loaded (see F2)", "warning")
+            return
+        try:
+            rules = load_word_rules(folder for origin, folder in a.library.folders if origin != "built-in")
+        except WordRulesError as exc:
+            self.say(str(exc), "error")
+            return
+        info = a.utterance_at(self.area.cursor_location[0] + 1)
+        self.apply_action(lambda: edits.suggest_gestures(self.doc, info, a.library, rules))
 
     def action_goto(self, start: str = "") -> None:
         def answer(text: str | None) -> None:

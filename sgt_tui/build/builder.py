@@ -214,6 +214,15 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
             note_repairs(bad)
         script, lib, diags = load_script(path)
         errors = [d for d in diags if d.is_error]
+        if settings.auto_gestures and not errors and lib is not None:  # as sgt generate --auto-gestures
+            from sgt_tui.suggesting import SuggestError, with_suggestions  # lazy: the words table
+
+            try:
+                script, lib, diags = with_suggestions(path, script, lib)
+            except SuggestError as exc:
+                fail(rel, f"{path}: {exc}")
+                continue
+            errors = [d for d in diags if d.is_error]
         if errors:
             if show:
                 show(diags, {str(path): script.source})

@@ -49,6 +49,7 @@ class Settings:
     blend: bool = True
     weights: str | None = None  # None: the shipped weights
     take_posture: bool = True  # the neural engine draws each speaker's take posture and drift (model.take_posture)
+    auto_gestures: bool = False  # gestures chosen from the words where a script has no mark (sgt_tui.suggesting)
 
     def options(self):
         from model.neural import Options  # lazy: numpy, the engine
@@ -61,6 +62,10 @@ class Settings:
         if self.engine == "neural":
             out.update(smoothing=self.smoothing, blend=self.blend, take_posture=self.take_posture,
                        weights_sha256=weights_hash(self.weights))
+        if self.auto_gestures:  # (only when set: builds without it keep their manifests)
+            from library.words import BUILTIN_WORDS  # lazy: the library package
+
+            out.update(auto_gestures=True, words_sha256=file_sha256(BUILTIN_WORDS))
         return out
 
 

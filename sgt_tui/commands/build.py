@@ -46,6 +46,8 @@ def register(sub) -> None:
     add_seed_option(p, "random seed for every script (default: each script's @seed)")
     add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
+    p.add_argument("--auto-gestures", action="store_true",
+                   help="where a script has no mark, the gestures its words call for ('sgt suggest' shows them)")
     p.add_argument("--no-wait", action="store_true",
                    help="when another build is writing OUT, fail at once (exit 1) instead of waiting for it")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no warnings, no summary: only errors")
@@ -66,7 +68,7 @@ def run(args) -> int:
     cache = BuildCache(output_folder(args.cache, "--cache") if args.cache else None)
     weights = str(existing_file(args.weights).resolve()) if args.weights else None
     settings = Settings(engine=args.engine, seed=args.seed, smoothing=args.smoothing, blend=not args.no_blend, weights=weights,
-                        take_posture=not args.no_take_posture)
+                        take_posture=not args.no_take_posture, auto_gestures=args.auto_gestures)
     exports = [name for name in ("bvh", "glb", "wav") if getattr(args, name)]
     if args.ray is not None and args.jobs is not None and args.ray:
         raise UsageError("--jobs sets the workers of a local build or a local Ray instance; a Ray cluster has its own")

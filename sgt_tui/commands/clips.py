@@ -18,14 +18,31 @@ SCRIPT_SUFFIXES = (".sgt",)
 
 
 def generate_script(path: Path, *, engine: str | None = None, utterances=None, seed: int | None = None,
-                    options=None, label: str = "generate"):
+                    options=None, label: str = "generate", auto_gestures: bool = False):
     """Compile and generate ``path``; returns a :class:`model.generate.Take`. Warnings are
-    printed; errors raise :class:`InputError` (diagnostics printed) or :class:`UsageError`."""
+    printed; errors raise :class:`InputError` (diagnostics printed) or :class:`UsageError`.
+    ``auto_gestures``: with the gestures its words call for where it has no mark
+    (:mod:`sgt_tui.suggesting`; the take's source is the script with them)."""
+    import sys
+
     from model.generate import GenerateError, NoSuchUtterance, generate  # lazy: numpy, the engines
     from sgt_tui.progress import ProgressBar
 
+    source = None
+    if auto_gestures:
+        from sgt_tui.suggesting import SuggestError, suggestions_for
+
+        try:
+            _, found, source = suggestions_for(path)
+        except SuggestError as exc:
+            if exc.diagnostics:
+                print_diagnostics(exc.diagnostics, exc.sources)
+                raise InputError(str(exc), printed=True) from None
+            raise InputError(str(exc)) from None
+        print(f"{len(found)} gesture{'s' if len(found) != 1 else ''} chosen from the words "
+              f"({', '.join(sorted({s.gesture for s in found})) or 'none'})", file=sys.stderr)
     try:
-        take = generate(path, engine=engine, utterances=utterances, seed=seed, options=options,
+        take = generate(path, source=source, engine=engine, utterances=utterances, seed=seed, options=options,
                         progress=ProgressBar(label))
     except NoSuchUtterance as exc:
         raise UsageError(f"{path}: {exc}") from None

@@ -37,6 +37,8 @@ def register(sub) -> None:
     add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
     add_threads_option(p)
+    p.add_argument("--auto-gestures", action="store_true",
+                   help="where the script has no mark, the gestures its words call for ('sgt suggest' shows them)")
     p.set_defaults(run=run)
 
 
@@ -59,7 +61,8 @@ def run(args) -> int:
     out = output_file(args.output, binary=fmt == "npz", inputs=inputs_of(path, weights))
     options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=weights, threads=args.threads,
                       take_posture=not args.no_take_posture)
-    take = generate_script(path, engine=args.engine, utterances=args.utterance, seed=args.seed, options=options)
+    take = generate_script(path, engine=args.engine, utterances=args.utterance, seed=args.seed, options=options,
+                           auto_gestures=args.auto_gestures)
     take.save(out, format=fmt)
     frames = take.plan.n_frames
     print(f"wrote {shown(out)}: {len(take.clips)} utterances, {len(take.tracks)} speaker track(s), "

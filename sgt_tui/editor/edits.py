@@ -17,10 +17,12 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 from core.controls import STYLE_LIMIT, STYLE_NAMES
-from core.diagnostics import Fix
+from core.diagnostics import Fix, TextEdit
 from dsl.lines import split_statements, strip_comment
+from dsl.suggest import suggest
 from sgt_tui.editor.document import Document, Location, Replacement
 from sgt_tui.editor.tokens import line_tokens, spoken_pieces
 
@@ -280,3 +282,20 @@ def apply_fix(doc: Document, fix: Fix) -> Action:
     first = min(fix.edits, key=lambda e: (e.line, e.col))
     end = (first.line - 1, first.col - 1 + len(first.text)) if "\n" not in first.text else None
     return Action("quick fix", reps, cursor=end, message=f"fixed: {fix.title}")
+
+
+def suggest_gestures(doc: Document, info, library, rules) -> Action:
+    """The gestures the words of one utterance (an analysis's :class:`UtteranceInfo`) call
+    for, inserted where it has no mark (:mod:`dsl.suggest`, the rules of ``sgt suggest``), as
+    one undoable action. Raises EditRefused when there is nothing to suggest."""
+    if info is None or info.utterance is None or info.errors:
+        raise EditRefused("no utterance without errors here: suggestions need one")
+    found = suggest(SimpleNamespace(utterances=[info.utterance]), library, rules)
+    if not found:
+        raise EditRefused("no word of this utterance calls for a gesture where it has room for one")
+    fix = Fix("suggested gestures", tuple(TextEdit(s.line + info.line_shift, s.col, 0, f"[pose:{s.gesture}] ")
+                                          for s in found))
+    action = apply_fix(doc, fix)
+    names = ", ".join(f"{s.gesture} on '{s.word}'" for s in found)
+    return Action("suggest gestures", action.replacements, cursor=action.cursor,
+                  message=f"{len(found)} gesture{'s' if len(found) != 1 else ''} suggested: {names} (ctrl+z takes them back)")
