@@ -5,7 +5,7 @@ from __future__ import annotations
 from core.motion import MotionClip
 from renders.export import write_bvh
 from renders.gltf import write_glb
-from renders.naoqi import NAMES, ROBOTS, write_angles
+from renders.naoqi import ROBOTS, write_angles
 from renders.rigs import get_rig
 from renders.smplx_npz import write_smplx_npz
 
@@ -15,7 +15,7 @@ def write_rig_file(path, clip: MotionClip, rig: str, suffix: str) -> str:
     short note for the user ("" when there is nothing to say)."""
     if rig in ROBOTS:
         sol = write_angles(path, clip, ROBOTS[rig], "json" if suffix == ".json" else "csv")
-        n = sol.n_frames * len(NAMES)
+        n = sol.n_frames * len(sol.names)  # Pepper has a joint more than NAO (HipPitch)
         pos = sum(int(v.sum()) for v in sol.position_clamped.values())
         vel = sum(int(v.sum()) for v in sol.velocity_clamped.values())
         return (f"{sol.robot.title}: {100 * pos / n:.1f}% of the angles clamped to the joint ranges, "
