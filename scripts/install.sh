@@ -12,18 +12,26 @@ echo "==> system packages (espeak-ng: speech; EGL/OSMesa: offscreen rendering; f
 echo "    tmux: terminal tests; alsa-utils, pocketsphinx-testdata: recorded human speech for scripts/real_speech_check.py;"
 echo "    festival + festvox voices: the corpus's voices besides espeak-ng (model/training/voices.py);"
 echo "    ffmpeg: ffprobe, the independent reader of sgt's MP4s in the tests;"
-echo "    blender + python3-numpy: Blender's glTF/BVH importers read the rig exports in tests/test_rigs_blender.py)"
+echo "    blender + python3-numpy: Blender's glTF/BVH importers read the rig exports in tests/test_rigs_blender.py;"
+echo "    neovim: a real client of 'sgt lsp' in tests/test_nvim.py; nodejs + npm: the VS Code extension, editors/vscode;"
+echo "    chromium: the browser tests of 'sgt view' (tests/test_view_browser.py, headless, DevTools protocol))"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
     espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min alsa-utils \
     pocketsphinx-testdata festival festvox-kallpc16k festvox-kdlpc16k festvox-us-slt-hts \
-    ffmpeg blender python3-numpy >/dev/null
+    ffmpeg blender python3-numpy neovim chromium fonts-liberation >/dev/null
+if ! command -v npm >/dev/null; then  # (a Node.js of its own, from NodeSource say, brings its npm)
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+fi
 
 echo "==> PyTorch (CPU build)"
 "$PY" -m pip install -q torch==2.13.0
 
 echo "==> sgt and its Python dependencies (ray: sgt build --ray, tested in CI on a local Ray)"
 "$PY" -m pip install -q -e '.[dev,ray]'
+
+echo "==> the VS Code extension's npm packages (editors/vscode: its grammar test and 'vsce package')"
+(cd editors/vscode && npm ci --no-audit --no-fund --loglevel=error)
 
 echo "==> main job: check examples/mall_guide.sgt, generate its motion, render a video with sound, a preview GIF and a contact sheet"
 mkdir -p out

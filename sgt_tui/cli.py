@@ -20,8 +20,8 @@ from core.interrupts import caused_by_interrupt, noting_interrupts
 from sgt_tui.errors import InputError, UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
-COMMANDS = ("check", "compile", "explain", "say", "voices", "library_cmd", "generate", "build", "train", "render", "export", "corpus",
-            "eval", "edit", "serve", "diff", "suggest")
+COMMANDS = ("check", "fmt", "compile", "explain", "say", "voices", "library_cmd", "generate", "build", "train", "render", "export", "corpus",
+            "eval", "edit", "lsp", "serve", "diff", "suggest")
 
 EPILOG = """\
 exit status: 0 when done; 1 for problems in the input (errors in a script, a file

@@ -1,0 +1,182 @@
+"""Diagnostics as the protocol carries them, their fixes as code actions, and formatting.
+
+Every diagnostic is the analysis's (:mod:`core.diagnostics`): its code links to the page of
+``sgt explain``, its related places and hint come along, and each of its fixes (did you mean,
+add a unit, close a span) is a quick fix. Two actions are the server's own, both checked by
+the analysis before they are offered: re-timing a gesture to x2 or x3 where a stroke misses
+its word (SGT401: offered only when the warning then goes away), and closing an unclosed tag
+(SGT104).
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+
+from lsprotocol import types as lsp
+
+from core import rules
+from core.diagnostics import ERROR, WARNING, Diagnostic
+from dsl.compiler import compile_text
+from dsl.fmt import format_source
+from sgt_tui.editor.tokens import line_tokens
+from sgt_tui.lsp import knowledge
+from sgt_tui.lsp.documents import Document, uri_of
+
+SOURCE = "sgt"
+#: The protocol's diagnostic (sgt's own, core.diagnostics.Diagnostic, is built only by its rules).
+_ProtocolDiagnostic = lsp.Diagnostic
+_SEVERITY = {ERROR: lsp.DiagnosticSeverity.Error, WARNING: lsp.DiagnosticSeverity.Warning}
+#: What an unclosed tag could have been, longest first: its closer goes after the match.
+_TAG_SO_FAR = (
+    (re.compile(r"\[[ \t]*pose[ \t]*:[ \t]*[A-Za-z_][\w\-]*(?:[ \t]+(?:x[123]|flip|hold=[\d.]+m?s))*"), "]"),
+    (re.compile(r"\[[ \t]*pause[ \t]+[\d.]+m?s"), "]"),
+    (re.compile(r"</[ \t]*[A-Za-z_][\w\-]*"), ">"),
+    (re.compile(r"<(?:[ \t]*[A-Za-z_][\w\-]*(?:[ \t]*:[ \t]*[+\-]?[\d.]+)?)+"), ">"),
+)
+
+
+def to_lsp(doc: Document, d: Diagnostic) -> lsp.Diagnostic:
+    page = knowledge.explanation_page(d.code) if d.code else None
+    related = [lsp.DiagnosticRelatedInformation(
+        lsp.Location(doc.uri if r.file == d.file else uri_of(r.file), doc.span(r.line, r.col, r.length)
+                     if r.file == d.file else _plain_span(r.line, r.col, r.length)), r.message) for r in d.related]
+    rng = doc.span(d.line, d.col, d.length) if d.file == str(doc.path) else _plain_span(d.line, d.col, d.length)
+    return _ProtocolDiagnostic(
+        rng, d.message + (f"\nhint: {d.hint}" if d.hint else ""),
+        severity=_SEVERITY.get(d.severity, lsp.DiagnosticSeverity.Information), code=d.code or None, source=SOURCE,
+        code_description=lsp.CodeDescription(uri_of(page)) if page is not None else None,
+        related_information=related or None, data={"name": d.name})
+
+
+def _plain_span(line: int, col: int, length: int) -> lsp.Range:
+    """A span in a file the server does not hold (a gesture spec): characters as units."""
+    row, start = max(line - 1, 0), max(col - 1, 0)
+    return lsp.Range(lsp.Position(row, start), lsp.Position(row, start + max(length, 0)))
+
+
+def published(doc: Document) -> dict[str, list[lsp.Diagnostic]]:
+    """The diagnostics to publish, by URI: the script's, and those of other files its analysis
+    read (a malformed gesture spec)."""
+    out: dict[str, list[lsp.Diagnostic]] = {doc.uri: []}
+    for d in doc.analysis().diagnostics:
+        uri = doc.uri if d.file == str(doc.path) else uri_of(d.file)
+        out.setdefault(uri, []).append(to_lsp(doc, d))
+    return out
+
+
+# -- code actions -----------------------------------------------------------------------------
+
+def _touches(d: Diagnostic, rng: lsp.Range, doc: Document) -> bool:
+    r = doc.span(d.line, d.col, d.length)
+    return (r.start.line, r.start.character) <= (rng.end.line, rng.end.character) and \
+        (rng.start.line, rng.start.character) <= (r.end.line, r.end.character)
+
+
+def code_actions(doc: Document, rng: lsp.Range) -> list[lsp.CodeAction]:
+    out: list[lsp.CodeAction] = []
+    mine = str(doc.path)
+    for d in doc.analysis().diagnostics:
+        if d.file != mine or not d.line or not _touches(d, rng, doc):
+            continue
+        wire = to_lsp(doc, d)
+        for n, fix in enumerate(d.fixes):
+            edits = [lsp.TextEdit(doc.span(e.line, e.col, e.length), e.text) for e in fix.edits]
+            out.append(lsp.CodeAction(fix.title, kind=lsp.CodeActionKind.QuickFix, diagnostics=[wire],
+                                      edit=lsp.WorkspaceEdit(changes={doc.uri: edits}), is_preferred=n == 0 and len(d.fixes) == 1))
+        if d.code == rules.OVERLAP.code:
+            out += _retime(doc, d, wire)
+        elif d.code == rules.UNCLOSED.code:
+            out += _close(doc, d, wire)
+    return out
+
+
+def _close(doc: Document, d: Diagnostic, wire: lsp.Diagnostic) -> list[lsp.CodeAction]:
+    line = doc.line(d.line - 1)
+    for pattern, closer in _TAG_SO_FAR:
+        m = pattern.match(line, d.col - 1)
+        if m:
+            edit = lsp.TextEdit(doc.range(d.line - 1, m.end(), m.end()), closer)
+            return [lsp.CodeAction(f"close the tag: add '{closer}'", kind=lsp.CodeActionKind.QuickFix, diagnostics=[wire],
+                                   edit=lsp.WorkspaceEdit(changes={doc.uri: [edit]}), is_preferred=True)]
+    return []
+
+
+def _pose_tag(doc: Document, row: int, col: int):
+    """(start, end, name, speed, its other options) of the ``[pose:...]`` tag starting at 0-based
+    ``row``/``col``; None when there is none."""
+    for kind, s, e, payload in line_tokens(doc.line(row)).items:
+        names, args = payload if kind == "tag" else ((), ())
+        if kind == "tag" and s == col and len(names) == 2 and names[0][0] == "pose":
+            speed = max([int(k[1]) for k, v, _, _ in args if k in ("x1", "x2", "x3") and v is None] or [1])
+            rest = [k if v is None else f"{k}={v}" for k, v, _, _ in args if k not in ("x1", "x2", "x3")]
+            return s, e, names[1][0], speed, rest
+    return None
+
+
+def _retime(doc: Document, d: Diagnostic, wire: lsp.Diagnostic) -> list[lsp.CodeAction]:
+    """Actions that play the late gesture, or the one in its way, at x2 or x3: each offered
+    only when the analysis of the changed utterance has fewer late strokes."""
+    analysis = doc.analysis()
+    info = analysis.utterance_at(d.line)
+    if info is None:
+        return []
+    places = [(d.line - 1, d.col - 1)] + [(r.line - 1, r.col - 1) for r in d.related if r.file == d.file]
+    late = _pose_tag(doc, *places[0])
+    out = []
+    before = _late_strokes(doc, info, None)
+    for row, col in places:
+        tag = _pose_tag(doc, row, col)
+        if tag is None or late is None:
+            continue
+        s, e, name, speed, rest = tag
+        for faster in (2, 3):
+            if faster <= speed:
+                continue
+            text = "[" + " ".join([f"pose:{name}", f"x{faster}", *rest]) + "]"
+            if _late_strokes(doc, info, (row, s, e, text)) < before:
+                why = "its stroke then makes its word" if (row, col) == places[0] else f"'{late[2]}' then makes its word"
+                out.append(lsp.CodeAction(f"re-time '{name}' to x{faster} ({why})", kind=lsp.CodeActionKind.QuickFix,
+                                          diagnostics=[wire], edit=lsp.WorkspaceEdit(changes={doc.uri: [lsp.TextEdit(doc.range(row, s, e), text)]})))
+                break
+    return out
+
+
+def _late_strokes(doc: Document, info, change) -> int:
+    """SGT401 warnings of utterance ``info`` after ``change`` (row, start, end, text), analysed
+    with the header and that utterance only (the other lines blanked, so places stay)."""
+    analysis = doc.analysis()
+    lines = list(doc.lines)
+    first = analysis.utterances[0].line
+    keep = set(range(first - 1)) | set(range(info.chunk_line - 1, info.last_line))
+    trial = [line if n in keep else "" for n, line in enumerate(lines)]
+    if change is not None:
+        row, s, e, text = change
+        trial[row] = trial[row][:s] + text + trial[row][e:]
+    result = compile_text("\n".join(trial), doc.path, timing="estimate", library=analysis.library)
+    return sum(1 for x in result.diagnostics if x.code == rules.OVERLAP.code and info.line <= x.line <= info.last_line)
+
+
+# -- formatting -------------------------------------------------------------------------------
+
+def formatting(doc: Document) -> list[lsp.TextEdit]:
+    """The edits that make the script ``sgt fmt``'s layout, line by line (so the rest of the
+    text, and the cursor on it, stays); raises :class:`dsl.fmt.FormatError`."""
+    before = _lines_with_ends(doc.text)
+    after = _lines_with_ends(format_source(doc.text, str(doc.path)))
+    if not before:
+        end = lsp.Position(0, 0)
+    elif before[-1].endswith("\n"):
+        end = lsp.Position(len(before), 0)
+    else:
+        end = doc.position(len(before) - 1, len(before[-1]))
+    edits = []
+    for op, i1, i2, j1, j2 in difflib.SequenceMatcher(None, before, after, autojunk=False).get_opcodes():
+        if op != "equal":
+            start = lsp.Position(i1, 0) if i1 < len(before) else end
+            edits.append(lsp.TextEdit(lsp.Range(start, lsp.Position(i2, 0) if i2 < len(before) else end), "".join(after[j1:j2])))
+    return edits
+
+
+def _lines_with_ends(text: str) -> list[str]:
+    return re.findall(r"[^\n]*\n|[^\n]+$", text)

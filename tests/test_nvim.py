@@ -1,0 +1,71 @@
+"""Neovim as a real client of `sgt lsp`: `nvim --headless` with its built-in LSP client, set up
+by the shipped editors/neovim/sgt.lua, opens a script and sees a diagnostic, a completion and a
+go-to-definition (issue 23)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+NVIM = shutil.which("nvim")
+pytestmark = pytest.mark.skipif(NVIM is None, reason="Neovim is not installed (Debian: apt-get install neovim)")
+
+# The init file: the shipped set-up, then the checks, written as JSON for the test to read.
+INIT = """
+local out = os.getenv("SGT_TEST_OUT")
+dofile(os.getenv("SGT_LUA")).setup({ cmd = { os.getenv("SGT_PYTHON"), "-m", "sgt_tui.cli", "lsp" } })
+vim.cmd("edit " .. os.getenv("SGT_SCRIPT"))
+local result = { filetype = vim.bo.filetype }
+local ok = vim.wait(30000, function() return #vim.diagnostic.get(0) > 0 end, 50)
+result.diagnostics = {}
+for _, d in ipairs(vim.diagnostic.get(0)) do
+  table.insert(result.diagnostics, { code = d.code, lnum = d.lnum, col = d.col, message = d.message })
+end
+local uri = vim.uri_from_bufnr(0)
+local function request(method, line, character)
+  local params = { textDocument = { uri = uri }, position = { line = line, character = character } }
+  local replies = vim.lsp.buf_request_sync(0, method, params, 20000) or {}
+  for _, reply in pairs(replies) do
+    if reply.result then return reply.result end
+  end
+  return nil
+end
+local completion = request("textDocument/completion", 1, 20)
+result.completion = {}
+for _, item in ipairs((completion and (completion.items or completion)) or {}) do
+  table.insert(result.completion, item.label)
+end
+local definition = request("textDocument/definition", 0, 16)
+result.definition = definition and (definition[1] or definition).uri or vim.NIL
+local file = io.open(out, "w")
+file:write(vim.fn.json_encode(result))
+file:close()
+vim.cmd("qa!")
+"""
+
+
+def test_neovim_sees_a_diagnostic_a_completion_and_a_definition(tmp_path):
+    script = tmp_path / "lobby.sgt"
+    script.write_text("guide: hi [pose:wave] there [pose:point_rigth] now.\nguide: look [pose:poi\n", encoding="utf-8")
+    init = tmp_path / "init.lua"
+    init.write_text(INIT, encoding="utf-8")
+    out = tmp_path / "result.json"
+    env = {**os.environ, "SGT_TEST_OUT": str(out), "SGT_LUA": str(ROOT / "editors" / "neovim" / "sgt.lua"),
+           "SGT_PYTHON": sys.executable, "SGT_SCRIPT": str(script), "XDG_CONFIG_HOME": str(tmp_path / "config"),
+           "XDG_DATA_HOME": str(tmp_path / "data"), "XDG_STATE_HOME": str(tmp_path / "state")}
+    r = subprocess.run([NVIM, "--headless", "--clean", "-u", str(init)], check=False, cwd=tmp_path, env=env, capture_output=True,
+                       text=True, timeout=120, stdin=subprocess.DEVNULL)
+    assert out.exists(), r.stdout[-2000:] + r.stderr[-2000:]
+    result = json.loads(out.read_text())
+    assert result["filetype"] == "sgt"
+    codes = {(d["code"], d["lnum"], d["col"]) for d in result["diagnostics"]}
+    assert ("SGT201", 0, 34) in codes, result["diagnostics"]  # point_rigth, 0-based line and column
+    assert {"point_right", "point_left", "wave"} <= set(result["completion"])
+    assert result["definition"] == (ROOT / "library" / "gestures" / "wave.toml").as_uri()
