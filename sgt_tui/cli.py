@@ -21,7 +21,7 @@ from sgt_tui.errors import InputError, UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
 COMMANDS = ("check", "fmt", "compile", "explain", "say", "voices", "library_cmd", "generate", "build", "train", "render", "export", "corpus",
-            "eval", "edit", "lsp", "serve", "diff", "suggest")
+            "eval", "edit", "lsp", "serve", "diff", "view", "suggest")
 
 EPILOG = """\
 exit status: 0 when done; 1 for problems in the input (errors in a script, a file

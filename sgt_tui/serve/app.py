@@ -27,6 +27,7 @@ from sgt_tui.serve.jobs import Encoded, check, generate_request
 from sgt_tui.serve.pool import Busy, Pool
 from sgt_tui.serve.requests import AUDIO_SUFFIXES, CheckRequest, GenerateRequest, RequestError
 from sgt_tui.serve.stream import StreamSession
+from sgt_tui.view.service import add_view, is_page
 
 log = logging.getLogger("sgt.serve")
 OPEN_PATHS = ("/healthz",)  # answered without the token: says only that the service is up
@@ -59,7 +60,7 @@ class Guard:
         if scope["type"] not in ("http", "websocket"):
             return await self.app(scope, receive, send)
         headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope.get("headers", ())}
-        if scope["path"] not in OPEN_PATHS and not authorized(self.config, headers.get("authorization")):
+        if scope["path"] not in OPEN_PATHS and not is_page(scope["path"]) and not authorized(self.config, headers.get("authorization")):
             if scope["type"] == "websocket":
                 await send({"type": "websocket.close", "code": 1008, "reason": "a valid token is required"})
                 return
@@ -230,6 +231,7 @@ def create_app(config: ServeConfig) -> FastAPI:
         except WebSocketDisconnect:
             return
 
+    add_view(app, config, work, state)  # the page of `sgt view` at /view/ and POST /v1/view (sgt_tui/view/service.py)
     return app
 
 

@@ -1,0 +1,101 @@
+"""sgt view: a take in 3D in a web page on this machine, reloaded when its script is saved (docs/view.md)."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "watch a take in 3D in a web browser (three.js), with its speech; reloads when the script is saved"
+DESCRIPTION = """\
+Serve a web page that shows a take in 3D: every speaker, orbit and zoom, front, side,
+top and three-quarter cameras (sgt render's), play and pause, scrubbing with the speech
+in sync, playback speed, a timeline of the words and the pose and style controls (click
+one to jump to its stroke), the word being spoken, and sgt's mannequin or your own VRM
+character (a .vrm file chosen in the page). FILE is a script (.sgt, generated first),
+a motion file (.json/.npz; its speech comes from the script it names) or a build
+folder (sgt build -o OUT: every take its manifest lists). When the script (or the
+motion file, or the build) changes on disk, it is generated again in the background
+and the page reloads: edit in any editor and watch.
+
+The page needs nothing from the internet (three.js is shipped with sgt). It listens on
+127.0.0.1 and a free port, printed with its address; from another machine, forward
+the port over SSH (ssh -L 8700:127.0.0.1:8700 HOST, then sgt view FILE --port 8700 on
+HOST and open http://127.0.0.1:8700/ here). --host exposes it, and then a token is
+required (--token or SGT_SERVE_TOKEN, as sgt serve): open http://HOST:PORT/#token=TOKEN
+(the page keeps the token; the part after # never leaves the browser)."""
+
+
+def register(sub) -> None:
+    from sgt_tui.commands.common import non_negative_int
+
+    p = sub.add_parser("view", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("input", metavar="FILE", help="script (.sgt), motion file (.json/.npz) or build folder")
+    p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=non_negative_int, default=0, help="port (default 0: a free one, printed)")
+    p.add_argument("--token", help="require this token (default: $SGT_SERVE_TOKEN; required with --host)")
+    from sgt_tui.commands.render import add_script_options
+
+    add_script_options(p)
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import os
+    import sys
+    from pathlib import Path
+
+    from sgt_tui.errors import InputError, UsageError
+    from sgt_tui.serve.config import ConfigError, ServeConfig, checked
+
+    try:
+        config = checked(ServeConfig(host=args.host, port=args.port, token=args.token))
+    except ConfigError as exc:
+        raise UsageError(str(exc)) from None
+    path = Path(args.input)
+    if not os.path.exists(path):
+        raise InputError(f"no such file or folder: {args.input}")
+    if not path.is_dir() and path.suffix.lower() not in (".sgt", ".json", ".npz"):
+        raise UsageError(f"{path}: unknown input type '{path.suffix or '(none)'}' (use .sgt, .json, .npz or a build folder)")
+
+    from sgt_tui.view.takes import Viewer, ViewError
+
+    try:
+        viewer = Viewer(path, engine=args.engine, seed=args.seed)
+    except ViewError as exc:
+        raise InputError(str(exc)) from None
+    if not viewer.slots:
+        raise InputError(f"{path}: no motion files in this folder (sgt build -o {path} makes them)")
+    try:
+        viewer.take(0)  # the first take before listening: a script with errors stops here
+    except ViewError as exc:
+        if exc.details:
+            sys.stderr.write(exc.details + "\n")
+        raise InputError(str(exc), printed=False) from None
+
+    import uvicorn
+
+    from sgt_tui.serve.listen import KEEP_ALIVE, ListenError, bind, protocol
+    from sgt_tui.view.server import create_view_app
+
+    try:
+        sock = bind(config.host, config.port)
+    except ListenError as exc:
+        raise InputError(str(exc)) from None
+    port = sock.getsockname()[1]
+    host = f"[{config.host}]" if ":" in config.host else config.host
+    address = f"http://{host}:{port}/"
+    print(f"sgt view: {address}" + (f" (token required: open {address}#token=TOKEN)" if config.token else ""), file=sys.stderr)
+    print(f"  {len(viewer.slots)} take{'s' if len(viewer.slots) != 1 else ''} of {path}; reloads when "
+          f"{'its files change' if viewer.folder or path.suffix.lower() != '.sgt' else 'the script is saved'}; ctrl+c stops."
+          f" Over SSH: ssh -L {port}:127.0.0.1:{port} THIS_HOST, then open the address on your machine.", file=sys.stderr)
+    sys.stderr.flush()
+    server = uvicorn.Server(uvicorn.Config(create_view_app(viewer, config), log_level="warning", timeout_graceful_shutdown=1,
+                                           http=protocol(config.header_timeout), timeout_keep_alive=KEEP_ALIVE))
+    viewer.start()
+    try:
+        server.run(sockets=[sock])
+    except KeyboardInterrupt:  # uvicorn re-raises the ctrl+c it stopped on: a clean stop
+        pass
+    finally:
+        viewer.stop()
+        sock.close()
+    return 0

@@ -1,0 +1,435 @@
+"""sgt view in a real browser: Debian's headless Chromium, driven over the DevTools protocol
+(a WebSocket; the `websockets` package sgt already needs), opens the page that `sgt view`
+serves (the real command, in its own process) and checks, with real mouse and key events:
+
+- the page loads with nothing from outside this machine, draws its model (WebGL) and plays:
+  the pose changes between two screenshots;
+- a click on a pose control in the timeline goes to its stroke, and the screenshot of that
+  frame, from sgt's front and side cameras, has the silhouette of sgt's own render of it
+  (renders.mannequin);
+- the speech and the motion share one clock: the time the page drew against the audio
+  element's, at speed 1 and 2, and after a click on a word;
+- saving the script reloads the page's take (and a broken save shows its errors and keeps it);
+- a VRM character chosen in the page plays the take's VRM Animation: its forearm points where
+  sgt's does at a stroke.
+
+Skipped, saying why, without Chromium (`apt-get install chromium`). Set
+SGT_VIEW_SCREENSHOTS=FOLDER to keep the pages' screenshots there (docs/view.png comes from it).
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import io
+import json
+import os
+import queue
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from core.hands import hand_positions
+from core.motion import load_motion_file
+from renders.clips import track_clip
+from renders.gltf import glb_bytes
+from renders.mannequin import BACKGROUND, Mannequin
+from renders.rigs import get_rig
+from sgt_tui.cli import main
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium is not installed (apt-get install chromium)")
+
+ROOT = Path(__file__).resolve().parent.parent
+SCRIPT = ("@seed 5\nguide: Hello and welcome! [pose:open_arms] Look at the shelf [pose:point_right] over there.\n"
+          "guide: It has everything you need for the garden, and the lifts are right behind you.\n")
+WIDTH, HEIGHT = 800, 640
+SHOTS = os.environ.get("SGT_VIEW_SCREENSHOTS")
+
+
+class Browser:
+    """Headless Chromium and one page, over the DevTools protocol."""
+
+    def __init__(self, width: int = WIDTH, height: int = HEIGHT) -> None:
+        from websockets.sync.client import connect
+
+        self.profile = tempfile.mkdtemp(prefix="sgt-chromium-")
+        self.proc = subprocess.Popen(
+            [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+             "--disable-background-networking", "--disable-component-update", "--disable-sync",
+             f"--user-data-dir={self.profile}", "--remote-debugging-port=0",
+             "--autoplay-policy=no-user-gesture-required", f"--window-size={width},{height}", "about:blank"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        port_file = Path(self.profile) / "DevToolsActivePort"
+        deadline = time.monotonic() + 30
+        while not (port_file.is_file() and port_file.read_text().strip()):
+            if time.monotonic() > deadline or self.proc.poll() is not None:
+                self.close()
+                pytest.fail("Chromium did not start")
+            time.sleep(0.05)
+        port = port_file.read_text().split()[0]
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/json", timeout=10) as r:
+            page = next(t for t in json.load(r) if t["type"] == "page")
+        self.stack = contextlib.ExitStack()
+        self.ws = self.stack.enter_context(connect(page["webSocketDebuggerUrl"], max_size=None, open_timeout=10))
+        self.n = 0
+        self.events: list[dict] = []
+        for domain in ("Page", "Network", "Runtime"):
+            self.cmd(f"{domain}.enable")
+        self.cmd("Emulation.setDeviceMetricsOverride", width=width, height=height, deviceScaleFactor=1, mobile=False)
+
+    def cmd(self, method: str, **params):
+        self.n += 1
+        self.ws.send(json.dumps({"id": self.n, "method": method, "params": params}))
+        while True:
+            message = json.loads(self.ws.recv(timeout=60))
+            if message.get("id") == self.n:
+                if "error" in message:
+                    raise RuntimeError(f"{method}: {message['error']}")
+                return message["result"]
+            self.events.append(message)
+
+    def js(self, expression: str):
+        r = self.cmd("Runtime.evaluate", expression=expression, returnByValue=True, awaitPromise=True)
+        if "exceptionDetails" in r:
+            raise RuntimeError(f"{expression}: {r['exceptionDetails']}")
+        return r["result"].get("value")
+
+    def wait(self, expression: str, timeout: float = 30.0, what: str = ""):
+        deadline = time.monotonic() + timeout
+        while True:
+            value = self.js(expression)
+            if value:
+                return value
+            if time.monotonic() > deadline:
+                raise AssertionError(f"waited {timeout:g} s for {what or expression}; the page says {self.state()}")
+            time.sleep(0.1)
+
+    def open(self, url: str) -> None:
+        self.events.clear()
+        self.cmd("Page.navigate", url=url)
+        self.wait("window.sgtView && sgtView.ready", 45, "the page to load its take")
+
+    def state(self) -> dict:
+        return self.js("window.sgtView ? sgtView.state() : null")
+
+    def click(self, selector: str) -> None:
+        """A real left click in the middle of the element (scrolled into view)."""
+        x, y = self.js(f"(() => {{ const e = document.querySelector({json.dumps(selector)}); e.scrollIntoView({{block: 'nearest', "
+                       "inline: 'center'}); const r = e.getBoundingClientRect(); return [r.x + r.width / 2, r.y + r.height / 2]; })()")
+        for kind in ("mousePressed", "mouseReleased"):
+            self.cmd("Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", clickCount=1)
+
+    def key(self, key: str, code: str, keycode: int) -> None:
+        self.cmd("Input.dispatchKeyEvent", type="keyDown", key=key, code=code, windowsVirtualKeyCode=keycode,
+                 text=key if len(key) == 1 else "")
+        self.cmd("Input.dispatchKeyEvent", type="keyUp", key=key, code=code, windowsVirtualKeyCode=keycode)
+
+    def canvas(self, square: bool = False) -> np.ndarray:
+        """A screenshot of the 3D view (its middle square: what a square render of sgt's camera sees)."""
+        x, y, w, h = self.js("(() => { const r = document.getElementById('scene').getBoundingClientRect(); "
+                             "return [r.x, r.y, r.width, r.height]; })()")
+        if square:
+            x, w = x + (w - h) / 2, h
+        shot = self.cmd("Page.captureScreenshot", format="png",
+                        clip={"x": x, "y": y, "width": int(w), "height": int(h), "scale": 1})
+        from PIL import Image
+
+        return np.asarray(Image.open(io.BytesIO(base64.b64decode(shot["data"]))).convert("RGB"))
+
+    def screenshot(self, path: Path) -> None:
+        path.write_bytes(base64.b64decode(self.cmd("Page.captureScreenshot", format="png")["data"]))
+
+    def requests(self) -> list[str]:
+        return [e["params"]["request"]["url"] for e in self.events if e.get("method") == "Network.requestWillBeSent"]
+
+    def close(self) -> None:
+        try:
+            if getattr(self, "stack", None) is not None:
+                self.stack.close()
+        finally:
+            self.proc.terminate()
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+            shutil.rmtree(self.profile, ignore_errors=True)
+
+
+class View:
+    """`sgt view ARGS` in its own process; ``url`` is the address it printed."""
+
+    def __init__(self, *args: str) -> None:
+        self.proc = subprocess.Popen([sys.executable, "-m", "sgt_tui", "view", *args], cwd=ROOT, stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.PIPE, text=True)
+        lines: queue.Queue = queue.Queue()
+        threading.Thread(target=lambda: [lines.put(line) for line in self.proc.stderr], daemon=True).start()
+        said = []
+        deadline = time.monotonic() + 90
+        while True:
+            try:
+                line = lines.get(timeout=max(0.1, deadline - time.monotonic()))
+            except queue.Empty:
+                self.stop()
+                pytest.fail(f"sgt view printed no address: {''.join(said)}")
+            said.append(line)
+            if line.startswith("sgt view: http://"):
+                self.url = line.split()[2]
+                return
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)  # as ctrl+c
+            try:
+                self.proc.wait(15)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("view")
+    (folder / "guide.sgt").write_text(SCRIPT)
+    assert main(["generate", str(folder / "guide.sgt"), "-o", str(folder / "take.json")]) == 0
+    return folder
+
+
+@pytest.fixture(scope="module")
+def take(folder):
+    """The take as sgt has it: the track's clip (controls on the performance clock) and its hand joints."""
+    motion = load_motion_file(folder / "take.json")
+    clip = track_clip(motion.tracks[0], motion.clips)
+    return clip, hand_positions(clip.positions, clip.hands)
+
+
+@pytest.fixture(scope="module")
+def server(folder):
+    view = View(str(folder / "take.json"))
+    yield view
+    view.stop()
+    assert view.proc.returncode == 0  # ctrl+c is a clean stop
+
+
+@pytest.fixture(scope="module")
+def browser():
+    b = Browser()
+    yield b
+    b.close()
+
+
+def silhouette(image: np.ndarray) -> np.ndarray:
+    return np.abs(image.astype(int) - np.array(BACKGROUND)).sum(axis=-1) > 40
+
+
+def overlap(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum() / max(1, (a | b).sum()))
+
+
+def test_the_page_loads_offline_and_the_animation_plays(server, browser):
+    browser.open(server.url)
+    origin = server.url.rstrip("/")
+    elsewhere = [u for u in browser.requests() if not u.startswith((origin + "/", "blob:", "data:"))]
+    assert not elsewhere, f"the page asked for something outside sgt view: {elsewhere}"
+    problems = [e for e in browser.events if e.get("method") == "Runtime.exceptionThrown"]
+    assert not problems, problems[0]["params"]["exceptionDetails"]
+    assert browser.state()["problem"] == ""
+    still = browser.canvas()
+    assert silhouette(still).mean() > 0.02, "no model on the page"
+    browser.key(" ", "Space", 32)
+    browser.wait("sgtView.state().time > 0.3", 10, "the animation to play")
+    first, a = browser.canvas(), browser.state()
+    time.sleep(0.8)
+    second, b = browser.canvas(), browser.state()
+    assert a["playing"] and b["playing"] and b["frame"] >= a["frame"] + 5, (a, b)
+    changed = (np.abs(first.astype(int) - second.astype(int)).sum(axis=-1) > 60).mean()
+    assert changed > 0.004, f"the pose did not change between frames {a['frame']} and {b['frame']} ({changed:.4f} of the pixels)"
+    browser.key(" ", "Space", 32)
+    assert not browser.state()["playing"]
+
+
+def test_a_click_on_a_pose_control_shows_its_stroke_as_sgt_renders_it(server, browser, take):
+    clip, hands = take
+    point = next(c for c in clip.controls if c.name == "point_right")
+    browser.open(server.url)
+    side = None
+    for view, press in (("front", lambda: browser.click('#views button[data-view="front"]')),
+                        ("side", lambda: browser.key("2", "Digit2", 50))):
+        press()
+        browser.click('.tl-pose[data-name="point_right"]')
+        browser.js("document.querySelectorAll('#caption, #views').forEach((e) => { e.style.visibility = 'hidden'; })")
+        browser.wait(f"sgtView.state().frame === {point.stroke_frame} && sgtView.state().view === '{view}'", 10,
+                     f"the stroke of point_right (frame {point.stroke_frame}) from the {view}")
+        time.sleep(0.3)
+        page = browser.canvas(square=True)
+        side = side or page.shape[0]
+        with Mannequin(side, side) as m:
+            ours = m.render(clip.positions[point.stroke_frame], hands[point.stroke_frame], view=view)
+            rest = m.render(clip.positions[0], hands[0], view=view)
+        match = overlap(silhouette(page), silhouette(ours))
+        other = overlap(silhouette(page), silhouette(rest))
+        if SHOTS:
+            from PIL import Image
+
+            Image.fromarray(np.concatenate([page, ours], axis=1)).save(Path(SHOTS) / f"view_stroke_{view}.png")
+        browser.js("document.querySelectorAll('#caption, #views').forEach((e) => { e.style.visibility = ''; })")
+        assert match > 0.95 and match > other + 0.1, \
+            f"{view}: the page's stroke overlaps sgt's render of frame {point.stroke_frame} by {match:.3f} (frame 0: {other:.3f})"
+
+
+def test_speech_and_motion_share_one_clock(server, browser):
+    browser.open(server.url)
+    assert browser.state()["hasAudio"], "the take's speech did not load"
+
+    def samples(n: int, gap: float) -> list[tuple[float, float, float]]:
+        """(the time the page drew last, moved on by the seconds since at the speed; the audio
+        element's time; the wall clock), read in one go."""
+        out = []
+        for _ in range(n):
+            s = browser.js("(() => { const s = sgtView.state(); "
+                           "return [s.time + s.sinceDrawn * s.speed, s.audioTime, performance.now() / 1000, s.audioPaused]; })()")
+            assert not s[3], "the speech is not playing"
+            out.append(tuple(s[:3]))
+            time.sleep(gap)
+        return out
+
+    def check(got, speed: float) -> None:
+        for page, sound, _ in got:
+            assert abs(page - sound) < 0.06, f"at {speed}x the page's clock said {page:.3f} s while the speech was at {sound:.3f} s"
+        rate = (got[-1][1] - got[0][1]) / (got[-1][2] - got[0][2])
+        assert abs(rate - speed) < 0.2 * speed, f"the speech ran at {rate:.2f}x, not {speed}x"
+
+    browser.key(" ", "Space", 32)
+    browser.wait("sgtView.state().time > 0.1 && !sgtView.state().audioPaused", 10, "the speech to play")
+    check(samples(5, 0.25), 1.0)
+    browser.key("]", "BracketRight", 221)  # 1.5x
+    browser.key("]", "BracketRight", 221)  # 2x
+    assert browser.state()["audioRate"] == 2
+    check(samples(4, 0.25), 2.0)
+    browser.key(" ", "Space", 32)
+    word = browser.js("[...document.querySelectorAll('.tl-word')].map((e) => parseFloat(e.dataset.seek))")[4]
+    browser.click(".tl-word:nth-child(5)")
+    browser.wait(f"Math.abs(sgtView.state().time - {word}) < 1e-6", 5, f"the page to go to the word at {word} s")
+    assert abs(browser.state()["audioTime"] - word) < 0.01, "the speech did not go where the page went"
+
+
+def test_the_page_reloads_when_the_script_is_saved(folder, browser):
+    script = folder / "live.sgt"
+    script.write_text("guide: Hello there [pose:wave] and welcome.\n")
+    view = View(str(script))
+    try:
+        browser.open(view.url)
+        before = browser.state()
+        browser.key("l", "KeyL", 76)  # loop, so that it still plays when the new take comes
+        browser.key(" ", "Space", 32)
+        script.write_text("guide: Hello there [pose:wave] and welcome. The lifts are behind you.\n")  # saved
+        browser.wait(f"sgtView.state().takeId > {before['takeId']}", 40, "the page to load the saved script")
+        after = browser.state()
+        assert after["words"] == before["words"] + 5 and after["playing"] and not after["audioPaused"]
+        assert "lifts" in browser.js("[...document.querySelectorAll('.tl-word')].map((e) => e.textContent).join(' ')")
+        if SHOTS:
+            browser.screenshot(Path(SHOTS) / "view_reloaded.png")
+        script.write_text("guide: Hello there [pose:wavee] and welcome.\n")  # a mistake
+        browser.wait("sgtView.state().problem.includes('1 error')", 40, "the page to show the error")
+        assert browser.state()["takeId"] == after["takeId"]  # the last take that worked stays
+        assert "unknown gesture 'wavee'" in browser.js("document.getElementById('details').textContent")
+    finally:
+        view.stop()
+
+
+def _test_vrm(tmp: Path, clip) -> Path:
+    """A VRM 1.0 character: sgt's vrm rig, T-pose, with its skinned mannequin (renders.gltf),
+    declared a VRM (VRMC_vrm) instead of a VRM Animation."""
+    still = type(clip)(poses=clip.poses[:1], positions=clip.positions[:1], hands=None)
+    data = glb_bytes(still, get_rig("vrm"))
+    (length,) = struct.unpack_from("<I", data, 12)
+    doc = json.loads(data[20:20 + length])
+    binary = data[20 + length:]
+    humanoid = doc["extensions"].pop("VRMC_vrm_animation")["humanoid"]
+    doc.pop("animations")
+    doc["extensionsUsed"] = ["VRMC_vrm"]
+    doc["extensions"]["VRMC_vrm"] = {
+        "specVersion": "1.0", "humanoid": humanoid,
+        "meta": {"name": "sgt test mannequin", "version": "1", "authors": ["sgt tests"],
+                 "licenseUrl": "https://vrm.dev/licenses/1.0/", "avatarPermission": "onlyAuthor",
+                 "commercialUsage": "personalNonProfit", "allowRedistribution": False, "modification": "prohibited"}}
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    path = tmp / "test.vrm"
+    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(text) + len(binary))
+                     + struct.pack("<I4s", len(text), b"JSON") + text + binary)
+    return path
+
+
+def test_a_vrm_character_plays_the_take(server, browser, take, tmp_path):
+    clip, _ = take
+    point = next(c for c in clip.controls if c.name == "point_right")
+    browser.open(server.url)
+    node = browser.cmd("DOM.querySelector", nodeId=browser.cmd("DOM.getDocument")["root"]["nodeId"], selector="#vrmfile")["nodeId"]
+    browser.cmd("DOM.setFileInputFiles", nodeId=node, files=[str(_test_vrm(tmp_path, clip))])
+    browser.wait("sgtView.state().rig === 'vrm' && sgtView.state().characters === 1", 30, "the VRM character")
+    browser.click('.tl-pose[data-name="point_right"]')
+    browser.wait(f"sgtView.state().frame === {point.stroke_frame}", 10, "the stroke")
+    time.sleep(0.2)
+    bones = browser.js("sgtView.bones(0)")
+    forearm = np.subtract(bones["rightHand"], bones["rightLowerArm"])
+    theirs = clip.positions[point.stroke_frame]
+    ours = theirs[8 + 1] - theirs[8]  # right_wrist - right_elbow
+    angle = np.degrees(np.arccos(np.clip(np.dot(forearm, ours) / np.linalg.norm(forearm) / np.linalg.norm(ours), -1, 1)))
+    assert angle < 8, f"the VRM character's right forearm is {angle:.1f} degrees from sgt's at the stroke"
+    if SHOTS:
+        browser.screenshot(Path(SHOTS) / "view_vrm.png")
+    assert browser.state()["problem"] == ""
+
+
+def screenshots(out: Path) -> None:
+    """The documentation's pictures of the page (python3 tests/test_view_browser.py docs):
+    view.png, the shipped example at the stroke of its `point_right x2`; view_dialogue.png, the
+    two speakers of examples/game_dialogue.sgt; view_stroke.png, the page's frame of that
+    stroke beside sgt's own render of it (what the test compares)."""
+    from PIL import Image
+
+    browser = Browser(1100, 720)
+    try:
+        for name, script, control, view_name in (("view.png", "mall_guide.sgt", "point_right", "three-quarter"),
+                                                 ("view_dialogue.png", "game_dialogue.sgt", "point_front", "front")):
+            view = View(str(ROOT / "examples" / script))
+            try:
+                browser.open(view.url)
+                browser.js(f"sgtView.setView('{view_name}')")
+                browser.click(f'.tl-pose[data-name="{control}"]')
+                browser.wait("sgtView.state().time > 0", 10)
+                time.sleep(0.5)
+                browser.screenshot(out / name)
+                if name == "view.png":  # the page's frame and sgt's render of it, side by side
+                    with urllib.request.urlopen(view.url + "api/take") as r:
+                        speaker = json.load(r)["speakers"][0]
+                    frame = browser.state()["frame"]
+                    browser.js("sgtView.setView('front'); document.querySelectorAll('#caption, #views')"
+                               ".forEach((e) => { e.style.visibility = 'hidden'; })")
+                    time.sleep(0.5)
+                    page = browser.canvas(square=True)
+                    positions = np.reshape(speaker["positions"], (-1, 10, 3))[frame]
+                    hands = np.reshape(speaker["hands"], (-1, 2, 20, 3))[frame]
+                    with Mannequin(page.shape[0], page.shape[0]) as m:
+                        ours = m.render(positions, hands, view="front")
+                    Image.fromarray(np.concatenate([page, ours], axis=1)).save(out / "view_stroke.png")
+            finally:
+                view.stop()
+    finally:
+        browser.close()
+    print(f"wrote {out}/view.png, {out}/view_dialogue.png, {out}/view_stroke.png")
+
+
+if __name__ == "__main__":
+    screenshots(Path(sys.argv[1] if len(sys.argv) > 1 else "docs"))
