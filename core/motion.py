@@ -51,6 +51,7 @@ import numpy as np
 from core.controls import Control
 from core.fileio import atomic_write
 from core.frames_text import frame_lines_of_many, json_with_lines
+from core.face import FaceTrack
 from core.hands import DIGITS, SIDES, HandTrack
 from core.reading import InputFileError, loads_json, read_bytes
 from core.skeleton import BONE_NAMES, BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
@@ -90,6 +91,8 @@ class MotionClip:
     #: The hands on the same frames (relaxed when not given).
     hands: HandTrack | None = None
     index: int | None = None  # the script's utterance number (0-based)
+    #: The face on the same frames (:class:`core.face.FaceTrack`); None: none was made.
+    face: FaceTrack | None = None
     start: float = 0.0  # seconds on the performance clock of frame 0 (a whole frame)
     audio_offset: float | None = None  # seconds from frame 0 to the speech audio's first sample
 
@@ -107,6 +110,7 @@ class MotionClip:
         else:
             self.positions = np.asarray(self.positions, dtype=np.float32)
         self.hands = _hands_for(self.hands, p.shape[0], "MotionClip")
+        _check_face(self.face, p.shape[0], "MotionClip")
 
     @property
     def n_frames(self) -> int:
@@ -126,12 +130,15 @@ class Track:
     positions: np.ndarray | None = None
     #: The hands on the same frames (relaxed when not given).
     hands: HandTrack | None = None
+    #: The face on the same frames (:class:`core.face.FaceTrack`); None: none was made.
+    face: FaceTrack | None = None
 
     def __post_init__(self):
         self.poses = np.asarray(self.poses, dtype=np.float32)
         if self.poses.ndim != 2 or self.poses.shape[1] != POSE_DIM:
             raise MotionFileError(f"track poses must have shape (T, {POSE_DIM}), got {self.poses.shape}")
         self.hands = _hands_for(self.hands, self.poses.shape[0], "Track")
+        _check_face(self.face, self.poses.shape[0], "Track")
         if self.positions is None:
             self.positions = positions_from_pose(self.poses).astype(np.float32)
         else:
@@ -140,6 +147,11 @@ class Track:
     @property
     def n_frames(self) -> int:
         return int(self.poses.shape[0])
+
+
+def _check_face(face, n_frames: int, what: str) -> None:
+    if face is not None and face.n_frames != n_frames:
+        raise MotionFileError(f"{what} face has {face.n_frames} frames for {n_frames} poses")
 
 
 @dataclass
