@@ -88,6 +88,64 @@ class FaceTrack:
         return cls(weights, np.asarray(d["gaze"], dtype=np.float32))
 
 
+#: Facial expressions (``<face:NAME>``; the built-in presets' in :data:`PRESET_EXPRESSIONS`):
+#: blendshape weights added to the face while they last ("neutral" adds nothing: it ends an
+#: outer span's expression). A name without a side stands for both (``mouthSmile``).
+EXPRESSIONS: dict[str, dict[str, float]] = {
+    "neutral": {},
+    "smile": {"mouthSmile": 0.45, "cheekSquint": 0.2},
+    "happy": {"mouthSmile": 0.65, "cheekSquint": 0.4, "eyeSquint": 0.25, "mouthDimple": 0.2, "browOuterUp": 0.1},
+    "sad": {"mouthFrown": 0.45, "browInnerUp": 0.55, "mouthShrugLower": 0.25, "mouthPress": 0.1, "eyeBlink": 0.15},
+    "angry": {"browDown": 0.65, "noseSneer": 0.3, "eyeSquint": 0.35, "mouthPress": 0.3, "mouthFrown": 0.15},
+    "surprised": {"browInnerUp": 0.7, "browOuterUp": 0.7, "eyeWide": 0.6},
+    "afraid": {"browInnerUp": 0.7, "browOuterUp": 0.3, "eyeWide": 0.5, "mouthStretch": 0.35},
+    "disgusted": {"noseSneer": 0.55, "mouthUpperUp": 0.3, "browDown": 0.35, "cheekSquint": 0.3, "mouthFrown": 0.2},
+    "calm": {"mouthSmile": 0.15, "eyeBlink": 0.12},
+}
+#: The expression a built-in style preset (``<happy>``) shows.
+PRESET_EXPRESSIONS: dict[str, str] = {"happy": "happy", "sad": "sad", "angry": "angry", "calm": "calm"}
+
+#: ``[look:NAME]`` directions: (yaw, pitch) in degrees from where the body faces (yaw positive
+#: to the character's left, pitch positive up). Any other name is a speaker to look at.
+LOOK_DIRECTIONS: dict[str, tuple[float, float]] = {
+    "left": (25.0, 0.0), "right": (-25.0, 0.0), "up": (0.0, 15.0), "down": (0.0, -20.0), "ahead": (0.0, 0.0),
+}
+
+#: The eyes' reach from the head (degrees): sideways, up, down. An ``eyeLook*`` weight of 1 is
+#: an eye turned that far; :func:`set_eye_looks` keeps the weights in step with the gaze.
+EYE_YAW_LIMIT, EYE_UP_LIMIT, EYE_DOWN_LIMIT = 35.0, 20.0, 25.0
+
+
+def blendshapes(values: dict[str, float]) -> np.ndarray:
+    """(52,) weights from ``{name: weight}``, where a name without its side (``mouthSmile``)
+    sets both (``mouthSmileLeft``, ``mouthSmileRight``)."""
+    out = np.zeros(N_BLENDSHAPES, np.float32)
+    for key, value in values.items():
+        for full in ((key,) if key in ARKIT_INDEX else (key + "Left", key + "Right")):
+            out[ARKIT_INDEX[full]] = value
+    return out
+
+
+def expression_weights(name: str) -> np.ndarray:
+    """The (52,) weights :data:`EXPRESSIONS` gives ``name``."""
+    return blendshapes(EXPRESSIONS[name])
+
+
+def set_eye_looks(weights: np.ndarray, gaze: np.ndarray) -> None:
+    """Set the eight ``eyeLook*`` weights of ``weights`` (T, 52) from ``gaze`` (T, 2, 2), in
+    place: a left eye turned to the character's left looks *out*, a right eye *in*; up and
+    down alike; a weight of 1 at :data:`EYE_YAW_LIMIT`, :data:`EYE_UP_LIMIT`, :data:`EYE_DOWN_LIMIT`."""
+    gaze = np.asarray(gaze, np.float32)
+    for e, eye in enumerate(("Left", "Right")):
+        yaw, pitch = gaze[:, e, 0], gaze[:, e, 1]
+        toward_left = np.clip(yaw / EYE_YAW_LIMIT, 0.0, 1.0)
+        toward_right = np.clip(-yaw / EYE_YAW_LIMIT, 0.0, 1.0)
+        weights[:, ARKIT_INDEX[f"eyeLookOut{eye}"]] = toward_left if eye == "Left" else toward_right
+        weights[:, ARKIT_INDEX[f"eyeLookIn{eye}"]] = toward_right if eye == "Left" else toward_left
+        weights[:, ARKIT_INDEX[f"eyeLookUp{eye}"]] = np.clip(pitch / EYE_UP_LIMIT, 0.0, 1.0)
+        weights[:, ARKIT_INDEX[f"eyeLookDown{eye}"]] = np.clip(-pitch / EYE_DOWN_LIMIT, 0.0, 1.0)
+
+
 def concat(tracks) -> FaceTrack:
     tracks = list(tracks)
     return FaceTrack(np.concatenate([t.weights for t in tracks]), np.concatenate([t.gaze for t in tracks]))

@@ -3,18 +3,20 @@ on the performance clock) and each speaker's continuous track (JSON or NPZ).
 
 JSON (``*.json``)::
 
-    {"format": "sgt-motion", "version": 2, "fps": 15,
+    {"format": "sgt-motion", "version": 3, "fps": 15,
      "joints": [...joint names], "bones": [[parent, child], ...],
      "coordinates": "y-up, right-handed, metres; character faces +z",
      "frames": N, "source": "mall_guide.sgt",
      "hands": {"sides": ["left", "right"], "digits": ["thumb", ...]},
+     "face": {"names": [52 ARKit names], "eyes": ["left", "right"]},
      "utterances": [{"index": 0, "speaker": ..., "text": ...,
                      "start": 0.0, "audio_offset": 0.4,
                      "words": [{"word", "start", "end"}], "controls": [{...}],
                      "poses": [[27 floats], ...], "positions": [[[x, y, z] x 10], ...],
-                     "hands": {"palm": [T x 2 x 3], "fingers": [T x 2 x 5 x 4]}}],
+                     "hands": {"palm": [T x 2 x 3], "fingers": [T x 2 x 5 x 4]},
+                     "face": {"weights": [T x 52], "gaze": [T x 2 x 2]}}],
      "tracks": [{"speaker": ..., "poses": [[27 floats] x N], "positions": [...],
-                 "hands": {"palm": ..., "fingers": ...}}]}
+                 "hands": {"palm": ..., "fingers": ...}, "face": {...}}]}
 
 ``start`` is the utterance's first motion frame in seconds on the performance clock (always a
 whole frame), ``audio_offset`` the seconds from that frame to the first sample of its speech
@@ -25,10 +27,16 @@ is the script it was generated from (relative to the motion file's folder when p
 or null. Hands (:mod:`core.hands`: palm targets and finger angles in degrees per side and
 frame) belong to every utterance and track.
 
-Floats are rounded to 5 decimals (hands: palms 4, finger angles 2). NPZ (``*.npz``) holds
-``poses_0``, ``positions_0``, ``hand_palm_0``, ``hand_fingers_0``, ... and ``track_poses_0``,
-``track_positions_0``, ``track_hand_palm_0``, ``track_hand_fingers_0``, ... as float32 arrays
-plus ``meta``: the same JSON header without the arrays. Version 1 files (no ``start``,
+The face (:mod:`core.face`: 52 ARKit blendshape weights in the header's ``face.names`` order
+and each eye's yaw and pitch in degrees, per frame) is written for the utterances and tracks
+that have one (``face`` None: the key is left out).
+
+Floats are rounded to 5 decimals (hands: palms 4, finger angles 2; face weights 3, gaze 2).
+NPZ (``*.npz``) holds ``poses_0``, ``positions_0``, ``hand_palm_0``, ``hand_fingers_0``,
+``face_weights_0``, ``face_gaze_0``, ... and ``track_poses_0``, ``track_positions_0``,
+``track_hand_palm_0``, ``track_hand_fingers_0``, ``track_face_weights_0``,
+``track_face_gaze_0``, ... as float32 arrays plus ``meta``: the same JSON header without the
+arrays. Version 2 files (no face) load with ``face`` None; version 1 files (no ``start``,
 ``audio_offset``, ``tracks``, hands) still load: their utterances are placed one after another
 from 0, their audio offsets are unknown (None), they have no tracks and relaxed hands. Any
 other format name or version is refused with :class:`MotionFileError`. Files are written by
@@ -51,16 +59,16 @@ import numpy as np
 from core.controls import Control
 from core.fileio import atomic_write
 from core.frames_text import frame_lines_of_many, json_with_lines
-from core.face import FaceTrack
+from core.face import ARKIT_NAMES, EYES, FaceTrack
 from core.hands import DIGITS, SIDES, HandTrack
 from core.reading import InputFileError, loads_json, read_bytes
 from core.skeleton import BONE_NAMES, BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
 
 FORMAT = "sgt-motion"
-VERSION = 2
-#: Versions this sgt reads: 1 (one clip after another, no tracks, no hands) and 2.
-READABLE_VERSIONS = (1, 2)
+VERSION = 3
+#: Versions this sgt reads: 1 (one clip after another, no tracks, no hands), 2 (no face) and 3.
+READABLE_VERSIONS = (1, 2, 3)
 COORDINATES = "y-up, right-handed, metres; character faces +z"
 
 
@@ -174,6 +182,7 @@ def _header() -> dict:
         "bones": [list(b) for b in BONES],
         "coordinates": COORDINATES,
         "hands": {"sides": list(SIDES), "digits": list(DIGITS)},
+        "face": {"names": list(ARKIT_NAMES), "eyes": list(EYES)},
     }
 
 
@@ -261,6 +270,9 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
             got = {"poses": _Rows(part.poses, 5), "positions": _Rows(part.positions, 5),
                    "hands": {key: _Rows(getattr(part.hands, key), d) for key, d in HandTrack.DECIMALS.items()}}
             rows.extend([got["poses"], got["positions"], *got["hands"].values()])
+            if part.face is not None:
+                got["face"] = {key: _Rows(getattr(part.face, key), d) for key, d in FaceTrack.DECIMALS.items()}
+                rows.extend(got["face"].values())
             return got
 
         doc["utterances"] = [{**_utterance_meta(c), **arrays(c)} for c in clips]
@@ -276,6 +288,9 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
                 arrays[f"{prefix}positions_{i}"] = np.asarray(part.positions, dtype=np.float32)
                 arrays[f"{prefix}hand_palm_{i}"] = part.hands.palm
                 arrays[f"{prefix}hand_fingers_{i}"] = part.hands.fingers
+                if part.face is not None:
+                    arrays[f"{prefix}face_weights_{i}"] = part.face.weights
+                    arrays[f"{prefix}face_gaze_{i}"] = part.face.gaze
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         data = buf.getvalue()
@@ -302,7 +317,30 @@ def _check_header(doc, path: Path) -> None:
         raise MotionFileError(f"{path}: 'tracks' is not a list")
 
 
-def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None) -> MotionClip:
+def _face(face, n_frames: int, names) -> FaceTrack | None:
+    """A part's face read from a file (``{"weights", "gaze"}``, weights in ``names``' order),
+    checked against its ``n_frames`` poses; None when the part has none. ValueError when it
+    is malformed or not finite."""
+    if face is None:
+        return None
+    if not isinstance(face, dict) or face.get("weights") is None or face.get("gaze") is None:
+        raise ValueError("face must be an object with 'weights' and 'gaze'")
+    if not isinstance(names, list) or len(set(names)) != len(names) or not all(isinstance(n, str) for n in names):
+        raise ValueError("the header's face.names must be a list of distinct blendshape names")
+    weights = np.asarray(face["weights"], dtype=np.float32)
+    if weights.ndim != 2 or weights.shape[1] != len(names):
+        raise ValueError(f"face weights have shape {weights.shape}, expected (frames, {len(names)})")
+    got = FaceTrack.from_dict({"names": names, "weights": weights, "gaze": face["gaze"]})
+    if got.n_frames != n_frames:
+        raise ValueError(f"the face has {got.n_frames} frames for {n_frames} poses")
+    for what, arr in (("face weight", got.weights), ("gaze", got.gaze)):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            raise ValueError(f"the {what} at frame {np.argwhere(bad)[0][0]} is not a finite number")
+    return got
+
+
+def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None, face=None, names=ARKIT_NAMES) -> MotionClip:
     if not isinstance(meta, dict):
         raise MotionFileError(f"{path}: utterance {i} is not an object")
     try:
@@ -318,9 +356,11 @@ def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None) -> Motio
         elif hands is not None:
             raise ValueError("hands must be an object with 'palm' and 'fingers'")
         _check_values(poses, positions)
+        face = _face(face, len(poses), list(names))
         offset = meta.get("audio_offset")
         return MotionClip(
             hands=hands,
+            face=face,
             poses=poses,
             positions=positions,
             speaker=meta.get("speaker"),
@@ -335,7 +375,7 @@ def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None) -> Motio
         raise MotionFileError(f"{path}: utterance {i}: {exc}") from None
 
 
-def _track(meta, poses, positions, path: Path, i: int, n_frames: int, hands=None) -> Track:
+def _track(meta, poses, positions, path: Path, i: int, n_frames: int, hands=None, face=None, names=ARKIT_NAMES) -> Track:
     if not isinstance(meta, dict):
         raise MotionFileError(f"{path}: track {i} is not an object")
     try:
@@ -351,7 +391,7 @@ def _track(meta, poses, positions, path: Path, i: int, n_frames: int, hands=None
         elif hands is not None:
             raise ValueError("hands must be an object with 'palm' and 'fingers'")
         _check_values(poses, positions)
-        return Track(meta.get("speaker"), poses, positions, hands)
+        return Track(meta.get("speaker"), poses, positions, hands, _face(face, n_frames, list(names)))
     except (ValueError, TypeError) as exc:
         raise MotionFileError(f"{path}: track {i}: {exc}") from None
 
@@ -405,17 +445,20 @@ def load_motion_file(path) -> MotionFile:
             except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, nesting
                 raise MotionFileError(f"{path}: not valid JSON: {exc}") from None
             _check_header(doc, path)
+            names = _face_names(doc)
             clips = [
                 _clip(u, u.get("poses") if isinstance(u, dict) else None,
                       u.get("positions") if isinstance(u, dict) else None, path, i,
-                      u.get("hands") if isinstance(u, dict) else None)
+                      u.get("hands") if isinstance(u, dict) else None,
+                      u.get("face") if isinstance(u, dict) else None, names)
                 for i, u in enumerate(doc["utterances"])
             ]
             n = _frames(doc, clips, path)
             tracks = [
                 _track(t, t.get("poses") if isinstance(t, dict) else None,
                        t.get("positions") if isinstance(t, dict) else None, path, i, n,
-                       t.get("hands") if isinstance(t, dict) else None)
+                       t.get("hands") if isinstance(t, dict) else None,
+                       t.get("face") if isinstance(t, dict) else None, names)
                 for i, t in enumerate(doc.get("tracks") or [])
             ]
             return _finish(doc, clips, tracks, path)
@@ -425,15 +468,16 @@ def load_motion_file(path) -> MotionFile:
                     raise MotionFileError(f"{path}: no 'meta' entry; not an sgt motion file")
                 doc = json.loads(str(z["meta"]))
                 _check_header(doc, path)
+                names = _face_names(doc)
                 clips = []
                 for i, u in enumerate(doc["utterances"]):
-                    poses, pos, hands = _npz_part(z, "", i, path)
-                    clips.append(_clip(u, poses, pos, path, i, hands))
+                    poses, pos, hands, face = _npz_part(z, "", i, path)
+                    clips.append(_clip(u, poses, pos, path, i, hands, face, names))
                 n = _frames(doc, clips, path)
                 tracks = []
                 for i, t in enumerate(doc.get("tracks") or []):
-                    poses, pos, hands = _npz_part(z, "track_", i, path)
-                    tracks.append(_track(t, poses, pos, path, i, n, hands))
+                    poses, pos, hands, face = _npz_part(z, "track_", i, path)
+                    tracks.append(_track(t, poses, pos, path, i, n, hands, face, names))
                 return _finish(doc, clips, tracks, path)
         except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile) as exc:
             raise MotionFileError(f"{path}: cannot read as npz: {exc or 'the file is empty'}") from None
@@ -447,9 +491,16 @@ def load_motion_file(path) -> MotionFile:
         raise MotionFileError(f"{path}: cannot read: {exc.strerror or exc}") from None
 
 
+def _face_names(doc: dict) -> list:
+    """The blendshape names of the file's face weights (the header's ``face.names``; ARKit's
+    order when there is none)."""
+    face = doc.get("face")
+    return face.get("names") if isinstance(face, dict) and "names" in face else list(ARKIT_NAMES)
+
+
 def _npz_part(z, prefix: str, i: int, path: Path) -> tuple:
-    """(poses, positions or None, hands or None) of utterance ``i`` (``prefix`` "") or track
-    ``i`` (``prefix`` "track_") of an NPZ motion file."""
+    """(poses, positions or None, hands or None, face or None) of utterance ``i`` (``prefix``
+    "") or track ``i`` (``prefix`` "track_") of an NPZ motion file."""
     def get(name: str):
         key = f"{prefix}{name}_{i}"
         return z[key] if key in z.files else None
@@ -459,7 +510,9 @@ def _npz_part(z, prefix: str, i: int, path: Path) -> tuple:
         raise MotionFileError(f"{path}: missing {prefix}poses_{i}")
     palm, fingers = get("hand_palm"), get("hand_fingers")
     hands = {"palm": palm, "fingers": fingers} if palm is not None and fingers is not None else None
-    return poses, get("positions"), hands
+    weights, gaze = get("face_weights"), get("face_gaze")
+    face = {"weights": weights, "gaze": gaze} if weights is not None or gaze is not None else None
+    return poses, get("positions"), hands, face
 
 
 def _frames(doc: dict, clips: list[MotionClip], path: Path) -> int:

@@ -640,6 +640,93 @@ if they really are two characters, give them names that differ in more than case
     example="knight: Halt.\nKnight: Who goes there?\n",
 )
 
+UNKNOWN_LOOK_TARGET = rule(
+    "SGT214", "unknown-look-target", WARNING,
+    "'[look:{name}]' names no speaker of the script and no direction: the eyes ignore it",
+    "look at a speaker ([look:guide]) or a direction: left, right, up, down, ahead",
+    """
+`[look:TARGET]` aims the speaker's eyes from the next word to the end of its clause (or for
+`hold=DURATION`): at another speaker of the script (by its name, compared exactly, case
+included) or in a direction, `left`, `right`, `up`, `down` or `ahead` (the audience). A name
+that is neither is ignored: the eyes go on as they would without the mark (at the listener,
+away at phrase starts). It is a warning, like a directive for a speaker no line has: the
+script still compiles.
+
+Example: `guide: [look:visiter] Welcome!` in a script whose other speaker is `visitor`.
+
+Fix: correct the name (the fix offers the closest speakers and directions), or remove the mark.
+""",
+    example="guide: [look:visiter] Welcome!\nvisitor: Thank you.\n",
+)
+
+UNKNOWN_FACE = rule(
+    "SGT215", "unknown-face", ERROR,
+    "'face' takes a facial expression{given}",
+    "expressions are: {names}",
+    """
+`<face:NAME> ... </face>` shows a facial expression over its words, as a style span moves the
+gestures: `smile`, `happy`, `sad`, `angry`, `surprised`, `afraid`, `disgusted`, `calm`, or
+`neutral` (which ends an outer span's expression). The presets `<happy>`, `<sad>`, `<angry>`
+and `<calm>` show their own expression without one. Spans nest: the inner one's expression
+wins over its words.
+
+Example: `guide: <face:smiel>Welcome!</face>`.
+
+Fix: use one of the expressions (the fix offers the closest).
+""",
+    example="guide: <face:smiel>Welcome!</face>\n",
+)
+
+MISSING_LOOK_TARGET = rule(
+    "SGT216", "missing-look-target", ERROR,
+    "a look mark needs a target: [look:NAME]",
+    "for example [look:left] or [look:guide] (a speaker of the script)",
+    """
+`[look:TARGET]` says where the eyes look from the next word on: at a speaker of the script
+(by its name) or in a direction (`left`, `right`, `up`, `down`, `ahead`). Without a target
+there is nowhere to look.
+
+Example: `guide: and [look] there`.
+
+Fix: add the target after `look:`.
+""",
+    example="guide: and [look] there\n",
+)
+
+LOOK_OPTION = rule(
+    "SGT217", "look-option", ERROR,
+    "a look mark takes only hold=DURATION, not '{key}'",
+    "for example [look:left hold=800ms]",
+    """
+`[look:TARGET]` aims the eyes until the end of its clause (the next `,` `.` `;` `:` `!` `?`,
+pause or the end of the utterance); `hold=DURATION` (at most 10 s) keeps them there that long
+instead. The pose options (`x2`, `flip`) mean nothing to the eyes, and any other word is an
+error, so that a typo never changes the gaze silently.
+
+Example: `guide: [look:left x2] over there`.
+
+Fix: remove the option, or write `hold=DURATION`.
+""",
+    example="guide: [look:left x2] over there\n",
+)
+
+LOOK_AT_SELF = rule(
+    "SGT218", "look-at-self", WARNING,
+    "'[look:{name}]' is on {name}'s own line: a speaker cannot look at itself, the eyes ignore it",
+    "look at another speaker or a direction ({others})",
+    """
+`[look:TARGET]` aims the eyes of the line's speaker. Naming that same speaker means nothing
+(nobody looks at their own face), so the mark is dropped and the eyes go on as without it: at
+the listener, away at phrase starts. It is a warning: the script still compiles.
+
+Example: `guide: [look:guide] Welcome!` (meant: `[look:visitor]`).
+
+Fix: name the speaker meant, or a direction (`left`, `right`, `up`, `down`, `ahead`), or
+remove the mark.
+""",
+    example="guide: [look:guide] Welcome!\nvisitor: Thank you.\n",
+)
+
 # -- 3xx: values ------------------------------------------------------------------------
 
 BAD_NUMBER = rule(

@@ -234,13 +234,23 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
     controls: list[Control] = []
 
     # Style spans in opening order: an inner span opens later, so it wins where they overlap.
+    # A span's facial expression (its own) is a face control on the same frames.
     for span in utt.styles:
         if span.first_word is None:
             continue
         a = seconds_to_frame(t.words[span.first_word].start)
         b = max(a + 1, min(n_frames, int(math.ceil(t.words[span.last_word].end * FPS - 1e-6))))
-        requests.styles.append((a, b, span.values))
-        controls.append(Control("style", span.name, a, b, span.where.line, span.where.col, dict(sorted(span.values.items()))))
+        if span.styled:
+            requests.styles.append((a, b, span.values))
+            controls.append(Control("style", span.name, a, b, span.where.line, span.where.col,
+                                    dict(sorted(span.values.items()))))
+        if span.face is not None:
+            controls.append(Control("face", span.face, a, b, span.where.line, span.where.col, {}))
+
+    for look in utt.looks:
+        a, b = _look_frames(utt, t, look, n_frames)
+        controls.append(Control("look", look.target, a, b, look.where.line, look.where.col,
+                                {"hold": look.hold} if look.hold else {}))
 
     for p in utt.pauses:
         end = t.words[p.word_index].start if p.word_index < len(t.words) else t.duration
@@ -276,8 +286,36 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
     return UtterancePlan(
         index=utt.index, speaker=utt.speaker, line=utt.line, text=utt.display, duration=n_frames / FPS,
         n_frames=n_frames, words=t.words, controls=controls, requests=requests, speech=speech, audio_path=t.audio_path,
-        lead_in=lead, gap=script.header.gap if utt.gap is None else utt.gap,
+        lead_in=lead, gap=script.header.gap if utt.gap is None else utt.gap, phonemes=list(t.phonemes),
     )
+
+
+#: What ends a look mark's clause in the text between two words.
+_CLAUSE_END = ",.;:!?"
+
+
+def _look_frames(utt: Utterance, t: Timing, look, n_frames: int) -> tuple[int, int]:
+    """Frames [a, b) of a look mark: from its word's onset (the end of the last word when no
+    word follows) for ``hold`` seconds, or to the end of the last word of its clause (before
+    the next clause mark or pause, else the utterance's last word)."""
+    words = t.words
+    if look.word_index is not None:
+        first = look.word_index
+        a = seconds_to_frame(words[first].start)
+    else:
+        first = look.after_word
+        a = min(n_frames - 1, seconds_to_frame(words[first].end))
+    if look.hold:
+        return a, min(n_frames, a + max(1, int(round(look.hold * FPS))))
+    paused = {p.word_index for p in utt.pauses}
+    last = first
+    while last + 1 < len(words):
+        between = utt.text[utt.words[last].end : utt.words[last + 1].start]
+        if last + 1 in paused or any(c in _CLAUSE_END for c in between):
+            break
+        last += 1
+    b = int(math.ceil(words[last].end * FPS - 1e-6))
+    return a, max(a + 1, min(n_frames, b))
 
 
 def _word_text(utt: Utterance, t: Timing, mark) -> str:

@@ -19,6 +19,7 @@ from pathlib import Path
 from core import rules
 from core.controls import STYLE_NAMES
 from core.diagnostics import Diagnostic, Fix, Related, TextEdit, sort_key
+from core.face import EXPRESSIONS, LOOK_DIRECTIONS, PRESET_EXPRESSIONS
 from core.reading import read_bytes
 from dsl.directives import DirectiveContext, apply_directive
 from dsl.durations import parse_duration
@@ -27,6 +28,7 @@ from dsl.presets import BUILTIN_PRESETS
 from dsl.scan import scan_items
 from dsl.script import (
     Header,
+    LookMark,
     Pause,
     PoseMark,
     Script,
@@ -41,13 +43,14 @@ from dsl.styles import parse_style_value
 #: A spoken word: letters or digits, with inner apostrophes or hyphens ("don't", "left-hand").
 WORD_RE = re.compile(r"[^\W_]+(?:['\u2019\-][^\W_]+)*")
 ESCAPABLE = "[]<>\\#:"
-TAG_KINDS = ("pose", "pause")
+TAG_KINDS = ("pose", "pause", "look")
 POSE_OPTIONS = ("x1", "x2", "x3", "flip", "hold")
 MAX_PAUSE = 10.0
 MAX_HOLD = 10.0
 _MAX_RECOVERIES = 50
 _new_span = tuple.__new__  # Span(line, col, length) without the NamedTuple call overhead
-_TAG_HINT = "tags look like [pose:point_right x2 flip hold=500ms] or [pause 300ms]; write '\\[' for a literal '['"
+_TAG_HINT = ("tags look like [pose:point_right x2 flip hold=500ms], [look:left] or [pause 300ms]; "
+             "write '\\[' for a literal '['")
 _STYLE_HINT = "style tags look like <speed:-1 space:+0.5> ... </> or <happy>; write '\\<' for a literal '<'"
 #: Characters that hide in a script (see rules BIDI_CONTROL, INVISIBLE_CHARACTER, NUL_CHARACTER).
 _SUSPICIOUS_RE = re.compile("[\x00\u200b\u200e\u200f\u2060\ufeff\u202a-\u202e\u2066-\u2069]+")
@@ -127,6 +130,8 @@ class _Analyser:
             inner = body[pos : close + 1]
             if ch == "[" and re.match(r"\[\s*pose\s*:\s*\]", inner):
                 self.report(stmt, at, len(inner), rules.MISSING_NAME)
+            elif ch == "[" and re.match(r"\[\s*look\s*:\s*\]", inner):
+                self.report(stmt, at, len(inner), rules.MISSING_LOOK_TARGET)
             else:
                 kind = "closing tag" if inner.startswith("</") else what
                 self.report(stmt, at, len(inner), rules.BAD_TAG, what=kind, text=repr(inner),
@@ -150,7 +155,7 @@ class _Analyser:
         if "\x00" in source or (not source.isascii() and _SUSPICIOUS_RE.search(source)):
             self._suspicious_characters(source)
         header = Header()
-        ctx = DirectiveContext(self.file, self.base_dir, header, set(STYLE_NAMES) | set(BUILTIN_PRESETS))
+        ctx = DirectiveContext(self.file, self.base_dir, header, set(STYLE_NAMES) | set(BUILTIN_PRESETS) | {"face"})
         utterances: list[Utterance] = []
         first_utterance: Span | None = None
         audio_line = 0
@@ -181,7 +186,32 @@ class _Analyser:
         if utterances:
             self.diags.extend(speaker_diagnostics(self.file, header, [
                 (u.speaker, Span(u.line, 1, len(u.speaker))) for u in utterances if u.speaker]))
+            self._look_targets(utterances)
         return header, utterances
+
+    def _look_targets(self, utterances: list[Utterance]) -> None:
+        """Warn about ``[look:NAME]`` marks whose NAME is no speaker of the script and no
+        direction (a fix per close name), and drop them: the eyes ignore them."""
+        speakers = list(dict.fromkeys(u.speaker for u in utterances if u.speaker))
+        known = set(speakers) | set(LOOK_DIRECTIONS)
+        for u in utterances:
+            if not u.looks:
+                continue
+            keep = []
+            for mark in u.looks:
+                t = mark.target_where
+                if mark.target == u.speaker:
+                    others = ", ".join([s for s in speakers if s != u.speaker][:3] + ["left", "right"])
+                    self.diags.append(rules.LOOK_AT_SELF.at(self.file, t.line, t.col, t.length, name=mark.target,
+                                                            others=others))
+                    continue
+                if mark.target in known:
+                    keep.append(mark)
+                    continue
+                hint, fixes = rules.did_you_mean(mark.target, speakers + list(LOOK_DIRECTIONS), t.line, t.col, t.length)
+                self.diags.append(rules.UNKNOWN_LOOK_TARGET.at(self.file, t.line, t.col, t.length, name=mark.target,
+                                                               fixes=fixes, **({"hint": hint} if hint else {})))
+            u.looks = keep
 
     def _silent(self, stmt: Statement) -> None:
         """Warn about an utterance with no words (and no error), with a fix that blanks its lines."""
@@ -270,7 +300,8 @@ class _Analyser:
             right += 1
         mark = body[start:end]
         closing = mark.startswith("</")
-        what = "closing tag" if closing else "style tag" if mark.startswith("<") else "pause" if re.match(r"\[\s*pause", mark) else "pose control" if mark.startswith("[") else "tag"
+        what = ("closing tag" if closing else "style tag" if mark.startswith("<") else "pause" if re.match(r"\[\s*pause", mark)
+                else "look mark" if re.match(r"\[\s*look", mark) else "pose control" if mark.startswith("[") else "tag")
         first, second = body[left:start], body[end:right]
         base = stmt.body_offset
         fixes: tuple = ()
@@ -359,6 +390,9 @@ class _Analyser:
         if kind == "pause":
             self._pause(stmt, utt, offset, length, names, args, starts, base)
             return
+        if kind == "look":
+            self._look(stmt, utt, offset, length, names, args, starts, base)
+            return
         if len(names) < 2:
             self.report(stmt, offset, length, rules.MISSING_NAME)
             return
@@ -423,6 +457,58 @@ class _Analyser:
             mark.after_word = len(starts) - 1
         utt.poses.append(mark)
 
+    def _look(self, stmt, utt: Utterance, offset: int, length: int, names, args, starts: list[int], base: int) -> None:
+        """``[look:TARGET hold=DURATION]``: a :class:`~dsl.script.LookMark` anchored like a pose
+        control (the next word, else the end of the last one). Whether TARGET is a speaker is
+        known once every line is read (:meth:`_look_targets`)."""
+        if len(names) < 2:
+            self.report(stmt, offset, length, rules.MISSING_LOOK_TARGET)
+            return
+        target, tpos = names[1]
+        tpos += base
+        hold, ok, seen = 0.0, True, None
+        args = list(args)
+        while args:
+            key, value, a0, a1 = args.pop(0)
+            apos, alen = base + a0, a1 - a0
+            if key == "hold" and value is None and args and args[0][1] is None and _HOLD_VALUE_RE.fullmatch(args[0][0]):
+                self._hold_form(stmt, apos, base + args[0][3] - apos, args.pop(0)[0])
+                ok = False
+                continue
+            if key != "hold" or value is None:
+                space = stmt.text[apos - 1] in " \t"
+                self.report(stmt, apos, alen, rules.LOOK_OPTION, key=stmt.text[apos : apos + alen],
+                            fixes=(self.replace(stmt, apos - space, alen + space, "", "remove it"),))
+                ok = False
+                continue
+            if seen is not None:
+                line, col = stmt.position(seen[0])
+                self.report(stmt, apos, alen, rules.DUPLICATE, what="option 'hold'",
+                            related=(Related("the earlier one, overridden", self.file, line, col, seen[1]),),
+                            fixes=(Fix("remove the earlier one", (TextEdit(line, col, seen[1], ""),)),)
+                            if line == stmt.position(apos)[0] else ())
+            seen = (apos, alen)
+            seconds = parse_duration(value)
+            if seconds is None:
+                self._bad_duration(stmt, apos, alen, "hold", value)
+                ok = False
+            elif not 0 < seconds <= MAX_HOLD:
+                self.report(stmt, apos, alen, rules.OUT_OF_RANGE, what="hold", value=value,
+                            allowed=f"more than 0 and at most {MAX_HOLD:g}s")
+                ok = False
+            else:
+                hold = seconds
+        if not ok or not starts:  # (no words: the eyes have no word to follow; silent-utterance says so)
+            return
+        mark = LookMark(target, hold, offset, self.span(stmt, offset, length), None,
+                        target_where=self.span(stmt, tpos, len(target)))
+        following = bisect_right(starts, offset)
+        if following < len(starts):
+            mark.word_index = following
+        else:
+            mark.after_word = len(starts) - 1
+        utt.looks.append(mark)
+
     def _hold_form(self, stmt, offset: int, length: int, value: str) -> None:
         """``hold 300ms`` (a space for the '='): one error, fixed by ``hold=300ms``; a bare
         number gets both units."""
@@ -463,6 +549,8 @@ class _Analyser:
         values: dict[str, float] = {}
         first_name = None
         ok = True
+        styled = False  # a style element or a preset of its own
+        face = preset_face = None  # its own expression (face:NAME), a built-in preset's
         seen: dict[str, tuple[int, int]] = {}
         for name, value, i0, i1 in items:
             ipos, ilen = base + i0, i1 - i0
@@ -474,6 +562,15 @@ class _Analyser:
                             fixes=(Fix("remove the earlier one", (TextEdit(line, col, seen[name][1], ""),)),)
                             if line == stmt.position(ipos)[0] else ())
             seen[name] = (ipos, ilen)
+            if name == "face":
+                if value in EXPRESSIONS:
+                    face = value
+                    continue
+                kw = self.guess(stmt, ipos + ilen - len(value), len(value), value, list(EXPRESSIONS)) if value else {}
+                self.report(stmt, ipos, ilen, rules.UNKNOWN_FACE, given=f", not '{value}'" if value else "",
+                            names=", ".join(EXPRESSIONS), **kw)
+                ok = False
+                continue
             if name in presets:
                 if value is not None:
                     self.report(stmt, ipos, ilen, rules.PRESET_VALUE, name=name,
@@ -481,6 +578,8 @@ class _Analyser:
                     ok = False
                     continue
                 values.update(presets[name])
+                styled = True
+                preset_face = PRESET_EXPRESSIONS.get(name, preset_face)
                 continue
             if name in broken:  # its definition is already reported: its uses are not
                 ok = False
@@ -496,11 +595,14 @@ class _Analyser:
                 ok = False
                 continue
             values[name] = result
-        if not ok and not values:
+            styled = True
+        face = face or preset_face
+        if not ok and not values and face is None:
             return None
         inherited = dict(stack[-1].values) if stack else {}
         inherited.update(values)
-        return StyleSpan(first_name or "style", inherited, offset, -1, self.span(stmt, offset, length))
+        return StyleSpan(first_name or "style", inherited, offset, -1, self.span(stmt, offset, length), face=face,
+                         styled=styled or not face)
 
     def _resolve_styles(self, stmt: Statement, utt: Utterance) -> None:
         for span in utt.styles:

@@ -125,6 +125,9 @@ class UtterancePlan:
     lead_in: float = 0.0  # seconds of silence before the audio starts (words are already shifted)
     gap: float = 0.5  # seconds of silence before this line's speech (after the previous line's)
     start_frame: int = 0  # first motion frame on the performance clock (set by Plan.lay_out)
+    #: The phonemes (:class:`dsl.speech.types.TimedPhoneme`) on the same clock as the words
+    #: (lead-in included); none with estimated timing.
+    phonemes: list = field(default_factory=list)
 
     _arrays: ControlArrays | None = field(default=None, repr=False)
     _hands: tuple[HandTrack, np.ndarray] | None = field(default=None, repr=False)
@@ -171,6 +174,7 @@ class UtterancePlan:
             "frames": self.n_frames,
             "speech": self.speech,
             "words": [w.to_dict() for w in self.words],
+            "phonemes": [p.to_list() for p in self.phonemes],
             "controls": [c.to_dict() for c in self.controls],
         }
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import re
 
 _WS = r"[ \t\r\n]*"
-_NAME = r"[A-Za-z_][A-Za-z0-9_\-]*+"
+_NAME = r"[^\W\d][\w\-]*+"
 _WORD = r"[A-Za-z0-9_.+\-]++"
 _ARG = rf"(?:{_WORD}{_WS}(?:={_WS}{_WORD}{_WS})?)"
 _STYLE_ITEM = rf"(?:{_NAME}{_WS}(?::{_WS}{_WORD}{_WS})?)"

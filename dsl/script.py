@@ -46,13 +46,32 @@ class PoseMark:
 
 @dataclass
 class StyleSpan:
-    name: str  # the first name in the tag: a style element or a preset
+    name: str  # the first name in the tag: a style element, a preset or ``face``
     values: dict[str, float]  # requested values, inner spans already applied
     offset: int
     end_offset: int  # where it closes (end of utterance when left open)
     where: Span
     first_word: int | None = None
     last_word: int | None = None  # inclusive; None when the span holds no word
+    #: The facial expression the span asks for itself (``face:NAME``, else a built-in preset's,
+    #: :data:`core.face.PRESET_EXPRESSIONS`); None: the outer span's face goes on.
+    face: str | None = None
+    #: Whether the span sets a style element or a preset itself (a ``<face:...>`` alone does not).
+    styled: bool = True
+
+
+@dataclass
+class LookMark:
+    """``[look:TARGET]``: where the eyes look from the next word on (a speaker's name or one of
+    :data:`core.face.LOOK_DIRECTIONS`), until the end of its clause or for ``hold`` seconds."""
+
+    target: str
+    hold: float  # seconds; 0: to the end of the clause
+    offset: int  # character offset in Utterance.text
+    where: Span
+    word_index: int | None  # from this word's onset ...
+    after_word: int | None = None  # ... or, with no word after it, from the end of this one
+    target_where: Span | None = None  # the target's name in the tag
 
 
 @dataclass
@@ -86,6 +105,7 @@ class Utterance:
     text: str  # spoken text; offsets of words, marks and pauses refer to it
     words: list[WordToken] = field(default_factory=list)
     poses: list[PoseMark] = field(default_factory=list)
+    looks: list[LookMark] = field(default_factory=list)
     styles: list[StyleSpan] = field(default_factory=list)
     pauses: list[Pause] = field(default_factory=list)
     voice: Voice = field(default_factory=Voice)

@@ -7,7 +7,7 @@ editor uses on every keystroke; ``sgt compile`` and ``sgt say`` always use real 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from core.words import TimedWord, shift_words
@@ -25,10 +25,13 @@ class Timing:
     source: str  # "estimate", "espeak-ng", "textgrid", "json", "pocketsphinx"
     audio_path: Path | None = None
     sample_rate: int | None = None
+    #: The phonemes on the same clock (:class:`dsl.speech.types.TimedPhoneme`); none for an estimate.
+    phonemes: list = field(default_factory=list)
 
     def shifted(self, lead: float) -> Timing:
         """The same timing ``lead`` seconds later."""
-        return Timing(shift_words(self.words, lead), self.duration + lead, self.source, self.audio_path, self.sample_rate)
+        return Timing(shift_words(self.words, lead), self.duration + lead, self.source, self.audio_path, self.sample_rate,
+                      [p.shifted(lead) for p in self.phonemes])
 
 
 def estimate_timing(utt: Utterance) -> Timing:
@@ -81,4 +84,8 @@ def speech_timing(utt: Utterance, cache_dir: Path | None = None) -> Timing:
         result = speech.synthesize(
             utt.text, utt.word_spans, pauses, voice=v.name, rate=v.rate, pitch=v.pitch, cache_dir=cache_dir
         )
-    return Timing(list(result.words), float(result.duration), result.source, Path(result.audio_path), result.sample_rate)
+    phonemes = list(result.phonemes)
+    if utt.audio is not None:  # a recording: the dictionary's phonemes of its aligned words
+        phonemes = speech.synth.phonemes_of_words(result.words, utt.voice.name)
+    return Timing(list(result.words), float(result.duration), result.source, Path(result.audio_path), result.sample_rate,
+                  phonemes)

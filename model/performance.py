@@ -31,6 +31,7 @@ from core.controls import ControlArrays
 from core.hands import SIDES, HandTrack, slerp, steady_palms
 from core.motion import MotionClip, Track
 from core.skeleton import BONE_INDEX, FPS, N_BONES, normalize_pose, positions_from_pose, slerp_poses
+from model.face import speaker_face
 from model.hands import limit_speed, with_gestures
 from model.postprocess import blend_pose_controls, smoothstep
 
@@ -181,7 +182,10 @@ def perform(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None
     controls' hands exact on their frames, then the hands' speed limit, then their roll about
     the forearm kept continuous (:func:`core.hands.steady_palms`). The returned clips are
     the tracks' frames of each utterance (the same numbers), with the utterances' words and
-    controls: the track is the product, the clip a view of it."""
+    controls: the track is the product, the clip a view of it. Each track also has its
+    speaker's face (:func:`model.face.speaker_face`: visemes of its lines' phonemes, blinks,
+    brows, expressions, and gaze turned from the track's head), and each clip its frames of it;
+    the face never changes the body or the hands."""
     exact = exact or Exact()
     n = plan.n_frames
     tracks, views = [], {}
@@ -211,9 +215,11 @@ def perform(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None
             hands = limit_speed(with_gestures(hands, gesture_hands, hand_mask))
         poses = np.asarray(poses, np.float32)
         hands = steady_palms(positions_from_pose(poses), hands)  # no hand flips about the forearm, cuts included
-        track = Track(speaker, poses, hands=hands)
+        track = Track(speaker, poses, hands=hands, face=speaker_face(plan, speaker, poses, seed))
         tracks.append(track)
         for u, c in own:
             at = slice(u.start_frame, u.start_frame + c.n_frames)
-            views[id(c)] = replace(c, poses=track.poses[at].copy(), positions=None, hands=track.hands.take(np.arange(n)[at]))
+            frames = np.arange(n)[at]
+            views[id(c)] = replace(c, poses=track.poses[at].copy(), positions=None, hands=track.hands.take(frames),
+                                   face=track.face.take(frames))
     return [views[id(c)] for c in clips], tracks

@@ -6,6 +6,9 @@ decorated (:mod:`renders.overlay`), mapped to one shared palette and streamed in
 :class:`~renders.gifwriter.GifWriter`, so memory does not grow with the clip length.
 Every output is written with :func:`core.fileio.atomic_write`.
 
+Each clip's face (``clip.face``, :class:`core.face.FaceTrack`) moves the mannequin's face (lip sync,
+blinks, gaze); a clip without one shows a resting face.
+
 Panels side by side are told apart by a label each (the speaker's name, or A/B for a
 comparison) and, given ``tints``, by the colour of the mannequin's body; the label's box is
 drawn in a dark shade of the same colour (:func:`label_color`).
@@ -25,7 +28,7 @@ from core.motion import MotionClip
 from core.skeleton import FPS, seconds_to_frame
 from renders import overlay
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
-from renders.mannequin import BODY, DEFAULT_VIEW, Mannequin
+from renders.mannequin import BODY, DEFAULT_VIEW, FaceFrames, Mannequin
 from renders.video import write_mp4
 
 DEFAULT_SIZE = (320, 320)
@@ -71,12 +74,15 @@ class _Panel:
         self.view = view
         self.tint = tuple(tint)
         self.hands = hand_positions(clip.positions, clip.hands)
+        self.face = FaceFrames(clip.face) if clip.face is not None else None
 
     def image(self, frame: int, **kw):
         from PIL import Image
 
         f = min(frame, self.clip.n_frames - 1)
-        img = Image.fromarray(self.m.render(self.clip.positions[f], self.hands[f], view=self.view, tint=self.tint))
+        face = self.face[f] if self.face is not None else None
+        img = Image.fromarray(self.m.render(self.clip.positions[f], self.hands[f], view=self.view, tint=self.tint,
+                                            face=face))
         overlay.decorate(img, f, self.clip, **kw)
         if self.label:
             draw_label(img, self.label, label_color(self.tint))

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.face import FaceTrack
+from core.face import concat as concat_faces
 from core.hands import concat
 from core.motion import MotionClip, Track
 from core.skeleton import FPS
@@ -24,6 +26,9 @@ def concat_clips(clips: list[MotionClip]) -> MotionClip:
         controls += [k.shifted(offset) for k in c.controls]
         offset += c.n_frames
     speakers = {c.speaker for c in clips}
+    faces = None  # a face where any clip has one (those without rest)
+    if any(c.face is not None for c in clips):
+        faces = concat_faces([c.face if c.face is not None else FaceTrack.neutral(c.n_frames) for c in clips])
     for c in clips:
         if c.text:
             texts.append(f"{c.speaker}: {c.text}" if c.speaker and len(speakers) > 1 else c.text)
@@ -31,6 +36,7 @@ def concat_clips(clips: list[MotionClip]) -> MotionClip:
         poses=np.concatenate([c.poses for c in clips]),
         positions=np.concatenate([c.positions for c in clips]),
         hands=concat([c.hands for c in clips]),
+        face=faces,
         speaker=speakers.pop() if len(speakers) == 1 else None,
         text=" / ".join(texts) or None,
         words=words,
@@ -60,6 +66,7 @@ def track_clip(track: Track, clips: list[MotionClip]) -> MotionClip:
         poses=track.poses,
         positions=track.positions,
         hands=track.hands,
+        face=track.face,
         speaker=track.speaker,
         text=" / ".join(c.text for c in own if c.text) or None,
         words=[w for c in own for w in shift_words(c.words, c.start)],

@@ -10,7 +10,13 @@ Layout (one scene):
 - one animation, ``take``: a LINEAR ``rotation`` channel per bone and a ``translation``
   channel for the root, keys at ``i / 15`` s (15 fps), quaternions sign-continuous;
 - with the VRM rig, the ``VRMC_vrm_animation`` extension (spec 1.0) maps VRM humanoid bone
-  names to nodes, so the file is a VRM Animation (``.vrma``) as well as a plain glTF.
+  names to nodes, so the file is a VRM Animation (``.vrma``) as well as a plain glTF; a take with
+  a face adds the extension's ``expressions``: a node per VRM preset expression
+  (:data:`renders.face_export.VRM_EXPRESSIONS`) whose ``translation.x`` carries its weight;
+- with sgt's own rig and a face, a node ``face``: the head and face of :mod:`renders.face_rig`
+  (a mesh per colour) with a morph target per ARKit blendshape (their names in the mesh's
+  ``extras.targetNames``, as Blender and three.js read them), animated by a ``weights`` channel
+  and by ``translation`` and ``rotation`` channels that carry it with the head.
 
 Units: metres, y up, the character facing +z (glTF's own conventions).
 """
@@ -22,9 +28,12 @@ import struct
 
 import numpy as np
 
+from core.face import ARKIT_NAMES
 from core.fileio import atomic_write
 from core.motion import MotionClip
 from core.skeleton import FPS
+from renders import face_rig
+from renders.face_export import vrm_expressions
 from renders.rigs import Rig
 from renders.rigs.retarget import RigMotion, retarget_clip
 from renders.rotations import continuous_quats, matrix_to_quat
@@ -161,13 +170,34 @@ def glb_bytes(clip: MotionClip, rig: Rig, mesh: bool = True) -> bytes:
     samplers.append({"input": t_acc, "output": buf.add(motion.root_translation, FLOAT, "VEC3"), "interpolation": "LINEAR"})
     channels.append({"sampler": len(samplers) - 1, "target": {"node": 0, "path": "translation"}})
 
+    def channel(node: int, path: str, values: np.ndarray, kind: str) -> None:
+        samplers.append({"input": t_acc, "output": buf.add(values, FLOAT, kind), "interpolation": "LINEAR"})
+        channels.append({"sampler": len(samplers) - 1, "target": {"node": node, "path": path}})
+
+    face = clip.face
+    if face is not None and mesh and rig.name == "sgt":
+        _add_face(doc, buf, nodes, scene_nodes, clip, channel)
+    extension = None
+    if rig.vrm_animation:
+        bones = {b.humanoid: {"node": i} for i, b in enumerate(rig.bones) if b.humanoid}
+        extension = {"specVersion": "1.0", "humanoid": {"humanBones": bones}}
+        if face is not None:
+            preset = {}
+            for name, weights in vrm_expressions(face).items():
+                nodes.append({"name": f"expression_{name}", "translation": [0.0, 0.0, 0.0]})
+                scene_nodes.append(len(nodes) - 1)
+                preset[name] = {"node": len(nodes) - 1}
+                xyz = np.zeros((len(weights), 3))
+                xyz[:, 0] = weights
+                channel(len(nodes) - 1, "translation", xyz, "VEC3")
+            extension["expressions"] = {"preset": preset}
+
     doc["scenes"] = [{"name": "sgt", "nodes": scene_nodes}]
     doc["nodes"] = nodes
     doc["animations"] = [{"name": "take", "samplers": samplers, "channels": channels}]
-    if rig.vrm_animation:
-        bones = {b.humanoid: {"node": i} for i, b in enumerate(rig.bones) if b.humanoid}
+    if extension is not None:
         doc["extensionsUsed"] = [VRMA_EXTENSION]
-        doc["extensions"] = {VRMA_EXTENSION: {"specVersion": "1.0", "humanoid": {"humanBones": bones}}}
+        doc["extensions"] = {VRMA_EXTENSION: extension}
     while len(buf.data) % 4:
         buf.data.append(0)
     doc["buffers"] = [{"byteLength": len(buf.data)}]
@@ -181,6 +211,42 @@ def glb_bytes(clip: MotionClip, rig: Rig, mesh: bool = True) -> bytes:
         struct.pack("<I4s", len(js), b"JSON"), js,
         struct.pack("<I4s", len(buf.data), b"BIN\x00"), bytes(buf.data),
     ])
+
+
+def _add_face(doc: dict, buf: _Buffer, nodes: list, scene_nodes: list, clip: MotionClip, channel) -> None:
+    """The node ``face`` (see the module's docstring): a mesh per colour of
+    :func:`renders.face_rig.morph_mesh`, its morph targets, and its channels."""
+    face = clip.face
+    materials, primitives = doc.setdefault("materials", []), []
+    for part in face_rig.morph_mesh():
+        materials.append({"name": "face", "pbrMetallicRoughness": {
+            "baseColorFactor": [*part["color"], 1.0], "metallicFactor": 0.0, "roughnessFactor": part["roughness"]}})
+        zero = None
+        targets = []
+        for delta in part["targets"]:
+            if not np.any(delta):
+                if zero is None:  # one accessor of zeros shared by the targets that leave this mesh be
+                    zero = buf.add(delta, FLOAT, "VEC3", ARRAY_BUFFER, minmax=True)
+                targets.append({"POSITION": zero})
+            else:
+                targets.append({"POSITION": buf.add(delta, FLOAT, "VEC3", ARRAY_BUFFER, minmax=True)})
+        primitives.append({
+            "attributes": {"POSITION": buf.add(part["positions"], FLOAT, "VEC3", ARRAY_BUFFER, minmax=True),
+                           "NORMAL": buf.add(part["normals"], FLOAT, "VEC3", ARRAY_BUFFER)},
+            "indices": buf.add(part["indices"].reshape(-1), UINT32, "SCALAR", ELEMENT_ARRAY_BUFFER),
+            "material": len(materials) - 1, "targets": targets})
+    n = len(ARKIT_NAMES)
+    meshes = doc.setdefault("meshes", [])
+    meshes.append({"name": "face", "primitives": primitives, "weights": [0.0] * n,
+                   "extras": {"targetNames": list(ARKIT_NAMES)}})
+    rotation, centre = face_rig.head_frames(clip.positions)
+    nodes.append({"name": "face", "mesh": len(meshes) - 1, "translation": [float(x) for x in centre[0]],
+                  "rotation": [float(x) for x in matrix_to_quat(rotation[0])]})
+    scene_nodes.append(len(nodes) - 1)
+    node = len(nodes) - 1
+    channel(node, "translation", centre, "VEC3")
+    channel(node, "rotation", continuous_quats(matrix_to_quat(rotation)), "VEC4")
+    channel(node, "weights", np.clip(face.weights, 0.0, 1.0).reshape(-1), "SCALAR")
 
 
 def write_glb(path, clip: MotionClip, rig: Rig, mesh: bool = True) -> None:

@@ -1,11 +1,13 @@
 """An offscreen shaded mannequin: its parts built once as one mesh, posed on the CPU per frame.
 
-The parts are trimesh primitives (capsules along the bones, spheres at the joints, a head with
-eyes and a nose); hands are a palm (a flattened box) and the thumb and four fingers, three
-capsules each, placed on the hand joints of :mod:`core.hands` (drawn a little thicker than
+The parts are trimesh primitives (capsules along the bones, spheres at the joints, a head) and
+the face of :mod:`renders.face_rig` (eyes that turn with the gaze, eyelids, brows, a mouth that
+opens and rounds, lips, a chin that drops, a nose); hands are a palm (a flattened box) and the
+thumb and four fingers, three capsules each, placed on the hand joints of :mod:`core.hands` (drawn a little thicker than
 life so that a pointing index or a thumbs up reads at 240x240). :meth:`Mannequin.render`
 computes every part's transform for a frame (batched numpy), moves the mesh's vertices and
-draws it in one call (:class:`renders.gl.MeshRenderer`).
+draws it in one call (:class:`renders.gl.MeshRenderer`). A clip's face (:class:`FaceFrames`) places
+the face's parts frame by frame; without one the face rests (eyes open and ahead, mouth shut).
 
 Views (:data:`VIEWS`): the camera circles the character (who faces +z) and the lights move
 with it, so every view is lit alike:
@@ -27,18 +29,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.face import FaceTrack
 from core.hands import DIGITS, HAND_JOINTS, SIDES, HandTrack, hand_positions, local_hand_joints
 from core.interrupts import interrupts_deferred
 from core.skeleton import BONE_LENGTHS
 from core.skeleton import JOINT_INDEX as J
-from renders import gl
+from renders import face_rig, gl
 from renders.rotations import frame_from, shortest_arcs, transform
 
 BACKGROUND = (236, 239, 243)
 BODY = (0.25, 0.36, 0.55)
-SKIN = (0.80, 0.62, 0.48)
+SKIN = face_rig.SKIN
 JOINT_COLOR = (0.17, 0.24, 0.37)
-EYE_COLOR = (0.15, 0.17, 0.2)
 
 #: Body colours (linear RGB) that tell speakers apart, in speaker order: blue (the one
 #: speaker's colour), green, plum, teal, dark red, slate; none of them near the skin's hue.
@@ -96,6 +98,34 @@ _PALM_HALF_THICKNESS = 0.015
 
 #: The hand joints of a relaxed hand at the origin (segment lengths of the finger capsules).
 _REST_HAND = local_hand_joints(HandTrack.rest(1).fingers[0, 0])
+
+
+class _Mesh:
+    """A part's mesh as the trimesh primitives give theirs (vertices, vertex_normals, faces)."""
+
+    def __init__(self, vertices: np.ndarray, normals: np.ndarray, faces: np.ndarray) -> None:
+        self.vertices, self.vertex_normals, self.faces = vertices, normals, faces
+
+
+class FaceFrames:
+    """A face track's parts, frame by frame: ``frames[i]`` is frame i's maps (P, 4, 4) for
+    :meth:`Mannequin.render`. They are made :data:`CHUNK` frames at a time (one batched call
+    instead of one per frame) and only the current chunk is kept, so memory does not grow with
+    the clip. The pupils turn :data:`renders.face_rig.GAZE_GAIN` times the gaze."""
+
+    CHUNK = 128
+
+    def __init__(self, face: FaceTrack) -> None:
+        self.face = face
+        self._start, self._maps = -self.CHUNK - 1, None
+
+    def __getitem__(self, frame: int) -> np.ndarray:
+        frame = min(max(int(frame), 0), self.face.n_frames - 1)
+        if not self._start <= frame < self._start + self.CHUNK:
+            self._start = frame - frame % self.CHUNK
+            part = self.face.take(slice(self._start, self._start + self.CHUNK))
+            self._maps = face_rig.part_transforms(part.weights, part.gaze, face_rig.GAZE_GAIN)
+        return self._maps[frame - self._start]
 
 
 def speaker_tint(index: int) -> tuple[float, float, float]:
@@ -198,11 +228,10 @@ class Mannequin:
         add("hips", hips, "joint")
         add("neckpiece", trimesh.creation.capsule(height=0.07, radius=0.042, count=[12, 12]), SKIN)
         head = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
-        head.apply_scale([0.092, 0.112, 0.102])
+        head.apply_scale(face_rig.HEAD_RADII)
         add("head", head, SKIN, 0.6)
-        add("nose", trimesh.creation.cone(radius=0.022, height=0.05, sections=12), SKIN, 0.6)  # along +z
-        for eye in ("eye_l", "eye_r"):
-            add(eye, trimesh.creation.icosphere(subdivisions=1, radius=0.014), EYE_COLOR, 0.4)
+        for (name, _, rgb, rough), (v, normals, f) in zip(face_rig.PARTS, face_rig.part_meshes()):
+            add("face_" + name, _Mesh(v, normals, f), rgb, rough)
         for name, a, b, r in _LIMBS:
             add(name, trimesh.creation.capsule(height=BONE_LENGTHS[b], radius=r, count=[12, 12]), "body")
         for j, r in _BALLS:
@@ -242,6 +271,9 @@ class Mannequin:
         first = self._index[SIDES[0] + "_" + HAND_JOINTS[1]]
         self._segment_rows = np.arange(first, first + len(self._segments))
         self._segment_index = np.array(self._segments)
+        first = self._index["face_" + face_rig.PARTS[0][0]]
+        self._face_rows = np.arange(first, first + len(face_rig.PARTS))
+        self._neutral_face = face_rig.neutral_transforms()
         return indices
 
     def materials(self, tint=BODY) -> np.ndarray:
@@ -259,14 +291,16 @@ class Mannequin:
     def _set(self, name: str, matrix: np.ndarray) -> None:
         self._matrices[self._index[name]] = matrix
 
-    def pose(self, positions: np.ndarray, hands: np.ndarray | None = None) -> None:
-        """Move the parts to joint ``positions`` (10, 3) in metres and the hands to hand
-        joints ``hands`` (2, 20, 3) (:func:`core.hands.hand_positions`; relaxed when None)."""
+    def pose(self, positions: np.ndarray, hands: np.ndarray | None = None, face: np.ndarray | None = None) -> None:
+        """Move the parts to joint ``positions`` (10, 3) in metres, the hands to hand joints
+        ``hands`` (2, 20, 3) (:func:`core.hands.hand_positions`; relaxed when None) and the face's
+        parts by ``face`` (their maps in the head, (P, 4, 4): a frame of :class:`FaceFrames`;
+        resting when None)."""
         p = np.asarray(positions, dtype=np.float64)
         if hands is None:
             hands = hand_positions(p[None], HandTrack.rest(1))[0]
         hands = np.asarray(hands, dtype=np.float64)
-        spine, neck, nose, top = p[J["spine"]], p[J["neck"]], p[J["nose"]], p[J["head_top"]]
+        spine, neck = p[J["spine"]], p[J["neck"]]
         ls, rs = p[J["left_shoulder"]], p[J["right_shoulder"]]
         # Torso frame: y along the spine, x across the shoulders (to the character's left).
         across = ls - rs
@@ -279,18 +313,14 @@ class Mannequin:
         # not swing the other way. Turned with the whole torso, the hips' bottom went back as
         # the chest went forward, and the lean seemed to pivot at the chest.
         self._set("hips", transform(frame_from(np.array([0.0, 1.0, 0.0]), fwd), spine - np.array([0.0, 0.02, 0.0])))
-        # Head frame: y from the neck to the head top, z towards the nose.
-        head = frame_from(top - neck, nose - neck)
-        hu = head[:, 1]
-        hz = head[:, 2]
-        center = top - 0.105 * hu - 0.01 * hz
-        self._set("head", transform(head, center))
+        # Head frame: y from the neck to the head top, z towards the nose (face_rig.head_frames).
+        head, center = (a[0] for a in face_rig.head_frames(p[None]))
+        head_to_world = transform(head, center)
+        self._set("head", head_to_world)
         neck_dir = center - neck
         self._set("neckpiece", transform(shortest_arcs(np.array([0.0, 0.0, 1.0]), neck_dir), neck + 0.45 * neck_dir))
-        self._set("nose", transform(head, center + 0.092 * hz - 0.012 * hu))
-        for eye, sx in (("eye_l", 1.0), ("eye_r", -1.0)):
-            self._set(eye, transform(head, center + head @ np.array([0.036 * sx, 0.02, 0.084])))
         m = self._matrices
+        m[self._face_rows] = head_to_world @ (self._neutral_face if face is None else face)
         # Capsules between two points: the limbs, then the finger segments.
         pa, pb = p[self._limb_joints[:, 0]], p[self._limb_joints[:, 1]]
         s, a, b = self._segment_index[:, 0], self._segment_index[:, 1], self._segment_index[:, 2]
@@ -319,12 +349,13 @@ class Mannequin:
             self._set(side + "_wristball", transform(np.eye(3), wrist))
 
     def render(self, positions: np.ndarray, hands: np.ndarray | None = None, *, view: str = DEFAULT_VIEW,
-               tint=BODY) -> np.ndarray:
-        """An image of joint ``positions`` (10, 3) and hand joints ``hands`` (2, 20, 3), seen
-        from ``view`` (:data:`VIEWS`), the body in ``tint`` (linear RGB)."""
+               tint=BODY, face: np.ndarray | None = None) -> np.ndarray:
+        """An image of joint ``positions`` (10, 3), hand joints ``hands`` (2, 20, 3) and the
+        face's parts ``face`` (a frame of :class:`FaceFrames`; None: a resting face), seen from
+        ``view`` (:data:`VIEWS`), the body in ``tint`` (linear RGB)."""
         if view not in VIEWS:
             raise ValueError(f"unknown view '{view}': use {', '.join(VIEWS)}")
-        self.pose(positions, hands)
+        self.pose(positions, hands, face)
         if view not in self._cameras:
             cam = camera_pose(view)
             self._cameras[view] = (self._projection @ np.linalg.inv(cam), cam[:3, 3], _lights(VIEWS[view]))

@@ -32,6 +32,8 @@ echo "==> sgt and its Python dependencies (ray: sgt build --ray, tested in CI on
 
 echo "==> the VS Code extension's npm packages (editors/vscode: its grammar test and 'vsce package')"
 (cd editors/vscode && npm ci --no-audit --no-fund --loglevel=error)
+echo "==> the face exports' readers (tests/node: three.js + three-vrm-animation, the Khronos glTF validator)"
+(cd tests/node && npm ci --no-audit --no-fund --loglevel=error)
 
 echo "==> main job: check examples/mall_guide.sgt, generate its motion, render a video with sound, a preview GIF and a contact sheet"
 mkdir -p out

@@ -182,6 +182,18 @@ async def test_completion_of_styles_presets_and_closing_tags(client: LanguageCli
     assert _labels(await _complete(client, uri2, text2, "</")) == ["calm>"]
 
 
+async def test_completion_of_look_targets_and_face_expressions(client: LanguageClient, workspace):
+    text = "guide: Hello.\nvisitor: Hi [look:\nvisitor: and [look:left h\nguide: <face:\n"
+    uri = await _open(client, workspace, text)
+    labels = _labels(await _complete(client, uri, text, "Hi [look:"))
+    assert {"guide", "visitor", "left", "right", "up", "down", "ahead"} == set(labels)  # this script's speakers only
+    assert _labels(await _complete(client, uri, text, "[look:left h")) == ["hold="]
+    assert "look:" in _labels(await _complete(client, uri, text, "Hi ["))
+    faces = await _complete(client, uri, text, "<face:")
+    assert {"smile", "happy", "sad", "angry", "surprised", "neutral"} <= set(_labels(faces))
+    assert "face" in _labels(await _complete(client, uri, text, "guide: <"))
+
+
 async def test_completion_of_directives_voices_and_variants(client: LanguageClient, workspace):
     text = "@vo\n@voice en-g\n@voice guide: en-us+\nguide: hi\n"
     uri = await _open(client, workspace, text)

@@ -11,7 +11,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from core.motion import load_motion_file
+from core.motion import VERSION, load_motion_file
 from core.skeleton import FPS
 
 SCRIPT = """@seed 2
@@ -42,7 +42,7 @@ def take(tmp_path_factory):
 def test_generate_writes_the_clock_and_one_track_per_speaker(take):
     script, out = take
     doc = json.loads(out.read_text())
-    assert doc["version"] == 2 and doc["source"] == "dialogue.sgt"
+    assert doc["version"] == VERSION == 3 and doc["source"] == "dialogue.sgt"  # 3: with the face
     assert [t["speaker"] for t in doc["tracks"]] == ["guide", "visitor"]
     assert all(len(t["poses"]) == doc["frames"] for t in doc["tracks"])
     starts = [u["start"] for u in doc["utterances"]]

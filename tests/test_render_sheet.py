@@ -82,14 +82,15 @@ def test_a_labelled_picture_at_every_stroke_of_every_speaker(take, tracks, sheet
     assert {(p.label, p.gesture): p.word for p in panels} == MARKED
     # Each picture is the speaker's track at that frame, in the speaker's tint (the part above
     # the timeline, which shows the playhead).
-    from renders.mannequin import speaker_tint
+    from renders.mannequin import FaceFrames, speaker_tint
     from renders.overlay import timeline_geometry
 
     top = timeline_geometry(*SIZE, 2).top - 12
     for p in panels:
         track = tracks[p.row]
         hands = hand_positions(track.positions[p.frame : p.frame + 1], track.hands.take(slice(p.frame, p.frame + 1)))
-        want = mannequin.render(track.positions[p.frame], hands[0], tint=speaker_tint(p.row)).astype(int)
+        face = FaceFrames(track.face)[p.frame] if track.face is not None else None  # the face too
+        want = mannequin.render(track.positions[p.frame], hands[0], tint=speaker_tint(p.row), face=face).astype(int)
         x0, y0, x1, y1 = p.box
         # (column 0 of a picture after the first of a line is the line between pictures)
         assert np.abs(img[y0 : y0 + top, x0 + 1 : x1] - want[:top, 1:]).max() <= 2, (p.gesture, p.frame)

@@ -15,11 +15,13 @@ PIECES = [
     "[", "]", "<", ">", "</", "</>", "\\", "#", ":", "=", " ", "\t", "\n", "\r", "\x0b", "\xa0", "pose", "pause",
     "wave", "x2", "flip", "hold", "5ms", "-1", "+0.5", ".", "+", "-", "_", "a", "Z", "9", "speed", "space", "happy",
     "é", "don't", "/", "'", "1.5s", "ab-c", "a.b", "[pose:", "[pause ", "<speed:", "</speed>", "hold=",
+    "[look:", "José", "Σωκράτης", "<face:", "smile", "\u0301", "٣", "_x",
 ]
 VALID = [
     "Hello [pose:wave] there.", "[pose:point_right x2 flip hold=500ms] <speed:-1 space:+0.5>over</speed> </>",
     "[ pose : wave\n x2 ]", "[pose:wave.5]", "[pose:wave hold = 1s]", "<calm speed:-2>a</calm>", "<a b:1>x</a>",
     "it \\[laughs\\] \\: \\\\ \\q", "[pause 300ms] [pause\t1.2s]", "</ >", "[pose]", "<happy>[pose:big] yes</>",
+    "[look:José] hola [look:left hold=1s]", "<face:smile happy>x</face>", "[look:Σωκράτης]",
 ]
 body_text = st.lists(st.one_of(st.sampled_from(PIECES), st.text(max_size=4)), max_size=16).map("".join)
 

@@ -78,9 +78,10 @@ def test_non_ascii_positions(tmp_path):
 
 def test_event_positions_are_characters():
     # "é" is two UTF-8 bytes; if positions were bytes, the second word would be off by one
-    sr, raw, events = _espeak.run_synth("café naïve world", "gmw/en-US", 175, 50)
+    sr, raw, events, phonemes = _espeak.run_synth("café naïve world", "gmw/en-US", 175, 50)
     assert sr == 22050 and len(raw) > 0
     assert [e.char_index for e in events][:3] == [0, 5, 11]
+    assert sorted({p.char_index for p in phonemes if p.name}) == [0, 5, 11]  # each phoneme names its word's start
 
 
 def test_pause_lengthens_and_shifts(tmp_path):

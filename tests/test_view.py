@@ -5,6 +5,7 @@ the network). tests/test_view_browser.py opens the page in headless Chromium."""
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import io
 import json
@@ -17,15 +18,17 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from core.face import ARKIT_INDEX, N_BLENDSHAPES
 from core.motion import load_motion_file
 from core.skeleton import FPS
+from renders import face_rig
 from renders.clips import track_clip
 from renders.mannequin import VIEWS
 from sgt_tui.cli import main
 from sgt_tui.serve.app import create_app
 from sgt_tui.serve.config import ServeConfig, checked
 from sgt_tui.view.assets import STATIC
-from sgt_tui.view.page import page_take
+from sgt_tui.view.page import FACE_CHANNELS, page_take
 from sgt_tui.view.server import create_view_app
 from sgt_tui.view.takes import Viewer
 
@@ -63,6 +66,28 @@ def test_the_page_gets_every_speaker_on_the_performance_clock(take):
     style = next(c for c in doc["controls"] if c["kind"] == "style")
     assert style["speaker"] == "visitor" and style["label"] == "speed:+1"
     assert doc["scene"]["views"] == {k: {"azimuth": v.azimuth, "elevation": v.elevation} for k, v in VIEWS.items()}
+
+
+def test_the_page_gets_each_speakers_face_as_the_mannequin_draws_it(take):
+    motion = load_motion_file(take)
+    doc = page_take(motion, "talk.json")
+    for s, track in zip(doc["speakers"], motion.tracks):
+        face, n = s["face"], track.n_frames
+        assert set(face["channels"]) <= set(FACE_CHANNELS) and "jawOpen" in face["channels"]
+        assert not any(c.startswith("eyeLook") for c in face["channels"])  # the gaze says it
+        weights = np.zeros((n, N_BLENDSHAPES))
+        weights[:, [ARKIT_INDEX[c] for c in face["channels"]]] = np.reshape(face["weights"], (n, -1))
+        drawn = [ARKIT_INDEX[c] for c in FACE_CHANNELS]
+        assert np.allclose(weights[:, drawn], track.face.weights[:, drawn], atol=6e-4)  # a channel left out is 0
+        gaze = np.reshape(face["gaze"], (n, 2, 2))
+        assert np.allclose(gaze, track.face.gaze, atol=6e-3) and np.ptp(gaze) > 1
+        # the page's face is sgt's: the parts' maps from what the page gets are those from the whole face
+        ours = face_rig.part_transforms(track.face.weights, track.face.gaze, face_rig.GAZE_GAIN)
+        assert np.allclose(face_rig.part_transforms(weights, gaze, face_rig.GAZE_GAIN), ours, atol=2e-5)
+    assert len(json.dumps(doc["speakers"][0]["face"])) < 0.15 * len(json.dumps(doc["speakers"][0]))  # compact
+    motion.tracks[1] = dataclasses.replace(motion.tracks[1], face=None)  # a speaker without a face
+    speakers = page_take(motion, "talk.json")["speakers"]
+    assert "face" in speakers[0] and "face" not in speakers[1]
 
 
 @pytest.fixture(scope="module")

@@ -7,11 +7,13 @@ serves (the real command, in its own process) and checks, with real mouse and ke
 - a click on a pose control in the timeline goes to its stroke, and the screenshot of that
   frame, from sgt's front and side cameras, has the silhouette of sgt's own render of it
   (renders.mannequin);
+- the mannequin's face moves as sgt's does (renders.face_rig): its parts where sgt puts them, a
+  mouth that opens and shuts and eyes that blink on the screen;
 - the speech and the motion share one clock: the time the page drew against the audio
   element's, at speed 1 and 2, and after a click on a word;
 - saving the script reloads the page's take (and a broken save shows its errors and keeps it);
 - a VRM character chosen in the page plays the take's VRM Animation: its forearm points where
-  sgt's does at a stroke.
+  sgt's does at a stroke, and its expressions take the weights of the animation's.
 
 Skipped, saying why, without Chromium (`apt-get install chromium`). Set
 SGT_VIEW_SCREENSHOTS=FOLDER to keep the pages' screenshots there (docs/view.png comes from it).
@@ -39,11 +41,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from core.face import ARKIT_INDEX, N_BLENDSHAPES, FaceTrack
 from core.hands import hand_positions
 from core.motion import load_motion_file
+from core.skeleton import FPS
+from renders import face_rig
 from renders.clips import track_clip
+from renders.face_export import vrm_expressions
 from renders.gltf import glb_bytes
-from renders.mannequin import BACKGROUND, Mannequin
+from renders.mannequin import BACKGROUND, FaceFrames, Mannequin
 from renders.rigs import get_rig
 from sgt_tui.cli import main
 
@@ -274,7 +280,8 @@ def test_a_click_on_a_pose_control_shows_its_stroke_as_sgt_renders_it(server, br
         page = browser.canvas(square=True)
         side = side or page.shape[0]
         with Mannequin(side, side) as m:
-            ours = m.render(clip.positions[point.stroke_frame], hands[point.stroke_frame], view=view)
+            ours = m.render(clip.positions[point.stroke_frame], hands[point.stroke_frame], view=view,
+                            face=FaceFrames(clip.face)[point.stroke_frame])
             rest = m.render(clip.positions[0], hands[0], view=view)
         match = overlap(silhouette(page), silhouette(ours))
         other = overlap(silhouette(page), silhouette(rest))
@@ -285,6 +292,47 @@ def test_a_click_on_a_pose_control_shows_its_stroke_as_sgt_renders_it(server, br
         browser.js("document.querySelectorAll('#caption, #views').forEach((e) => { e.style.visibility = ''; })")
         assert match > 0.95 and match > other + 0.1, \
             f"{view}: the page's stroke overlaps sgt's render of frame {point.stroke_frame} by {match:.3f} (frame 0: {other:.3f})"
+
+
+def _dark(image: np.ndarray, at, r: int) -> int:
+    """The dark pixels of ``image`` within ``r`` of ``at`` (x, y)."""
+    x, y = np.round(at).astype(int)
+    return int((image[y - r:y + r + 1, x - r:x + r + 1].astype(int).sum(-1) < 240).sum())
+
+
+def test_the_mannequins_face_moves_as_sgt_draws_it(server, browser, take):
+    clip, _ = take
+    face = clip.face
+    maps = face_rig.part_transforms(face.weights, face.gaze, face_rig.GAZE_GAIN)
+    mouth = maps[:, face_rig.PART_INDEX["mouth"], 1, 1]  # the opening's half height
+    blink = np.minimum(face.weight("eyeBlinkLeft"), face.weight("eyeBlinkRight"))
+    shut = int(np.argmax(blink))
+    awake = min(np.flatnonzero(blink == 0), key=lambda f: abs(f - shut))  # the eyes open, near it
+    frames = {"jaw open": int(np.argmax(mouth)), "lips closed": int(np.argmin(mouth)), "blink": shut, "eyes open": int(awake)}
+    assert mouth[frames["jaw open"]] > 0.01 and blink[shut] > 0.9, "the take has no open mouth or no blink to show"
+    browser.open(server.url)
+    browser.js("sgtView.setView('front'); document.querySelectorAll('#caption, #views').forEach((e) => { e.style.visibility = 'hidden'; })")
+    seen = {}
+    for what, f in frames.items():
+        browser.js(f"sgtView.seek({f} / {FPS})")
+        browser.wait(f"sgtView.state().frame === {f}", 10, f"frame {f}")
+        time.sleep(0.2)
+        drawn = browser.js("sgtView.face(0)")
+        for k, (name, *_) in enumerate(face_rig.PARTS):  # where sgt puts each part, in the head's frame
+            assert np.allclose(drawn[name], maps[f, k], atol=1e-5), f"frame {f}: the page's {name} is not sgt's"
+        image = browser.canvas()
+        # dark pixels: the inside of an open mouth, a pupil in an open eye (lips and lids are lighter)
+        seen[what] = {"mouth": _dark(image, browser.js("sgtView.onCanvas(0, 'mouth')"), 3),
+                      "eyes": [_dark(image, browser.js(f"sgtView.onCanvas(0, '{e}')"), 4) for e in ("pupil_l", "pupil_r")]}
+        if SHOTS:
+            from PIL import Image
+
+            x, y = np.round(browser.js("sgtView.onCanvas(0, 'head')")).astype(int)
+            Image.fromarray(image[y - 60:y + 60, x - 60:x + 60]).resize((360, 360)).save(
+                Path(SHOTS) / f"view_face_{what.replace(' ', '_')}.png")
+    assert seen["jaw open"]["mouth"] >= 8 and seen["lips closed"]["mouth"] <= 1, f"the mouth did not open and shut: {seen}"
+    assert min(seen["eyes open"]["eyes"]) >= 8 and max(seen["blink"]["eyes"]) <= 1, f"the eyes did not blink: {seen}"
+    browser.js("document.querySelectorAll('#caption, #views').forEach((e) => { e.style.visibility = ''; })")
 
 
 def test_speech_and_motion_share_one_clock(server, browser):
@@ -347,9 +395,14 @@ def test_the_page_reloads_when_the_script_is_saved(folder, browser):
         view.stop()
 
 
+#: The VRM preset expressions the test character has (with no morph targets bound: the weights
+#: are what is checked).
+VRM_FACE = ("aa", "ou", "blink")
+
+
 def _test_vrm(tmp: Path, clip) -> Path:
     """A VRM 1.0 character: sgt's vrm rig, T-pose, with its skinned mannequin (renders.gltf),
-    declared a VRM (VRMC_vrm) instead of a VRM Animation."""
+    declared a VRM (VRMC_vrm) instead of a VRM Animation, with the expressions :data:`VRM_FACE`."""
     still = type(clip)(poses=clip.poses[:1], positions=clip.positions[:1], hands=None)
     data = glb_bytes(still, get_rig("vrm"))
     (length,) = struct.unpack_from("<I", data, 12)
@@ -359,7 +412,7 @@ def _test_vrm(tmp: Path, clip) -> Path:
     doc.pop("animations")
     doc["extensionsUsed"] = ["VRMC_vrm"]
     doc["extensions"]["VRMC_vrm"] = {
-        "specVersion": "1.0", "humanoid": humanoid,
+        "specVersion": "1.0", "humanoid": humanoid, "expressions": {"preset": {name: {} for name in VRM_FACE}},
         "meta": {"name": "sgt test mannequin", "version": "1", "authors": ["sgt tests"],
                  "licenseUrl": "https://vrm.dev/licenses/1.0/", "avatarPermission": "onlyAuthor",
                  "commercialUsage": "personalNonProfit", "allowRedistribution": False, "modification": "prohibited"}}
@@ -381,15 +434,26 @@ def test_a_vrm_character_plays_the_take(server, browser, take, tmp_path):
     browser.click('.tl-pose[data-name="point_right"]')
     browser.wait(f"sgtView.state().frame === {point.stroke_frame}", 10, "the stroke")
     time.sleep(0.2)
-    bones = browser.js("sgtView.bones(0)")
+    bones, expressions = browser.js("sgtView.bones(0)"), browser.js("sgtView.expressions(0)")
     forearm = np.subtract(bones["rightHand"], bones["rightLowerArm"])
     theirs = clip.positions[point.stroke_frame]
     ours = theirs[8 + 1] - theirs[8]  # right_wrist - right_elbow
     angle = np.degrees(np.arccos(np.clip(np.dot(forearm, ours) / np.linalg.norm(forearm) / np.linalg.norm(ours), -1, 1)))
     assert angle < 8, f"the VRM character's right forearm is {angle:.1f} degrees from sgt's at the stroke"
+    weights = {name: float(w[point.stroke_frame]) for name, w in vrm_expressions(clip.face).items() if name in VRM_FACE}
+    assert expressions == pytest.approx(weights, abs=1e-3), "the character's expressions are not the take's"
+    browser.js(f"sgtView.seek({int(np.argmax(vrm_expressions(clip.face)['blink']))} / {FPS})")
+    browser.wait("sgtView.expressions(0).blink > 0.9", 10, "the VRM character to blink")
     if SHOTS:
         browser.screenshot(Path(SHOTS) / "view_vrm.png")
     assert browser.state()["problem"] == ""
+
+
+def _page_face(face: dict, n_frames: int):
+    """The page's face of a speaker (sgt_tui.view.page.face_of) as a FaceTrack."""
+    weights = np.zeros((n_frames, N_BLENDSHAPES))
+    weights[:, [ARKIT_INDEX[c] for c in face["channels"]]] = np.reshape(face["weights"], (n_frames, -1))
+    return FaceTrack(weights, np.reshape(face["gaze"], (n_frames, 2, 2)))
 
 
 def screenshots(out: Path) -> None:
@@ -419,10 +483,11 @@ def screenshots(out: Path) -> None:
                                ".forEach((e) => { e.style.visibility = 'hidden'; })")
                     time.sleep(0.5)
                     page = browser.canvas(square=True)
-                    positions = np.reshape(speaker["positions"], (-1, 10, 3))[frame]
+                    positions = np.reshape(speaker["positions"], (-1, 10, 3))
                     hands = np.reshape(speaker["hands"], (-1, 2, 20, 3))[frame]
+                    face = _page_face(speaker["face"], len(positions))
                     with Mannequin(page.shape[0], page.shape[0]) as m:
-                        ours = m.render(positions, hands, view="front")
+                        ours = m.render(positions[frame], hands, view="front", face=FaceFrames(face)[frame])
                     Image.fromarray(np.concatenate([page, ours], axis=1)).save(out / "view_stroke.png")
             finally:
                 view.stop()

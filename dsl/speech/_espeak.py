@@ -20,6 +20,14 @@ Facts verified by experiment against espeak-ng 1.51 (see tests/test_speech_synth
   1-based *character* (code point) index in the input, not a byte offset ("café" counts 4).
 * ``sample`` is the sample index of the event in the output stream (``audio_position`` is the
   same in ms), so word times are exact to the sample.
+* Phoneme events (``espeakEVENT_PHONEME`` = 7, enabled by ``espeakINITIALIZE_PHONEME_EVENTS``
+  = 0x0001 at ``espeak_Initialize``; ``espeakINITIALIZE_PHONEME_IPA`` = 0x0002 names them in
+  IPA, UTF-8 in ``id``, at most 8 bytes) come through the same callback, one per phoneme at
+  the sample where it starts; ``text_position`` is the start of the word it belongs to.
+  Enabling them leaves the audio as it was, to the bit. Pauses are phonemes too (an empty
+  name in IPA). The events carry no stress: :func:`_stress_marks` takes it from
+  ``espeak_TextToPhonemes`` on the same text (IPA, ``|`` between phonemes, ``ˈ``/``ˌ`` on the
+  stressed vowel), matched to the events' phonemes in order.
 """
 
 from __future__ import annotations
@@ -53,6 +61,8 @@ _LIB_DIRS = (
 )
 
 AUDIO_OUTPUT_SYNCHRONOUS = 2
+espeakINITIALIZE_PHONEME_EVENTS = 0x0001
+espeakINITIALIZE_PHONEME_IPA = 0x0002
 espeakINITIALIZE_DONT_EXIT = 0x8000
 espeakCHARS_UTF8 = 1
 POS_CHARACTER = 1
@@ -64,7 +74,13 @@ EVENT_WORD = 1
 EVENT_SENTENCE = 2
 EVENT_END = 5
 EVENT_MSG_TERMINATED = 6
+EVENT_PHONEME = 7
 EVENT_SAMPLERATE = 8
+#: espeak_TextToPhonemes' phonememode: IPA names (bit 1), a separator character in bits 8-23.
+PHONEMES_IPA = 0x02
+PHONEME_SEPARATOR = "|"
+#: IPA stress marks espeak-ng puts on a stressed vowel: primary, secondary.
+STRESS_MARKS = {"\u02c8": 2, "\u02cc": 1}
 
 #: How espeak-ng's voice list names a variant (``!v/m3``); the name after ``+`` is the rest.
 VARIANT_PREFIX = "!v/"
@@ -105,6 +121,14 @@ class WordEvent:
     char_index: int  # 0-based code-point index into the synthesized text
     length: int  # characters, as reported by the engine
     sample: int  # sample index of the word's start
+
+
+@dataclass(frozen=True)
+class PhonemeEvent:
+    char_index: int  # 0-based code-point index of the start of the word it belongs to
+    sample: int  # sample index of the phoneme's start
+    name: str  # IPA; "" for a pause
+    stress: int = 0  # 2 primary, 1 secondary (from :func:`_stress_marks`), 0 none
 
 
 @dataclass(frozen=True)
@@ -169,7 +193,10 @@ class _Engine:
         lib.espeak_ListVoices.restype = ctypes.POINTER(ctypes.POINTER(_Voice))
         lib.espeak_Info.argtypes = [ctypes.c_void_p]
         lib.espeak_Info.restype = ctypes.c_char_p
-        rate = lib.espeak_Initialize(AUDIO_OUTPUT_SYNCHRONOUS, 0, None, espeakINITIALIZE_DONT_EXIT)
+        lib.espeak_TextToPhonemes.argtypes = [ctypes.POINTER(ctypes.c_void_p), ctypes.c_int, ctypes.c_int]
+        lib.espeak_TextToPhonemes.restype = ctypes.c_char_p
+        options = espeakINITIALIZE_DONT_EXIT | espeakINITIALIZE_PHONEME_EVENTS | espeakINITIALIZE_PHONEME_IPA
+        rate = lib.espeak_Initialize(AUDIO_OUTPUT_SYNCHRONOUS, 0, None, options)
         if rate <= 0:
             raise EngineError(
                 "init",
@@ -181,6 +208,7 @@ class _Engine:
         self.version = (lib.espeak_Info(None) or b"?").decode("ascii", "replace")
         self._chunks: list[bytes] = []
         self._events: list[WordEvent] = []
+        self._phonemes: list[PhonemeEvent] = []
         self._callback = _CALLBACK(self._on_audio)  # keep a reference: C holds a raw pointer
         lib.espeak_SetSynthCallback(self._callback)
         self._voices: list[VoiceInfo] | None = None
@@ -194,6 +222,9 @@ class _Engine:
             ev = events[i]
             if ev.type == EVENT_WORD:
                 self._events.append(WordEvent(ev.text_position - 1, ev.length, ev.sample))
+            elif ev.type == EVENT_PHONEME:  # id: the IPA name, NUL-terminated unless it fills 8 bytes
+                name = bytes(ev.id).split(b"\0", 1)[0].decode("utf-8", "replace")
+                self._phonemes.append(PhonemeEvent(ev.text_position - 1, ev.sample, name))
             i += 1
         return 0
 
@@ -252,21 +283,64 @@ class _Engine:
             return False
         return self.lib.espeak_SetVoiceByName(name.encode("utf-8")) == 0
 
-    def synth(self, text: str, voice: str, rate: int, pitch: int) -> tuple[bytes, list[WordEvent]]:
+    def synth(self, text: str, voice: str, rate: int, pitch: int) -> tuple[bytes, list[WordEvent], list[PhonemeEvent]]:
+        """The audio, the word events and the phoneme events (with their stress) of ``text``."""
         if not self.set_voice(voice):
             raise EngineError("voice", f"espeak-ng rejected the voice {voice!r}")
         self.lib.espeak_SetParameter(espeakRATE, int(rate), 0)
         self.lib.espeak_SetParameter(espeakPITCH, int(pitch), 0)
         data = text.encode("utf-8") + b"\0"
         buf = ctypes.create_string_buffer(data, len(data))
-        self._chunks, self._events = [], []
+        self._chunks, self._events, self._phonemes = [], [], []
         try:
             err = self.lib.espeak_Synth(buf, len(data), 0, POS_CHARACTER, 0, espeakCHARS_UTF8, None, None)
             if err != 0:
                 raise EngineError("synth", f"espeak-ng failed to synthesize the text (error {err})")
-            return b"".join(self._chunks), list(self._events)
+            audio, words, phonemes = b"".join(self._chunks), list(self._events), list(self._phonemes)
         finally:
-            self._chunks, self._events = [], []
+            self._chunks, self._events, self._phonemes = [], [], []
+        # after the synthesis (it never changes what was synthesized): the stress of each phoneme
+        return audio, words, _stress_marks(phonemes, self.text_to_phonemes(text))
+
+    def text_to_phonemes(self, text: str) -> list[str]:
+        """espeak-ng's phonemes of ``text`` for the selected voice (``espeak_TextToPhonemes``):
+        IPA names, a stressed vowel with its mark in front (``ˈoʊ``), words separated by "" (an
+        empty name). Translation only: nothing is synthesized."""
+        data = text.replace("\0", " ").encode("utf-8") + b"\0"
+        buf = ctypes.create_string_buffer(data, len(data))
+        ptr = ctypes.c_void_p(ctypes.addressof(buf))
+        mode = PHONEMES_IPA | (ord(PHONEME_SEPARATOR) << 8)
+        out: list[str] = []
+        for _ in range(len(data) + 1):  # each call translates one clause and moves the pointer on
+            if not ptr.value:
+                break
+            got = self.lib.espeak_TextToPhonemes(ctypes.byref(ptr), espeakCHARS_UTF8, mode)
+            for word in (got or b"").decode("utf-8", "replace").split():
+                out += [p for p in word.split(PHONEME_SEPARATOR) if p] + [""]
+        return out
+
+
+def _stress_marks(phonemes: list[PhonemeEvent], translated: list[str]) -> list[PhonemeEvent]:
+    """``phonemes`` with the stress that ``translated`` (:meth:`_Engine.text_to_phonemes` of the
+    same text) marks on their vowels: the two sequences of names are matched in order (the
+    events also hold pauses, and synthesis may merge or change a phoneme here and there; an
+    unmatched phoneme keeps stress 0)."""
+    import difflib
+
+    def bare(name: str) -> tuple[str, int]:
+        stress = max((STRESS_MARKS.get(c, 0) for c in name), default=0)
+        return "".join(c for c in name if c not in STRESS_MARKS), stress
+
+    marks = [bare(t) for t in translated if t]
+    names = [p.name for p in phonemes]
+    out = list(phonemes)
+    matcher = difflib.SequenceMatcher(None, names, [m[0] for m in marks], autojunk=False)
+    for a, b, n in matcher.get_matching_blocks():
+        for k in range(n):
+            if marks[b + k][1] and names[a + k]:
+                p = phonemes[a + k]
+                out[a + k] = PhonemeEvent(p.char_index, p.sample, p.name, marks[b + k][1])
+    return out
 
 
 _engine: _Engine | None = None
@@ -280,9 +354,10 @@ def engine() -> _Engine:
     return _engine
 
 
-def run_synth(text: str, voice: str, rate: int, pitch: int, timeout: float = 120.0) -> tuple[int, bytes, list[WordEvent]]:
+def run_synth(text: str, voice: str, rate: int, pitch: int,
+              timeout: float = 120.0) -> tuple[int, bytes, list[WordEvent], list[PhonemeEvent]]:
     """Synthesize as the first synthesis of a freshly initialised engine (deterministic);
-    returns (sample_rate, s16le bytes, word events).
+    returns (sample_rate, s16le bytes, word events, phoneme events).
 
     The work is done by a child forked from this process's :class:`_ForkServer` (the library
     loaded and initialised, nothing synthesized yet: the state of a fresh process, for about
@@ -300,7 +375,7 @@ def run_synth(text: str, voice: str, rate: int, pitch: int, timeout: float = 120
     return _run_fresh(request, timeout)
 
 
-def _run_fresh(request: bytes, timeout: float) -> tuple[int, bytes, list[WordEvent]]:
+def _run_fresh(request: bytes, timeout: float) -> tuple[int, bytes, list[WordEvent], list[PhonemeEvent]]:
     """The request answered by a new process (this file run as a script)."""
     import subprocess
     import sys
@@ -343,7 +418,7 @@ def _split_answer(data: bytes) -> tuple[dict | None, bytes]:
     return (info if isinstance(info, dict) else None), body
 
 
-def _parse_answer(data: bytes, why: str) -> tuple[int, bytes, list[WordEvent]]:
+def _parse_answer(data: bytes, why: str) -> tuple[int, bytes, list[WordEvent], list[PhonemeEvent]]:
     info, body = _split_answer(data)
     if info is None:
         raise EngineError("synth", "the espeak-ng worker failed" + why)
@@ -352,7 +427,8 @@ def _parse_answer(data: bytes, why: str) -> tuple[int, bytes, list[WordEvent]]:
     if len(body) != info["nbytes"]:
         raise EngineError("synth", "the espeak-ng worker returned truncated audio")
     events = [WordEvent(int(c), int(n), int(s)) for c, n, s in info["events"]]
-    return int(info["sample_rate"]), body, events
+    phonemes = [PhonemeEvent(int(c), int(s), str(name), int(stress)) for c, s, name, stress in info.get("phonemes", [])]
+    return int(info["sample_rate"]), body, events, phonemes
 
 
 class _ForkServer:
@@ -462,9 +538,10 @@ def _answer(eng_or_error, request: bytes) -> bytes:
         if isinstance(eng_or_error, EngineError):
             raise eng_or_error
         req = json.loads(request.decode("utf-8"))
-        raw, events = eng_or_error.synth(req["text"], req["voice"], req["rate"], req["pitch"])
+        raw, events, phonemes = eng_or_error.synth(req["text"], req["voice"], req["rate"], req["pitch"])
         header = {"ok": True, "sample_rate": eng_or_error.sample_rate, "nbytes": len(raw),
-                  "events": [[e.char_index, e.length, e.sample] for e in events]}
+                  "events": [[e.char_index, e.length, e.sample] for e in events],
+                  "phonemes": [[p.char_index, p.sample, p.name, p.stress] for p in phonemes]}
     except EngineError as e:
         raw, header = b"", {"ok": False, "kind": e.kind, "message": e.message, "nbytes": 0}
     return json.dumps(header).encode("utf-8") + b"\n" + raw

@@ -10,7 +10,8 @@ from core.fileio import atomic_write, json_bytes
 from core.paths import cache_dir
 
 #: Bump when the timing algorithm changes so that old cache entries are not reused.
-ALGORITHM_VERSION = 2
+#: 3: espeak-ng's phoneme events (with their stress) are kept with the words.
+ALGORITHM_VERSION = 3
 
 
 def default_cache_dir() -> Path:

@@ -42,7 +42,7 @@ import numpy as np
 from core.words import TimedWord
 
 from . import _espeak, audio, cache
-from .types import Speech, SpeechError
+from .types import Speech, SpeechError, TimedPhoneme
 
 #: Silence kept before the first voiced sample, seconds.
 LEAD_IN = 0.05
@@ -235,6 +235,48 @@ def _close(word: str, choices) -> str:
     return f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
 
 
+# -- phonemes of words ----------------------------------------------------------------------
+
+#: First characters of IPA vowels (a phoneme is a vowel when its name starts with one).
+IPA_VOWELS = frozenset("aeiouyæɐɑɒɔəɘɚɛɜɝɞɤɨɪʉʊʌʏøœɶɵᵻ")
+#: How much longer than a consonant a vowel is taken to last when phonemes are spread over a
+#: word's time (a recording's words), and a stressed vowel longer still.
+VOWEL_SHARE, STRESSED_SHARE = 2.0, 3.0
+
+
+def is_vowel(phoneme: str) -> bool:
+    return bool(phoneme) and phoneme[0] in IPA_VOWELS
+
+
+def phonemes_of_words(words: Sequence[TimedWord], voice: str = "en-us") -> list[TimedPhoneme]:
+    """Phonemes for timed words whose audio espeak-ng did not make (a recording): each word's
+    phonemes as espeak-ng's dictionary and rules give them for ``voice``'s language
+    (``espeak_TextToPhonemes``, the word on its own), spread over the word's time, a vowel
+    :data:`VOWEL_SHARE` times as long as a consonant (:data:`STRESSED_SHARE` when stressed).
+    An empty list when espeak-ng or the voice is missing (the face then moves the mouth with
+    the words alone)."""
+    try:
+        with _espeak._LOCK:
+            eng = _espeak.engine()
+            if not eng.set_voice(_resolve_voice(eng, voice)):
+                return []
+            per_word = [eng.text_to_phonemes(w.word) for w in words]
+    except (_espeak.EngineError, SpeechError):
+        return []
+    out: list[TimedPhoneme] = []
+    for w, names in zip(words, per_word):
+        marked = [(n.lstrip("\u02c8\u02cc"), 2 if "\u02c8" in n else 1 if "\u02cc" in n else 0) for n in names if n]
+        if not marked or w.end <= w.start:
+            continue
+        shares = [(STRESSED_SHARE if k == 2 else VOWEL_SHARE) if is_vowel(n) else 1.0 for n, k in marked]
+        total, at = sum(shares), 0.0
+        for (name, stress), share in zip(marked, shares):
+            a = w.start + (w.end - w.start) * at / total
+            at += share
+            out.append(TimedPhoneme(name, a, w.start + (w.end - w.start) * at / total, stress))
+    return out
+
+
 # -- timing ---------------------------------------------------------------------------------
 
 
@@ -310,8 +352,11 @@ def _word_ends(spans, starts: list[float], mask, hop, n_samples: int, v1: int) -
 
 
 def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float], pause_n: dict[int, int],
-              joined: set[int], lead: float, tail: float):
-    """Word ends, pauses, trimmed/padded ends. Returns (samples, starts, ends) in samples.
+              joined: set[int], lead: float, tail: float, points: Sequence[float] = ()):
+    """Word ends, pauses, trimmed/padded ends. Returns (samples, starts, ends, places) in
+    samples: ``places`` maps each of ``points`` (positions in the engine's audio: phoneme
+    events) to where that audio is in the result, as (start, end): a point where an inserted
+    pause begins is the start of what comes after it and the end of what comes before it.
 
     A pause at boundary ``b`` goes after the previous word's audio (its end), never inside it:
     where the text already had a clause break there, at the quietest point of the silence
@@ -347,6 +392,7 @@ def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float],
             return p - sum(min(max(p - a, 0), b - a) for a, b in removed)
 
         starts, ends = [moved(x) for x in starts], [moved(x) for x in ends]
+        points = [moved(x) for x in points]
         cuts = {b: int(moved(c)) for b, c in cuts.items()}
         v0, v1 = int(moved(v0)), int(moved(v1))
     # trim/pad ends: keep exactly lead_n before v0 and tail_n after v1
@@ -366,13 +412,30 @@ def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float],
     if pause_n.get(n) and n > 0:
         inserts.append((total, pause_n[n]))
     out = audio.insert_silences(out, inserts)
+    placed = [min(max(p + shift, 0.0), float(total)) for p in points]
+    places = [(p + sum(k for at, k in inserts if at <= p), p + sum(k for at, k in inserts if at < p)) for p in placed]
     offs = [0] * n
     for b, cnt in pause_n.items():
         for k in range(b, n):
             offs[k] += cnt
     starts = [s + o for s, o in zip(starts, offs)]
     ends = [e + o for e, o in zip(ends, offs)]
-    return out, starts, ends
+    return out, starts, ends, places
+
+
+def _timed_phonemes(phonemes, places, sample_rate: int, n_samples: int) -> list[TimedPhoneme]:
+    """The phonemes of the result (pauses, which espeak-ng reports as phonemes without a
+    name, left out): each from where its audio starts to where the next phoneme's (a pause's
+    included) starts, the last to the end of the voice (:data:`TAIL` before the end)."""
+    out: list[TimedPhoneme] = []
+    voice_end = max(0.0, n_samples / sample_rate - TAIL)
+    for k, p in enumerate(phonemes):
+        if not p.name:
+            continue
+        start = places[k][0] / sample_rate
+        end = places[k + 1][1] / sample_rate if k + 1 < len(places) else max(voice_end, start)
+        out.append(TimedPhoneme(p.name, start, max(end, start), p.stress))
+    return out
 
 
 #: Characters after which espeak-ng ends a clause (and so a word's audio) before going on.
@@ -454,26 +517,28 @@ def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tu
             resolved = _resolve_voice(eng, voice)
             sr = eng.sample_rate
         if spans:
-            sr, raw, events = _espeak.run_synth(spoken, resolved, rate, pitch)
+            sr, raw, events, phonemes = _espeak.run_synth(spoken, resolved, rate, pitch)
             events = [_espeak.WordEvent(origin[min(e.char_index, len(origin) - 1)], e.length, e.sample)
                       for e in events]
         else:
-            raw, events = b"", []
+            raw, events, phonemes = b"", [], []
     except _espeak.EngineError as e:
         raise SpeechError(e.message, kind="crash" if e.kind == "crash" else "engine") from None
     samples = np.frombuffer(raw, dtype="<i2").astype(np.int16)
     mask, hop = audio.voiced_mask(samples, sr)
     starts = _event_starts(spans, events, len(samples), mask, hop) if spans else []
-    out, starts, ends = _timeline(samples, sr, spans, starts, pause_sample_counts(boundaries, sr), joined,
-                                  LEAD_IN, TAIL)
+    out, starts, ends, places = _timeline(samples, sr, spans, starts, pause_sample_counts(boundaries, sr), joined,
+                                          LEAD_IN, TAIL, [float(p.sample) for p in phonemes])
     words = _build_words(clean, spans, starts, ends, sr, len(out))
+    timed = _timed_phonemes(phonemes, places, sr, len(out))
     cdir.mkdir(parents=True, exist_ok=True)
     wav = audio.wav_bytes(out, sr)
     cache.write_bytes(wav_path, wav)
     meta = {"key": key, "source": "espeak-ng", "sample_rate": sr, "duration": len(out) / sr,
-            "words": [[w.word, w.start, w.end] for w in words], "wav_bytes": len(wav)}
+            "words": [[w.word, w.start, w.end] for w in words], "wav_bytes": len(wav),
+            "phonemes": [list(p) for p in timed]}
     cache.write_json(meta_path, meta)
-    return Speech(wav_path, sr, len(out) / sr, words, "espeak-ng")
+    return Speech(wav_path, sr, len(out) / sr, words, "espeak-ng", timed)
 
 
 def _load_cached(wav_path: Path, meta_path: Path, key: str, n_words: int) -> Speech | None:
@@ -486,6 +551,7 @@ def _load_cached(wav_path: Path, meta_path: Path, key: str, n_words: int) -> Spe
         if "wav_bytes" in meta and wav_path.stat().st_size != int(meta["wav_bytes"]):
             return None  # a short WAV (the entry is written without fsync): made again
         words = [TimedWord(str(t), float(a), float(b)) for t, a, b in meta["words"]]
-        return Speech(wav_path, int(meta["sample_rate"]), float(meta["duration"]), words, str(meta["source"]))
+        phonemes = [TimedPhoneme(str(p), float(a), float(b), int(k)) for p, a, b, k in meta.get("phonemes", [])]
+        return Speech(wav_path, int(meta["sample_rate"]), float(meta["duration"]), words, str(meta["source"]), phonemes)
     except (KeyError, TypeError, ValueError, OSError):
         return None

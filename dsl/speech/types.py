@@ -4,8 +4,30 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 from core.words import TimedWord
+
+#: IPA stress marks: primary, secondary (what :attr:`TimedPhoneme.stress` 2 and 1 write).
+STRESS_MARK = {2: "\u02c8", 1: "\u02cc"}
+
+
+class TimedPhoneme(NamedTuple):
+    """One phoneme (IPA, as espeak-ng names it: ``h``, ``oʊ``, ``tʃ``) spoken from ``start`` to
+    ``end`` seconds (on whatever clock the owner states); ``stress`` is 2 on a vowel with the
+    word's primary stress, 1 on a secondary one, else 0. In files it is a list
+    ``[name, start, end]`` with the stress as IPA's mark in front of the name (``"ˈoʊ"``)."""
+
+    phoneme: str
+    start: float
+    end: float
+    stress: int = 0
+
+    def shifted(self, seconds: float) -> "TimedPhoneme":
+        return TimedPhoneme(self.phoneme, self.start + seconds, self.end + seconds, self.stress)
+
+    def to_list(self, digits: int = 3) -> list:
+        return [STRESS_MARK.get(self.stress, "") + self.phoneme, round(self.start, digits), round(self.end, digits)]
 
 
 @dataclass
@@ -20,6 +42,9 @@ class Speech:
     duration: float
     words: list[TimedWord] = field(default_factory=list)
     source: str = ""
+    #: The phonemes, in order, on the same clock as the words (espeak-ng's phoneme events for
+    #: synthesized speech; each word's dictionary phonemes spread over its time for a recording).
+    phonemes: list[TimedPhoneme] = field(default_factory=list)
 
 
 class SpeechError(Exception):

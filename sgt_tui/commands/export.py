@@ -15,8 +15,17 @@ Export a motion file (or a script, generated first) by the output's extension, o
   .csv   one row per frame: frame,time,<joint>_x,<joint>_y,<joint>_z,... in metres
   .json  sgt motion file (all utterances kept)
   .npz   sgt motion file, binary
-  .glb   glTF 2.0 binary: skeleton, skinned mannequin, animation (15 fps)
-  .vrma  VRM Animation (the .glb of --rig vrm)
+  .glb   glTF 2.0 binary: skeleton, skinned mannequin, animation (15 fps); with a face,
+         the mannequin's head with 52 ARKit morph targets, animated (--rig sgt)
+  .vrma  VRM Animation (the .glb of --rig vrm); with a face, VRM expression tracks
+         (aa ih ou ee oh, blinks, happy angry sad relaxed surprised, look up/down/left/right)
+
+The face (lip sync, blinks, gaze, expressions) alone, with --face or by the name:
+  .livelink.csv   --face livelink: Unreal's Live Link Face recording (Timecode,
+                  BlendShapeCount, the 52 blendshapes, head and eye angles in radians)
+  .arkit.csv      --face arkit: frame,time,utterance, the 52 ARKit weights, the gaze
+  .arkit.npz      the same as arrays (weights, names, gaze, time, utterance)
+  .arkit.json     the same as JSON, a frame per line
 
 --rig NAME retargets to another skeleton or robot:
   sgt     sgt's own joints (default)            .bvh .glb (.csv .json .npz as above)
@@ -29,7 +38,8 @@ Export a motion file (or a script, generated first) by the output's extension, o
 A script is one performance: every speaker has one continuous track over all of it
 (its lines, listening motion between them). .json/.npz motion files hold all utterances and
 tracks; every other format holds one speaker's track: with several speakers, one file per
-speaker (take.bvh -> take.guide.bvh, take.visitor.bvh) or, with --speaker NAME, one. A
+speaker (take.bvh -> take.guide.bvh, take.visitor.bvh; take.livelink.csv ->
+take.guide.livelink.csv) or, with --speaker NAME, one. A
 sidecar OUT.timeline.json (take.bvh.timeline.json) says where each utterance starts in the
 files (frames and seconds) and where its audio starts; CSV rows also name the utterance playing. With
 --utterance N, only that utterance's own motion is written. Motion files from before the
@@ -38,6 +48,8 @@ another. '-o -' writes to standard output (JSON unless --format says otherwise).
 are documented in docs/formats.md."""
 
 FORMATS = ("bvh", "csv", "json", "npz", "glb", "vrma")
+#: The face's files (renders.face_export.FACE_KINDS; spelled out here so that --help imports no numpy).
+FACE_KINDS = {"livelink": ("csv",), "arkit": ("csv", "npz", "json")}
 #: What each --rig writes (renders.rigs owns the rigs; tests keep the names in step).
 RIG_OUTPUTS = {
     "sgt": ("bvh", "glb", "csv", "json", "npz"),
@@ -62,6 +74,9 @@ def register(sub) -> None:
                    help="target skeleton or robot: " + ", ".join(RIG_OUTPUTS) + " (default: sgt)")
     p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (0-based)")
     p.add_argument("--speaker", metavar="NAME", help="only this speaker's track (one file)")
+    p.add_argument("--face", choices=tuple(FACE_KINDS),
+                   help="write the face instead of the body: livelink (Live Link Face .csv) or arkit (.csv, .npz, .json); "
+                        "implied by OUT.livelink.csv, OUT.arkit.csv|npz|json")
     from sgt_tui.commands.render import add_script_options
 
     add_script_options(p)
@@ -71,9 +86,16 @@ def register(sub) -> None:
 def run(args) -> int:
     from sgt_tui.commands.clips import load_performance
     from sgt_tui.commands.common import STDOUT, inputs_of, output_file, output_format, shown
-    from sgt_tui.errors import UsageError
+    from sgt_tui.errors import InputError, UsageError
 
     fmt = output_format(args.output, args.format, FORMATS, what="export")
+    face = face_kind(args.output, args.face)
+    if face is not None:
+        if args.rig is not None:
+            raise UsageError(f"--face {face} and --rig {args.rig}: the face's files are the same for every rig: drop --rig")
+        if fmt not in FACE_KINDS[face]:
+            raise UsageError(f"-o {args.output}: --face {face} writes {', '.join('.' + f for f in FACE_KINDS[face])}, "
+                             f"not .{fmt}")
     rig = args.rig or ("vrm" if fmt == "vrma" else "sgt")
     if fmt not in RIG_OUTPUTS[rig]:
         raise UsageError(f"-o {args.output}: --rig {rig} writes {', '.join('.' + f for f in RIG_OUTPUTS[rig])}, not .{fmt}")
@@ -95,7 +117,7 @@ def run(args) -> int:
             raise UsageError(f"--speaker {args.speaker}: no such speaker in {args.input} (it has {', '.join(names)})")
         tracks = [t for t in tracks if speaker_name(t.speaker) == args.speaker]
         clips = [c for c in clips if speaker_name(c.speaker) == args.speaker]
-    if rig == "sgt" and fmt in ("json", "npz"):
+    if face is None and rig == "sgt" and fmt in ("json", "npz"):
         save_motion(out, clips, format=fmt, tracks=tracks, source=take.source)
         print(f"wrote {shown(out)}: {len(clips)} utterance(s), {len(tracks)} track(s)", file=sys.stderr)
         return 0
@@ -106,13 +128,18 @@ def run(args) -> int:
     else:
         if args.output == STDOUT:
             raise UsageError(f"-o -: {args.input} has {len(tracks)} speakers; name one with --speaker or write files")
-        paths = speaker_paths(out, [speaker_name(t.speaker) for t in tracks])
+        paths = speaker_paths(out, [speaker_name(t.speaker) for t in tracks], _face_suffix(args.output))
         outputs = [(output_file(str(p), binary=binary, inputs=inputs), track_clip(t, clips),
                     utterance_frames(t.n_frames, [c for c in clips if c.speaker == t.speaker]))
                    for p, t in zip(paths, tracks)]  # every output checked before the first is written
+    if face is not None:
+        faceless = [speaker_name(c.speaker) for _, c, _ in outputs if c.face is None]
+        if faceless:
+            raise InputError(f"{args.input} has no face for {', '.join(faceless)} (a motion file made before faces, "
+                             "or generated without one): generate it again")
     for target, clip, frames in outputs:
         own = [u for u in dict.fromkeys(frames) if u is not None]
-        note = _write(target, clip, rig, fmt, frames)
+        note = _write(target, clip, rig, fmt, frames, face)
         print(f"wrote {shown(target)}: {len(own)} utterance(s), {clip.n_frames} frames" + (f"; {note}" if note else ""),
               file=sys.stderr)
     if sidecar is not None:
@@ -121,14 +148,42 @@ def run(args) -> int:
     return 0
 
 
-def speaker_paths(out, names: list[str]) -> list:
-    """One file per speaker: take.bvh -> take.guide.bvh, take.visitor.bvh. A name is made safe
-    for a file name (no '/', NUL or leading dot: 'a/b' -> 'a_b'); names that end up alike get a
-    number ('a_b', 'a_b-2')."""
+def face_kind(output: str, chosen: str | None) -> str | None:
+    """The face file an export writes: ``--face``, else what OUT's name says (``.livelink.csv``,
+    ``.arkit.csv|npz|json``), else None (the body). A name that says another kind than ``--face``
+    is a usage error."""
+    from sgt_tui.errors import UsageError
+
+    suffix = _face_suffix(output)
+    named = suffix.split(".")[1] if suffix else None
+    if chosen is not None and named is not None and named != chosen:
+        raise UsageError(f"-o {output} is a {named} file, not --face {chosen}")
+    return chosen or named
+
+
+def _face_suffix(output: str) -> str | None:
+    """``.livelink.EXT`` or ``.arkit.EXT`` when OUT's name ends with one (any case; EXT one of
+    :data:`FORMATS`, so that ``x.livelink.json`` is refused, not taken for a motion file), else None."""
+    name = output.lower()
+    for kind in FACE_KINDS:
+        for t in FORMATS:
+            if name.endswith(f".{kind}.{t}") and len(name) > len(kind) + len(t) + 2:
+                return output[-(len(kind) + len(t) + 2):]
+    return None
+
+
+def speaker_paths(out, names: list[str], suffix: str | None = None) -> list:
+    """One file per speaker: take.bvh -> take.guide.bvh, take.visitor.bvh; with ``suffix`` (a
+    face file's ``.livelink.csv``) the name goes before it: take.guide.livelink.csv. A name is
+    made safe for a file name (no '/', NUL or leading dot: 'a/b' -> 'a_b'); names that end up
+    alike get a number ('a_b', 'a_b-2')."""
     import re
     from pathlib import Path
 
     out, taken, paths = Path(out), set(), []
+    stem, tail = out.stem, out.suffix
+    if suffix and out.name.lower().endswith(suffix.lower()):
+        stem, tail = out.name[:-len(suffix)], suffix
     for name in names:
         safe = re.sub(r"[/\\\x00]", "_", name).lstrip(".") or "speaker"
         candidate, n = safe, 1
@@ -136,7 +191,7 @@ def speaker_paths(out, names: list[str]) -> list:
             n += 1
             candidate = f"{safe}-{n}"
         taken.add(candidate.lower())
-        paths.append(out.with_name(f"{out.stem}.{candidate}{out.suffix}"))
+        paths.append(out.with_name(f"{stem}.{candidate}{tail}"))
     return paths
 
 
@@ -149,7 +204,13 @@ def timeline_path(out):
     return out.with_name(out.name + ".timeline.json")
 
 
-def _write(target, clip, rig: str, fmt: str, frames) -> str:
+def _write(target, clip, rig: str, fmt: str, frames, face: str | None = None) -> str:
+    if face is not None:
+        from core.fileio import atomic_write
+        from renders.face_export import face_bytes
+
+        atomic_write(target, face_bytes(clip, face, fmt, frames))
+        return "Live Link Face" if face == "livelink" else "ARKit weights and gaze"
     from renders.export import write_bvh, write_csv
 
     if rig == "sgt" and fmt in ("bvh", "csv"):

@@ -12,6 +12,7 @@ from pathlib import Path
 from lsprotocol import types as lsp
 
 from core.controls import STYLE_NAMES
+from core.face import EXPRESSIONS, LOOK_DIRECTIONS
 from dsl.directives import NAME_RE as PRESET_NAME_RE
 from dsl.lines import strip_comment
 from dsl.parser import POSE_OPTIONS
@@ -119,14 +120,16 @@ def complete(doc: Document, row: int, col: int, workspace: Workspace) -> list[ls
             for order, (name, detail) in enumerate(_speakers(doc, workspace))]
 
 
-def _speakers(doc: Document, workspace: Workspace) -> list[tuple[str, str]]:
-    """Speakers of this script first (by lines), then the workspace's."""
+def _speakers(doc: Document, workspace: Workspace | None) -> list[tuple[str, str]]:
+    """Speakers of this script first (by lines), then the workspace's (with a workspace)."""
     here: dict[str, int] = {}
     for o in occurrences(doc.text):
         if o.kind == "speaker" and not doc.line(o.row).startswith("@"):  # its lines, not its directives
             here[o.name] = here.get(o.name, 0) + 1
     out = [(name, f"speaker in this script ({n} line{'s' if n != 1 else ''})")
            for name, n in sorted(here.items(), key=lambda kv: -kv[1])]
+    if workspace is None:
+        return out
     elsewhere = workspace.speakers()
     out += [(name, f"speaker in the workspace ({n} line{'s' if n != 1 else ''})")
             for name, n in sorted(elsewhere.items(), key=lambda kv: -kv[1]) if name not in here]
@@ -173,7 +176,22 @@ def _complete_tag(doc: Document, row: int, col: int, inner: str) -> list[lsp.Com
         start = col - len(m.group(1))
         return [lsp.CompletionItem(label, kind=lsp.CompletionItemKind.Keyword, documentation=knowledge.TAGS[kind],
                                    text_edit=_edit(doc, row, start, col, label))
-                for kind, label in (("pose", "pose:"), ("pause", "pause "))]
+                for kind, label in (("pose", "pose:"), ("look", "look:"), ("pause", "pause "))]
+    m = re.fullmatch(r"[ \t]*look[ \t]*:[ \t]*([\w\-]*)", inner)
+    if m:
+        start = col - len(m.group(1))
+        here = [(name, "speaker: look at them") for name, _ in _speakers(doc, None)]
+        there = [(name, f"direction: yaw {yaw:+g}, pitch {pitch:+g} degrees") for name, (yaw, pitch) in LOOK_DIRECTIONS.items()]
+        return [lsp.CompletionItem(name, kind=lsp.CompletionItemKind.EnumMember, detail=detail,
+                                   text_edit=_edit(doc, row, start, col, name)) for name, detail in here + there]
+    m = re.fullmatch(r"[ \t]*look[ \t]*:[ \t]*[\w\-]+[ \t]+([\w.=]*)", inner)
+    if m:
+        partial = m.group(1)
+        start = col - len(partial)
+        if partial.startswith("hold="):
+            return _durations(doc, row, start + 5, col)
+        return [lsp.CompletionItem("hold=", kind=lsp.CompletionItemKind.Property, documentation=knowledge.OPTIONS["hold"],
+                                   text_edit=_edit(doc, row, start, col, "hold="))]
     m = re.fullmatch(r"[ \t]*pose[ \t]*:[ \t]*([\w\-]*)", inner)
     if m:
         start = col - len(m.group(1))
@@ -225,12 +243,21 @@ def _complete_style(doc: Document, row: int, col: int, line: str, at: int, inner
         return [lsp.CompletionItem(f"{n}>", kind=lsp.CompletionItemKind.Keyword, filter_text=n,
                                    text_edit=_edit(doc, row, col - len(partial), col, f"{n}>")) for n in names]
     partial = re.split(r"[ \t]", inner)[-1]
+    m = re.fullmatch(r"face:([\w\-]*)", partial)
+    if m:
+        start = col - len(m.group(1))
+        return [lsp.CompletionItem(name, kind=lsp.CompletionItemKind.EnumMember, detail="facial expression",
+                                   documentation=", ".join(f"{k} {v:g}" for k, v in shapes.items()) or "no expression (ends an outer one)",
+                                   text_edit=_edit(doc, row, start, col, name)) for name, shapes in EXPRESSIONS.items()]
     if ":" in partial or not re.fullmatch(r"[\w\-]*", partial):
         return []
     start = col - len(partial)
     items = [lsp.CompletionItem(name, kind=lsp.CompletionItemKind.Property, detail="style element, -3..3",
                                 documentation=f"{knowledge.STYLES[name]}; {knowledge.STYLE_RANGE}",
                                 text_edit=_edit(doc, row, start, col, f"{name}:")) for name in STYLE_NAMES]
+    items.append(lsp.CompletionItem("face", kind=lsp.CompletionItemKind.Property, detail="facial expression",
+                                    documentation="<face:NAME>: " + ", ".join(EXPRESSIONS),
+                                    text_edit=_edit(doc, row, start, col, "face:")))
     items += [lsp.CompletionItem(name, kind=lsp.CompletionItemKind.Constant,
                                  detail=("built-in preset: " if name in BUILTIN_PRESETS else "preset: ") + knowledge.preset_text(values),
                                  text_edit=_edit(doc, row, start, col, name)) for name, values in presets.items()]

@@ -49,6 +49,8 @@ OPTIONS = {
 TAGS = {
     "pose": "[pose:NAME x2 flip hold=500ms]: a library gesture whose stroke lands on the next word's onset",
     "pause": "[pause DURATION]: silence inserted into the speech, e.g. [pause 300ms] (at most 10 s)",
+    "look": "[look:TARGET hold=800ms]: the eyes look at a speaker of the script or a direction (left, right, up, "
+            "down, ahead) from the next word to the end of its clause, or for hold=",
 }
 
 

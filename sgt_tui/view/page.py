@@ -5,15 +5,20 @@ positions (frames x 2 x 20 x 3, :func:`core.hands.hand_positions`) on the perfor
 flattened and rounded to 0.1 mm; every utterance's words and controls on that clock (a pose
 control's ``stroke`` is the second its stroke keyframe plays, where a click on it jumps); and
 sgt's own cameras, lights and colours (:mod:`renders.mannequin`), so that the page's mannequin,
-seen from one of sgt's views, is the picture ``sgt render`` draws of that frame. The speech is
-one WAV on the same clock (sample 0 = frame 0, :mod:`renders.audio_mix`); a speaker's motion
-for a user's VRM character is VRM Animation (:func:`renders.gltf.glb_bytes` on the vrm rig).
+seen from one of sgt's views, is the picture ``sgt render`` draws of that frame. A speaker with a
+face (:class:`core.face.FaceTrack`) has ``face``: the blendshape weights that
+:mod:`renders.face_rig` draws and that this take moves (``channels``; the ``eyeLook*`` ones are
+left out: the gaze turns the pupils) and the gaze per eye, for the page's copy of that face
+(``viewer/src/face.js``). The speech is one WAV on the same clock (sample 0 = frame 0,
+:mod:`renders.audio_mix`); a speaker's motion for a user's VRM character is VRM Animation
+(:func:`renders.gltf.glb_bytes` on the vrm rig).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from core.face import ARKIT_INDEX, ARKIT_NAMES, FaceTrack
 from core.hands import hand_positions
 from core.motion import MotionFile
 from core.skeleton import FPS, JOINTS
@@ -28,10 +33,27 @@ FORMAT = "sgt-view"
 VERSION = 1
 #: Decimals of the positions sent to the page (0.1 mm).
 DECIMALS = 4
+#: The blendshapes the mannequin's face draws (renders.face_rig.part_transforms): all but the
+#: ``eyeLook*`` ones, which say the gaze again.
+FACE_CHANNELS: tuple[str, ...] = tuple(n for n in ARKIT_NAMES if not n.startswith("eyeLook"))
 
 
 def _flat(array) -> list[float]:
     return np.round(np.asarray(array, np.float64), DECIMALS).reshape(-1).tolist()
+
+
+def face_of(face: FaceTrack | None) -> dict | None:
+    """A speaker's face for the page (None without one): ``channels``, the names of the
+    :data:`FACE_CHANNELS` that are not 0 anywhere in the take (as rounded), ``weights``
+    (frames x channels, flattened, rounded as the motion file rounds them) and ``gaze`` (frames x 2
+    eyes (left, right) x (yaw, pitch) in degrees, flattened). A channel left out is 0 throughout."""
+    if face is None:
+        return None
+    weights = np.round(face.weights.astype(np.float64), FaceTrack.DECIMALS["weights"])
+    used = [n for n in FACE_CHANNELS if np.any(weights[:, ARKIT_INDEX[n]] != 0)]
+    rows = weights[:, [ARKIT_INDEX[n] for n in used]]
+    return {"channels": used, "weights": rows.reshape(-1).tolist(),
+            "gaze": np.round(face.gaze.astype(np.float64), FaceTrack.DECIMALS["gaze"]).reshape(-1).tolist()}
 
 
 def figures(motion: MotionFile) -> list:
@@ -61,8 +83,11 @@ def page_take(motion: MotionFile, name: str) -> dict:
     speakers = []
     for i, clip in enumerate(shown):
         hands = hand_positions(clip.positions, clip.hands)
-        speakers.append({"name": names[i], "tint": list(speaker_tint(i)),
-                         "positions": _flat(clip.positions), "hands": _flat(hands)})
+        speaker = {"name": names[i], "tint": list(speaker_tint(i)), "positions": _flat(clip.positions), "hands": _flat(hands)}
+        face = face_of(clip.face)
+        if face is not None:
+            speaker["face"] = face
+        speakers.append(speaker)
     utterances, words, controls = [], [], []
     for c, first in zip(motion.clips, _starts(motion)):
         who = speaker_name(c.speaker)

@@ -1,10 +1,12 @@
 // sgt's mannequin in three.js, drawn from a frame's joint positions and hand joint positions,
 // part for part as renders/mannequin.py builds and poses it (the same shapes, sizes, colours and
 // transforms), so that the page shows what `sgt render` draws: a torso and hips, a neck, a head
-// with eyes and a nose, capsules along the arm bones, balls at the shoulders and elbows, and per
-// hand a palm (a flattened box), a wrist ball and three capsules for each digit.
+// with the face of face.js (eyes that look, eyelids that blink, brows, a mouth that opens and
+// rounds, a nose), capsules along the arm bones, balls at the shoulders and elbows, and per hand a
+// palm (a flattened box), a wrist ball and three capsules for each digit.
 
 import * as THREE from 'three';
+import { FACE_PARTS, HEAD_RADII, NEUTRAL, faceGeometry, faceMatrices } from './face.js';
 
 // joint order of core/skeleton.py
 export const J = {
@@ -12,7 +14,6 @@ export const J = {
   right_shoulder: 7, right_elbow: 8, right_wrist: 9,
 };
 const SKIN = [0.80, 0.62, 0.48];
-const EYE = [0.15, 0.17, 0.2];
 const BODY = [0.25, 0.36, 0.55];
 const JOINT_COLOR = [0.17, 0.24, 0.37];
 const BONE = { left_shoulder: 0.18, left_elbow: 0.29, left_wrist: 0.26, right_shoulder: 0.18, right_elbow: 0.29, right_wrist: 0.26 };
@@ -65,8 +66,7 @@ export class Mannequin {
     const body = material(tint, 0.75);
     const joint = material(tint.map((c, i) => c * JOINT_COLOR[i] / BODY[i]), 0.75);
     const skin = material(SKIN, 0.6);
-    const eye = material(EYE, 0.4);
-    this.materials = [body, joint, skin, eye];
+    this.materials = [body, joint, skin];
     const add = (name, geometry, mat) => {
       const mesh = new THREE.Mesh(geometry, mat);
       mesh.matrixAutoUpdate = false;
@@ -82,14 +82,16 @@ export class Mannequin {
     add('hips', hips, joint);
     add('neckpiece', capsuleZ(0.042, 0.07), skin);
     const head = new THREE.SphereGeometry(1, 32, 20);
-    head.scale(0.092, 0.112, 0.102);
+    head.scale(...HEAD_RADII);
     add('head', head, skin);
-    const nose = new THREE.ConeGeometry(0.022, 0.05, 12);
-    nose.translate(0, 0.025, 0);
-    nose.rotateX(Math.PI / 2); // along +z from its base at the origin, as trimesh's cone
-    add('nose', nose, skin);
-    add('eye_l', new THREE.SphereGeometry(0.014, 10, 8), eye);
-    add('eye_r', new THREE.SphereGeometry(0.014, 10, 8), eye);
+    // the face: its parts' maps in the head's frame (this.face), moved with the head
+    this.face = {};
+    for (const [name, shape, rgb, roughness] of FACE_PARTS) {
+      const mat = material(rgb, roughness);
+      this.materials.push(mat);
+      add(`face_${name}`, faceGeometry(shape), mat);
+      this.face[name] = new THREE.Matrix4();
+    }
     LIMBS.forEach(([a, b, r]) => add(`limb_${a}_${b}`, capsuleZ(r, BONE[b]), body));
     BALLS.forEach(([j, r]) => add(`ball_${j}`, new THREE.SphereGeometry(r, 16, 12), joint));
     this.segments = [];
@@ -113,8 +115,9 @@ export class Mannequin {
     this._scale = new THREE.Vector3();
   }
 
-  // Move the parts to joint positions `p` (30 numbers) and hand joints `h` (120 numbers).
-  pose(p, h) {
+  // Move the parts to joint positions `p` (30 numbers), hand joints `h` (120 numbers) and the face
+  // to `face` (a FaceTrack sampled at the frame; a resting face without one).
+  pose(p, h, face = NEUTRAL) {
     const P = (j, out) => out.set(p[3 * j], p[3 * j + 1], p[3 * j + 2]);
     const [spine, neck, nose, top, ls, rs, a, b] = this._v;
     P(J.spine, spine); P(J.neck, neck); P(J.nose, nose); P(J.head_top, top);
@@ -141,11 +144,9 @@ export class Mannequin {
     const neckDir = center.clone().sub(neck);
     this._q.setFromUnitVectors(Z, neckDir.clone().normalize());
     set('neckpiece', m.makeRotationFromQuaternion(this._q).setPosition(neck.clone().addScaledVector(neckDir, 0.45)));
-    set('nose', head.clone().setPosition(center.clone().addScaledVector(hz, 0.092).addScaledVector(hu, -0.012)));
-    for (const [name, sx] of [['eye_l', 1], ['eye_r', -1]]) {
-      const at = center.clone().addScaledVector(hx, 0.036 * sx).addScaledVector(hu, 0.02).addScaledVector(hz, 0.084);
-      set(name, head.clone().setPosition(at));
-    }
+    const headToWorld = head.clone().setPosition(center);
+    faceMatrices(face.weight, face.g, this.face);
+    for (const [name] of FACE_PARTS) this.parts[`face_${name}`].matrix.multiplyMatrices(headToWorld, this.face[name]);
     // capsules between two joints
     const between = (mesh, from, to) => {
       const d = b.subVectors(to, from);
