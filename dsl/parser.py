@@ -427,13 +427,8 @@ class _Analyser:
             elif key == "flip" and value is None:
                 flip = True
             elif key == "hold":
-                seconds = parse_duration(value) if value is not None else None
+                seconds = self._hold_seconds(stmt, apos, alen, value)
                 if seconds is None:
-                    self._bad_duration(stmt, apos, alen, "hold", value)
-                    ok = False
-                elif not 0 < seconds <= MAX_HOLD:
-                    self.report(stmt, apos, alen, rules.OUT_OF_RANGE, what="hold", value=value,
-                                allowed=f"more than 0 and at most {MAX_HOLD:g}s")
                     ok = False
                 else:
                     hold = seconds
@@ -456,6 +451,19 @@ class _Analyser:
         else:
             mark.after_word = len(starts) - 1
         utt.poses.append(mark)
+
+    def _hold_seconds(self, stmt, apos: int, alen: int, value: str | None) -> float | None:
+        """The seconds of a ``hold=DURATION`` option (a pose control's or a look mark's), or None
+        after reporting a bad or out-of-range duration."""
+        seconds = parse_duration(value) if value is not None else None
+        if seconds is None:
+            self._bad_duration(stmt, apos, alen, "hold", value)
+            return None
+        if not 0 < seconds <= MAX_HOLD:
+            self.report(stmt, apos, alen, rules.OUT_OF_RANGE, what="hold", value=value,
+                        allowed=f"more than 0 and at most {MAX_HOLD:g}s")
+            return None
+        return seconds
 
     def _look(self, stmt, utt: Utterance, offset: int, length: int, names, args, starts: list[int], base: int) -> None:
         """``[look:TARGET hold=DURATION]``: a :class:`~dsl.script.LookMark` anchored like a pose
@@ -488,13 +496,8 @@ class _Analyser:
                             fixes=(Fix("remove the earlier one", (TextEdit(line, col, seen[1], ""),)),)
                             if line == stmt.position(apos)[0] else ())
             seen = (apos, alen)
-            seconds = parse_duration(value)
+            seconds = self._hold_seconds(stmt, apos, alen, value)
             if seconds is None:
-                self._bad_duration(stmt, apos, alen, "hold", value)
-                ok = False
-            elif not 0 < seconds <= MAX_HOLD:
-                self.report(stmt, apos, alen, rules.OUT_OF_RANGE, what="hold", value=value,
-                            allowed=f"more than 0 and at most {MAX_HOLD:g}s")
                 ok = False
             else:
                 hold = seconds
