@@ -15,7 +15,8 @@ motion: the ``sgt`` commands and the editor's worker all call it.
 
 Engines share one interface: ``generate(inputs: EngineInputs, *, seed) -> (T, 27)``, where
 :class:`EngineInputs` carries the per-frame controls, the timed words and the speech audio.
-Engines: ``neural`` (the controllable generator, default), ``keyframe`` (SGToolkit's MANUAL
+Engines: ``neural`` (the controllable generator, default), ``matching`` (motion matching over a
+database of the training takes, :mod:`model.matching`), ``keyframe`` (SGToolkit's MANUAL
 condition) and ``rules`` (the procedural teacher).
 """
 
@@ -46,10 +47,13 @@ from model.weights import WeightsError
 #: Engine name -> module with ``generate(inputs, *, seed, ...)``.
 ENGINES = {
     "neural": "model.neural",  # the controllable generator (shipped weights)
+    "matching": "model.matching",  # motion matching over the training takes (shipped database)
     "keyframe": "model.keyframe",  # SGToolkit's MANUAL condition: splines through the pose controls
     "rules": "model.teacher",  # the rule-based teacher of the procedural corpus
 }
 DEFAULT_ENGINE = "neural"
+#: Engines that start an utterance from its speaker's listening motion (seed poses).
+SEEDED_ENGINES = ("neural", "matching")
 
 
 @dataclass
@@ -134,7 +138,8 @@ class Take:
 
 
 def engine_function(name: str, options=None) -> Callable:
-    """The engine's ``generate`` function; ``options`` (neural only) set post-processing and weights."""
+    """The engine's ``generate`` function; ``options`` (a :class:`model.neural.Options`; neural and
+    matching) set post-processing, weights and the take's posture."""
     if name not in ENGINES:
         raise GenerateError(f"unknown engine '{name}': choose one of {', '.join(ENGINES)}")
     fn = importlib.import_module(ENGINES[name]).generate
@@ -144,6 +149,15 @@ def engine_function(name: str, options=None) -> Callable:
         except WeightsError as exc:
             raise GenerateError(str(exc)) from None
         return partial(fn, options=options)
+    if name == "matching":
+        from model import matching  # lazy: only this engine reads the database
+
+        opts = matching.options_from(options)
+        try:  # fail early, with the fix, when the database is missing or unusable
+            matching.load(opts.database)
+        except matching.DatabaseError as exc:
+            raise GenerateError(str(exc)) from None
+        return partial(fn, options=opts)
     return fn
 
 
@@ -159,8 +173,8 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     base_seed = plan.seed if seed is None else seed
     _check_seed(base_seed)
-    # only the neural engine takes seed poses: the others need no listening motion here
-    if not (seed_poses and (engine or DEFAULT_ENGINE) == "neural"):
+    # only the seeded engines take seed poses: the others need no listening motion here
+    if not (seed_poses and (engine or DEFAULT_ENGINE) in SEEDED_ENGINES):
         listening = None
     elif listening is None:
         listening = listening_tracks(plan, base_seed)
@@ -188,7 +202,7 @@ def exact_for(engine: str, options=None) -> Exact:
         from model.teacher import CONTROL_RAMP, CONTROL_RAMP_STEP_DEG  # lazy: the teacher loads the library
 
         return Exact(ramp=CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG)
-    if engine == "neural" and options is not None:
+    if engine in SEEDED_ENGINES and options is not None:
         return Exact(ramp=options.ramp, blend=options.blend)
     return Exact()
 
@@ -243,7 +257,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
         plan, diagnostics, text = result.plan, result.diagnostics, result.script.source
     base_seed = plan.seed if seed is None else seed
     # once, for the seed poses and the tracks (the other engines' tracks compute it when asked)
-    listening = listening_tracks(plan, base_seed) if seed_poses and engine == "neural" else None
+    listening = listening_tracks(plan, base_seed) if seed_poses and engine in SEEDED_ENGINES else None
     clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options, seed_poses=seed_poses,
                             listening=listening)
     take = Take(plan, clips, diagnostics, text, base_seed, listening=listening, exact=exact_for(engine, options))

@@ -32,7 +32,7 @@ import numpy as np
 from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
-from model import keyframe, neural, postprocess
+from model import keyframe, matching, neural, postprocess
 from model.runtime import TorchRunner
 from model.style import style as style_of
 from model.teacher import teach
@@ -50,6 +50,25 @@ def _neural(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
     raw = neural.network_motion(model, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing, blend=blend,
                               style=arrays.style, style_mask=arrays.style_mask)
+
+
+class MatchingModel:
+    """The matching engine's database as :func:`condition_motions` runs it: each clip draws the
+    take whose style its free frames follow with the clip's seed (none with ``takes=False``)."""
+
+    def __init__(self, db: matching.Database, takes: bool = True) -> None:
+        self.db = db
+        self.takes = takes
+
+
+def _generate(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
+    """One clip's motion by the engine ``model`` stands for: a :class:`MatchingModel` or a
+    runner of the network (:func:`_neural`). ``smoothing=None``: the engine's default."""
+    if isinstance(model, MatchingModel):
+        take = matching.draw_take(model.db, seed) if model.takes else None
+        raw = matching.match(model.db, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed, take)
+        return matching.finish(raw, arrays, smoothing=smoothing or matching.Options.smoothing, blend=blend)
+    return _neural(model, clip, arrays, seed, blend, smoothing or "one_euro")
 
 
 def _rules(clip, seed):
@@ -81,10 +100,10 @@ def condition_motions(clips, model, mean: np.ndarray, *, seed: int = 0, smoothin
         pcs_ctl.append(pc)
         sty_ctl.append(sc)
         empty = ControlArrays.empty(len(ref))
-        out["free"].append(_neural(model, clip, empty, seed + i, smoothing=smoothing))
-        out["pose_raw"].append(_neural(model, clip, pc, seed + i, blend=False, smoothing="none"))
-        out["pose"].append(_neural(model, clip, pc, seed + i, smoothing=smoothing))
-        out["style"].append(_neural(model, clip, sc, seed + i, smoothing=smoothing))
+        out["free"].append(_generate(model, clip, empty, seed + i, smoothing=smoothing))
+        out["pose_raw"].append(_generate(model, clip, pc, seed + i, blend=False, smoothing="none"))
+        out["pose"].append(_generate(model, clip, pc, seed + i, smoothing=smoothing))
+        out["style"].append(_generate(model, clip, sc, seed + i, smoothing=smoothing))
         out["mean"].append(np.repeat(mean[None], len(ref), axis=0))
         out["rules"].append(_rules(clip, seed + i))
         out["keyframe"].append(keyframe.generate(pc, mean_pose=mean))
@@ -137,7 +156,7 @@ def style_following(clips, model, *, seed: int = 0, smoothing: str = "one_euro",
                 arrays.style[:, k] = value
                 arrays.style_mask[:, k] = 1.0
                 speaking = np.asarray(clip["word_ids"]) > 0
-                got.append(style_of(_neural(model, clip, arrays, seed + i, smoothing=smoothing))[speaking, k])
+                got.append(style_of(_generate(model, clip, arrays, seed + i, smoothing=smoothing))[speaking, k])
             achieved.append(float(np.concatenate(got).mean()))
         slope = float(np.polyfit(np.asarray(levels, np.float64), np.asarray(achieved), 1)[0])
         out[name] = {"requested": list(levels), "achieved": achieved, "slope": slope}
@@ -157,7 +176,8 @@ def format_style_following(result: dict) -> str:
 
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
                     progress=None, limit: int | None = None, smoothing: str = "one_euro",
-                    with_style: bool = False, takes: bool = True) -> list[dict] | tuple[list[dict], dict]:
+                    with_style: bool = False, takes: bool = True, engine: str = "neural",
+                    database=None) -> list[dict] | tuple[list[dict], dict]:
     """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``
     ("all": every clip of the corpus, for a held-out corpus built with another seed),
     then the ``shuffled audio`` and ``rules, shuffled`` rows; with ``with_style`` also :func:`style_following`, as
@@ -166,12 +186,17 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
     ``smoothing`` is the neural engine's post-filter for the model rows (``model+pose raw`` is
     always unsmoothed and unblended: the network's own pose following). ``takes``: draw
     each clip's take posture from the weights' training takes, as generation does
-    (:mod:`model.take_posture`); false: the network alone."""
+    (:mod:`model.take_posture`); false: the network alone. ``engine``: "neural" (``weights``)
+    or "matching" (the database at ``database``, default the shipped one; ``takes``: each clip
+    draws the take its free frames follow; ``smoothing`` None: the engine's default, none)."""
     clips = load_corpus(corpus, None if split == "all" else split)
     if limit:
         clips = clips[:limit]
-    net, info = load_weights(weights)
-    model = TorchRunner(net, takes_of(weights or DEFAULT_WEIGHTS, info) if takes else None)
+    if engine == "matching":
+        model = MatchingModel(matching.load(database), takes)
+    else:
+        net, info = load_weights(weights)
+        model = TorchRunner(net, takes_of(weights or DEFAULT_WEIGHTS, info) if takes else None)
     conditions = condition_motions(clips, model, mean_pose(load_corpus(corpus, "train")), seed=seed,
                                    smoothing=smoothing, progress=progress)
     audio = [c["audio_clean"] for c in clips]

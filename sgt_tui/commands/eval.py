@@ -19,22 +19,27 @@ docs/metrics.md."""
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import SMOOTHING_CHOICES, add_take_posture_option, positive_int, seed
+    from sgt_tui.commands.common import EVAL_ENGINES, SMOOTHING_CHOICES, add_take_posture_option, positive_int, seed
 
     p = sub.add_parser("eval", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
     p.add_argument("--split", default="test", choices=("test", "val", "train", "all"),
                    help="which clips (default test); 'all': every clip, for a held-out corpus built with another "
                         "seed (sgt corpus -o data/heldout --hours 1 --seed 1), whose FGD is steadier: see docs/metrics.md")
+    p.add_argument("--engine", choices=EVAL_ENGINES, default="neural",
+                   help="the engine of the model rows: neural (default: the network) or matching (motion matching)")
     p.add_argument("--weights", help="generator weights (default: the shipped ones)")
+    p.add_argument("--database", metavar="PATH",
+                   help="the matching engine's database (default: the shipped model/weights/matching_db.npz)")
     p.add_argument("--extractor", default="default", help="FGD feature extractor weights (default: the shipped ones)")
     p.add_argument("-o", "--output", metavar="JSON",
                    help="also write the rows as JSON ('-': standard output, the tables then go to stderr)")
     p.add_argument("--limit", type=positive_int, help="only the first N clips (quick look)")
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--no-style", action="store_true", help="skip the requested-versus-achieved style table")
-    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=SMOOTHING_CHOICES[0],
-                   help="the neural engine's post-filter for the model rows (default one_euro, as sgt generate)")
+    p.add_argument("--smoothing", choices=SMOOTHING_CHOICES, default=None,
+                   help="the post-filter of the model rows (default: the engine's, as sgt generate: one_euro for "
+                        "neural, none for matching)")
     add_take_posture_option(p)
     p.set_defaults(run=run)
 
@@ -51,9 +56,11 @@ def run(args) -> int:
     if not Path(args.corpus).exists():
         raise InputError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
     weights = str(existing_file(args.weights)) if args.weights else None
+    database = str(existing_file(args.database)) if args.database else None
     extractor = args.extractor if args.extractor == "default" else str(existing_file(args.extractor))
-    out = output_file(args.output, inputs=[weights, None if extractor == "default" else extractor]) if args.output else None
+    out = output_file(args.output, inputs=[weights, database, None if extractor == "default" else extractor]) if args.output else None
 
+    from model.matching import DatabaseError
     from model.training.corpus import CorpusError
     from model.training.evaluate import evaluate_corpus, format_style_following
     from model.training.fgd import ExtractorError
@@ -65,8 +72,8 @@ def run(args) -> int:
         result = evaluate_corpus(args.corpus, split=args.split, weights=weights, extractor=extractor,
                                  seed=args.seed, progress=ProgressBar("eval"), limit=args.limit,
                                  smoothing=args.smoothing, with_style=not args.no_style,
-                                 takes=not args.no_take_posture)
-    except (WeightsError, ExtractorError, CorpusError) as exc:
+                                 takes=not args.no_take_posture, engine=args.engine, database=database)
+    except (WeightsError, ExtractorError, CorpusError, DatabaseError) as exc:
         raise InputError(str(exc)) from None
     except (FileNotFoundError, ValueError) as exc:
         raise InputError(f"{exc}\n  make a corpus with: sgt corpus -o {args.corpus}") from None
