@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
 import weakref
 from collections.abc import Callable, Sequence
 from multiprocessing.context import SpawnContext, SpawnProcess
@@ -81,6 +82,13 @@ class _QuietProcess(SpawnProcess):
     """A spawned process that starts with SIGINT blocked (see :func:`_spawn_context`)."""
 
     def start(self) -> None:
+        # The mask keeps SIGINT from the child; it does not keep it from this process's other
+        # threads (the executor's), whose delivery still runs the Python handler here, in the
+        # middle of start(): the child then read half its start-up data and printed an EOFError
+        # traceback. So the handler is held off too, and a SIGINT meanwhile raised after.
+        held: list = []
+        main = threading.current_thread() is threading.main_thread()
+        handler = signal.signal(signal.SIGINT, lambda *a: held.append(a)) if main else None
         old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
             super().start()
@@ -89,6 +97,12 @@ class _QuietProcess(SpawnProcess):
                 record.append(self)
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
+            if main:
+                signal.signal(signal.SIGINT, handler)
+                if held and callable(handler):
+                    handler(*held[0])
+                elif held and handler == signal.default_int_handler:
+                    raise KeyboardInterrupt
 
 
 class LocalPool:
@@ -113,7 +127,6 @@ class LocalPool:
         ``idle`` meanwhile: submitted earlier, they would make the pool start a second worker
         (nothing is idle yet), whose imports take a core from this process and the first one
         (an edit's rebuild waits for them). Returns {future: task}."""
-        import threading
 
         futures: dict = {}
         failed: list[BaseException] = []
