@@ -1063,9 +1063,10 @@ RECORDING_MISMATCH = rule(
 Without a timings file, a recording (`@audio FILE`) is aligned to its utterance's words
 with pocketsphinx, and the alignment is checked: a word the recording does not say (the
 aligner finds no audio for it when every word may be left out) or speech in the recording
-outside every word (0.1 s or more: a word the utterance lacks) is an error at the first
-place they disagree, with its time in the recording. Left alone, such a word would take
-the time of its neighbours and move every control placed on them.
+outside every word (50 ms or more of voiced speech: a word the utterance lacks; breaths,
+clicks and room noise in the pauses are not speech) is an error at the first place they
+disagree, with its time in the recording and what the aligner hears there. Left alone,
+such a word would take the time of its neighbours and move every control placed on them.
 
 `sgt check` runs the same alignment (cached, as `sgt compile` caches it), so both give the
 same verdict. Words that differ only in sound (a synonym, a mispronounced name) may pass;

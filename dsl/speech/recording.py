@@ -393,7 +393,7 @@ def _cached_alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Pat
     the first word that differs and its time, cached too."""
     words = [text[s:e] for s, e in spans]
     key = cache.content_hash({"kind": "pocketsphinx-align", "algorithm": cache.ALGORITHM_VERSION,
-                              "audio": cache.file_hash(audio_path), "words": words})
+                              "aligner": align.VERSION, "audio": cache.file_hash(audio_path), "words": words})
     meta_path = cdir / f"{key}.json"
     meta = cache.read_json(meta_path)
     if meta is not None and meta.get("key") == key and len(meta.get("times", [])) == len(words):

@@ -33,7 +33,7 @@ from pathlib import Path
 
 #: Bump when a change to the compiler, the speech timing, the engines or the post-processing
 #: changes the motion of an utterance whose inputs did not change.
-CODE_VERSION = 7  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed); 5: zero-phase smoothing; 6: the take's posture; 7: the take's drift
+CODE_VERSION = 8  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed); 5: zero-phase smoothing; 6: the take's posture; 7: the take's drift; 8: the face (motion files version 3)
 
 #: Engines whose output does not depend on the seed.
 _SEEDLESS = frozenset({"keyframe"})
@@ -104,10 +104,12 @@ def _espeak_build() -> str:
 def _aligner() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
+    from dsl.speech.align import VERSION as ALIGN_VERSION  # lazy: only scripts with recordings need it
+
     try:
-        return f"pocketsphinx {version('pocketsphinx')}"
+        return f"pocketsphinx {version('pocketsphinx')}, sgt alignment {ALIGN_VERSION}"
     except PackageNotFoundError:
-        return "pocketsphinx (not installed)"
+        return f"pocketsphinx (not installed), sgt alignment {ALIGN_VERSION}"
 
 
 def gesture_digest(gesture) -> str:
