@@ -21,7 +21,7 @@ from textual.markup import escape
 
 from dsl.presets import BUILTIN_PRESETS
 
-ENGINE_ORDER = ("neural", "keyframe", "rules")
+ENGINE_ORDER = ("neural", "matching", "keyframe", "rules")  # the order ctrl+e cycles through (sgt_tui.commands.common.ENGINE_CHOICES)
 
 
 @dataclass(frozen=True)
@@ -64,7 +64,7 @@ ACTIONS: tuple[Act, ...] = (
         ("render", False)),
     Act("ctrl+r", "job", "", "Render GIF of script", "render the whole script to a GIF", ("render", True)),
     Act("ctrl+t", "cancel_job", "", "Cancel job", "cancel the job asked for last: the last queued, else the running one"),
-    Act("ctrl+o", "next_engine", "", "Next engine", "switch the generation engine: neural, keyframe, rules"),
+    Act("ctrl+o", "next_engine", "", "Next engine", "switch the generation engine: neural, matching, keyframe, rules"),
     Act("ctrl+q", "quit", "quit", "Quit", "leave the editor (asks about unsaved changes)"),
     Act("ctrl+p", "command_palette", "", "Command palette", "search every action by name"),
 )

@@ -32,6 +32,8 @@ do), 1 for a file or revision that cannot be read, 2 for usage errors."""
 
 
 def register(sub) -> None:
+    from sgt_tui.commands.common import ENGINE_CHOICES
+
     p = sub.add_parser("diff", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("paths", nargs="+", metavar="ARG",
                    help="OLD NEW, or REV [FILE...], or REV1..REV2 [-- PATH...]")
@@ -44,7 +46,7 @@ def register(sub) -> None:
     p.add_argument("--exit-code", action="store_true", help="exit 1 when any script differs")
     p.add_argument("--render", metavar="DIR", help="also write a before/after animation of each changed utterance here")
     p.add_argument("--video", action="store_true", help="with --render: MP4s with the speech instead of GIFs")
-    p.add_argument("--engine", choices=("neural", "rules", "keyframe"), help="with --render: the engine (default neural)")
+    p.add_argument("--engine", choices=ENGINE_CHOICES, help="with --render: the engine (default neural)")
     p.add_argument("--size", metavar="WxH", default="240x240", help="with --render: one panel's size (default 240x240)")
     p.set_defaults(run=run)
 
