@@ -220,3 +220,15 @@ def word_features(words, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
             onsets[a] = 1.0
         ids[max(0, a) : max(0, min(n_frames, b))] = word_id(text)
     return ids, onsets
+
+
+def speech_inputs(inputs, n_frames: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(audio features, word ids, onsets) of an engine's inputs (:class:`model.generate.EngineInputs`:
+    its speech audio, starting ``lead_in`` seconds in, and its timed words) on the motion
+    timeline of ``n_frames``; silence features when there is no audio file."""
+    if inputs.audio_path is not None and Path(inputs.audio_path).exists():
+        audio = audio_features(load_audio(inputs.audio_path), n_frames, offset_frames=int(round(inputs.lead_in * FPS)))
+    else:
+        audio = silence_features(n_frames)
+    ids, onsets = word_features(inputs.words, n_frames)
+    return audio, ids, onsets

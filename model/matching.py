@@ -41,7 +41,7 @@ import numpy as np
 from core.controls import STYLE_NAMES
 from core.skeleton import FPS, JOINT_INDEX, POSE_DIM, normalize_pose, positions_from_pose
 from model import postprocess
-from model.features import AUDIO_DIM, audio_features, level_db, load_audio, silence_features, word_features, word_id
+from model.features import AUDIO_DIM, level_db, speech_inputs, word_id
 
 DEFAULT_DB = Path(__file__).with_name("weights") / "matching_db.npz"
 FORMAT = "sgt-matching-db"
@@ -261,16 +261,6 @@ def _load(path: str) -> Database:
         raise DatabaseError(f"{p} was built with other settings: rebuild it with python -m model.training.matching_db")
     return Database(poses=poses, clip_starts=clip_starts, cands=candidate_starts(clip_starts), meta=meta,
                     **f32).finalise()
-
-
-def speech_inputs(inputs, n_frames: int):
-    """(audio features, word ids, onsets) of an EngineInputs on the motion timeline (as the neural engine's)."""
-    if inputs.audio_path is not None and Path(inputs.audio_path).exists():
-        audio = audio_features(load_audio(inputs.audio_path), n_frames, offset_frames=int(round(inputs.lead_in * FPS)))
-    else:
-        audio = silence_features(n_frames)
-    ids, onsets = word_features(inputs.words, n_frames)
-    return audio, ids, onsets
 
 
 def draw_take(db: Database, key) -> int:

@@ -18,14 +18,13 @@ from __future__ import annotations
 import dataclasses
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from core.controls import network_pose_controls
-from core.skeleton import FPS, POSE_DIM
+from core.skeleton import POSE_DIM
 from model import postprocess, take_posture
-from model.features import audio_features, load_audio, silence_features, word_features
+from model.features import speech_inputs
 from model.runtime import as_runner, load_runner
 
 WINDOW = 60
@@ -46,16 +45,6 @@ class Options:
     weights: str | None = None  # path; None = the shipped weights
     threads: int | None = None  # torch threads; None = DEFAULT_THREADS
     take_posture: bool = True  # draw the take's posture and drift from the weights' training takes (model.take_posture)
-
-
-def speech_inputs(inputs, n_frames: int):
-    """(audio features, word ids, onsets) for an EngineInputs on the motion timeline."""
-    if inputs.audio_path is not None and Path(inputs.audio_path).exists():
-        audio = audio_features(load_audio(inputs.audio_path), n_frames, offset_frames=int(round(inputs.lead_in * FPS)))
-    else:
-        audio = silence_features(n_frames)
-    ids, onsets = word_features(inputs.words, n_frames)
-    return audio, ids, onsets
 
 
 def use_threads(n: int | None) -> None:

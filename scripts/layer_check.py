@@ -72,7 +72,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     from dsl import compile_file
-    from model import neural, postprocess
+    from model import features, neural, postprocess
     from model.generate import EngineInputs
 
     model = neural._model(args.weights)
@@ -82,7 +82,7 @@ def main(argv=None) -> int:
             path.write_text(text)
             u = compile_file(path).plan.utterances[0]
             inputs = EngineInputs.from_plan(u)
-            audio, ids, onsets = neural.speech_inputs(inputs, u.n_frames)
+            audio, ids, onsets = features.speech_inputs(inputs, u.n_frames)
         layered = u.arrays
         bones = layered.bones() > 0.5
         span = np.flatnonzero(bones.any(1))

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from core.controls import ControlArrays
-from model import neural
+from model import features, neural
 from model.runtime import OnnxRunner, TorchRunner, export_onnx, load_runner, onnx_path, random_window, read_export
 from model.weights import DEFAULT_WEIGHTS, WeightsError, file_hash, load_weights, save_weights
 
@@ -58,7 +58,7 @@ def test_onnx_equals_torch_over_sliding_windows_of_a_real_script():
     plan = compile_file(ROOT / "examples" / "mall_guide.sgt", timing="estimate").plan
     torch_runner, onnx_runner = _runners()
     for u in plan.utterances:
-        audio, ids, onsets = neural.speech_inputs(neural_inputs(u), u.n_frames)
+        audio, ids, onsets = features.speech_inputs(neural_inputs(u), u.n_frames)
         a = neural.run_windows(torch_runner, audio, ids, onsets, u.arrays, 5)
         b = neural.run_windows(onnx_runner, audio, ids, onsets, u.arrays, 5)
         assert np.abs(a - b).max() < TOLERANCE
