@@ -29,12 +29,15 @@ PROBE = ("import sys; import sgt_tui.cli as c; rc = c.main(sys.argv[1:]); "
          f"print('heavy:', ' '.join(m for m in {HEAVY!r} if m in sys.modules), file=sys.stderr); sys.exit(rc)")
 
 
-def runs(tree: Path, work: Path, n: int) -> tuple[list[float], list[float], str]:
+def runs(tree: Path, work: Path, n: int, engine: str | None = None) -> tuple[list[float], list[float], str]:
+    """Wall and CPU seconds of ``n`` cold `sgt generate` runs of the tree ``tree`` (``--engine
+    engine`` when given), and the heavy modules the command imported."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env.update(PYTHONPATH=str(tree), SGT_CACHE_DIR=str(work / "cache"))
     script = work / "one.sgt"
     script.write_text(TEXT)
-    cmd = [sys.executable, "-m", "sgt_tui.cli", "generate", str(script), "-o", str(work / "out.json")]
+    args = ["generate", str(script), "-o", str(work / "out.json")] + (["--engine", engine] if engine else [])
+    cmd = [sys.executable, "-m", "sgt_tui.cli", *args]
     subprocess.run(cmd, cwd=tree, env=env, check=True, capture_output=True)  # speech cache and bytecode
     walls, cpus = [], []
     for _ in range(n):
@@ -44,7 +47,7 @@ def runs(tree: Path, work: Path, n: int) -> tuple[list[float], list[float], str]
         walls.append(time.perf_counter() - t)
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         cpus.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
-    probe = subprocess.run([sys.executable, "-c", PROBE, "generate", str(script), "-o", str(work / "out.json")],
+    probe = subprocess.run([sys.executable, "-c", PROBE, *args],
                            cwd=tree, env=env, capture_output=True, text=True)
     heavy = next((line[len("heavy: "):] for line in probe.stderr.splitlines() if line.startswith("heavy:")), "?")
     return walls, cpus, heavy or "none"
