@@ -111,6 +111,21 @@ def test_phonemes_of_words_spread_vowels_longer_and_never_raise():
     assert phonemes_of_words([TimedWord("map", 1.0, 1.4)], "no-such-voice") == []
 
 
+def test_a_recordings_words_reach_espeak_in_a_worker_not_in_this_process(monkeypatch):
+    """A transcript's words are script text: translated in the worker that synthesizes (a crash
+    there is an error, not the death of `sgt serve`), never by this process's engine."""
+    from core.words import TimedWord
+
+    def in_process(*_):
+        raise AssertionError("text_to_phonemes ran in this process")
+
+    monkeypatch.setattr(_espeak._Engine, "text_to_phonemes", in_process)
+    got = phonemes_of_words([TimedWord("bubble", 0.0, 0.5)], "en-us")
+    assert [p.phoneme for p in got][:2] == ["b", "ʌ"]
+    monkeypatch.setattr(_espeak, "_ask", lambda *a: _espeak._answer(_espeak.EngineError("crash", "killed"), b""))
+    assert phonemes_of_words([TimedWord("bubble", 0.0, 0.5)], "en-us") == []  # a dead worker: no phonemes
+
+
 def test_timed_phoneme_lists_write_the_stress_mark():
     assert TimedPhoneme("oʊ", 0.12345, 0.5, 2).to_list() == ["\u02c8oʊ", 0.123, 0.5]
     assert TimedPhoneme("ə", 0, 1, 1).to_list() == ["\u02ccə", 0, 1]

@@ -286,7 +286,7 @@ FORK_CASES = [("Tower market bread coins sword shield lantern.", "en-us", 175, 5
 
 def _fresh(text, voice, rate, pitch):
     request = json.dumps({"text": text, "voice": voice, "rate": rate, "pitch": pitch}).encode("utf-8")
-    return _espeak._run_fresh(request, 60)
+    return _espeak._parse_answer(_espeak._run_fresh(request, 60), "")
 
 
 def test_the_fork_server_answers_as_a_fresh_process_would():
@@ -356,8 +356,8 @@ def test_a_variant_is_an_installed_name_or_nothing_reaches_espeak(variant, capfd
     assert "m3" in eng.variants() and "f2" in eng.variants()
     assert eng.set_voice(f"{identifier}+m3")
     assert not eng.set_voice(f"{identifier}+{variant}")
-    for ask in (_espeak.run_synth, lambda *a: _espeak._run_fresh(json.dumps(dict(zip(
-            ("text", "voice", "rate", "pitch"), a))).encode(), 60)):
+    for ask in (_espeak.run_synth, lambda *a: _espeak._parse_answer(_espeak._run_fresh(json.dumps(dict(zip(
+            ("text", "voice", "rate", "pitch"), a))).encode(), 60), "")):
         with pytest.raises(_espeak.EngineError) as ei:
             ask("hello", f"{identifier}+{variant}", 175, 50)
         assert ei.value.kind == "voice" and "root:" not in ei.value.message

@@ -320,6 +320,13 @@ class _Engine:
         return out
 
 
+def split_stress(name: str) -> tuple[str, int]:
+    """A phoneme name of :meth:`_Engine.text_to_phonemes` without its stress marks, and its
+    stress: 2 primary, 1 secondary, 0 none."""
+    stress = max((STRESS_MARKS.get(c, 0) for c in name), default=0)
+    return "".join(c for c in name if c not in STRESS_MARKS), stress
+
+
 def _stress_marks(phonemes: list[PhonemeEvent], translated: list[str]) -> list[PhonemeEvent]:
     """``phonemes`` with the stress that ``translated`` (:meth:`_Engine.text_to_phonemes` of the
     same text) marks on their vowels: the two sequences of names are matched in order (the
@@ -327,11 +334,7 @@ def _stress_marks(phonemes: list[PhonemeEvent], translated: list[str]) -> list[P
     unmatched phoneme keeps stress 0)."""
     import difflib
 
-    def bare(name: str) -> tuple[str, int]:
-        stress = max((STRESS_MARKS.get(c, 0) for c in name), default=0)
-        return "".join(c for c in name if c not in STRESS_MARKS), stress
-
-    marks = [bare(t) for t in translated if t]
+    marks = [split_stress(t) for t in translated if t]
     names = [p.name for p in phonemes]
     out = list(phonemes)
     matcher = difflib.SequenceMatcher(None, names, [m[0] for m in marks], autojunk=False)
@@ -364,6 +367,25 @@ def run_synth(text: str, voice: str, rate: int, pitch: int,
     15 ms instead of the 100 ms of starting one); by a fresh process of its own when the fork
     server is busy with another thread's request or cannot run."""
     request = json.dumps({"text": text, "voice": voice, "rate": rate, "pitch": pitch}).encode("utf-8")
+    return _parse_answer(_ask(request, timeout), "")
+
+
+def run_text_to_phonemes(words: list[str], voice: str, timeout: float = 60.0) -> list[list[str]]:
+    """espeak-ng's phonemes of each of ``words`` on its own, for ``voice``
+    (:meth:`_Engine.text_to_phonemes`), translated in a worker process as :func:`run_synth`
+    synthesizes: text from a script never reaches the C library in this process. Raises
+    :class:`EngineError` (the voice rejected, the worker died or took too long)."""
+    answer = _ask(json.dumps({"phonemes": list(words), "voice": voice}).encode("utf-8"), timeout)
+    info, _ = _split_answer(answer)
+    if info is None:
+        raise EngineError("synth", "the espeak-ng worker failed")
+    if not info.get("ok"):
+        raise EngineError(info.get("kind", "synth"), info.get("message", "espeak-ng failed"))
+    return [[str(n) for n in names] for names in info["phonemes"]]
+
+
+def _ask(request: bytes, timeout: float) -> bytes:
+    """The whole answer to ``request``, from a child of the fork server, else a fresh process."""
     server = _fork_server()
     if server is not None and server.lock.acquire(blocking=False):
         try:
@@ -371,12 +393,12 @@ def run_synth(text: str, voice: str, rate: int, pitch: int,
         finally:
             server.lock.release()
         if answer is not None:
-            return _parse_answer(answer, "")
+            return answer
     return _run_fresh(request, timeout)
 
 
-def _run_fresh(request: bytes, timeout: float) -> tuple[int, bytes, list[WordEvent], list[PhonemeEvent]]:
-    """The request answered by a new process (this file run as a script)."""
+def _run_fresh(request: bytes, timeout: float) -> bytes:
+    """The answer to ``request`` from a new process (this file run as a script)."""
     import subprocess
     import sys
 
@@ -388,7 +410,7 @@ def _run_fresh(request: bytes, timeout: float) -> tuple[int, bytes, list[WordEve
     # what the engine printed on stderr is not passed on: it can quote files (see _Engine.set_voice)
     if proc.returncode != 0 or not _whole(proc.stdout):
         raise EngineError("crash", _died(-proc.returncode if proc.returncode < 0 else proc.returncode << 8))
-    return _parse_answer(proc.stdout, "")
+    return proc.stdout
 
 
 def _died(status: int) -> str:
@@ -538,10 +560,17 @@ def _answer(eng_or_error, request: bytes) -> bytes:
         if isinstance(eng_or_error, EngineError):
             raise eng_or_error
         req = json.loads(request.decode("utf-8"))
-        raw, events, phonemes = eng_or_error.synth(req["text"], req["voice"], req["rate"], req["pitch"])
-        header = {"ok": True, "sample_rate": eng_or_error.sample_rate, "nbytes": len(raw),
-                  "events": [[e.char_index, e.length, e.sample] for e in events],
-                  "phonemes": [[p.char_index, p.sample, p.name, p.stress] for p in phonemes]}
+        if "phonemes" in req:  # run_text_to_phonemes: translation only
+            if not eng_or_error.set_voice(req["voice"]):
+                raise EngineError("voice", f"espeak-ng rejected the voice {req['voice']!r}")
+            raw = b""
+            header = {"ok": True, "nbytes": 0,
+                      "phonemes": [eng_or_error.text_to_phonemes(str(w)) for w in req["phonemes"]]}
+        else:
+            raw, events, phonemes = eng_or_error.synth(req["text"], req["voice"], req["rate"], req["pitch"])
+            header = {"ok": True, "sample_rate": eng_or_error.sample_rate, "nbytes": len(raw),
+                      "events": [[e.char_index, e.length, e.sample] for e in events],
+                      "phonemes": [[p.char_index, p.sample, p.name, p.stress] for p in phonemes]}
     except EngineError as e:
         raw, header = b"", {"ok": False, "kind": e.kind, "message": e.message, "nbytes": 0}
     return json.dumps(header).encode("utf-8") + b"\n" + raw

@@ -251,21 +251,20 @@ def is_vowel(phoneme: str) -> bool:
 def phonemes_of_words(words: Sequence[TimedWord], voice: str = "en-us") -> list[TimedPhoneme]:
     """Phonemes for timed words whose audio espeak-ng did not make (a recording): each word's
     phonemes as espeak-ng's dictionary and rules give them for ``voice``'s language
-    (``espeak_TextToPhonemes``, the word on its own), spread over the word's time, a vowel
-    :data:`VOWEL_SHARE` times as long as a consonant (:data:`STRESSED_SHARE` when stressed).
+    (``espeak_TextToPhonemes``, the word on its own, in a worker process as synthesis is),
+    spread over the word's time, a vowel :data:`VOWEL_SHARE` times as long as a consonant
+    (:data:`STRESSED_SHARE` when stressed).
     An empty list when espeak-ng or the voice is missing (the face then moves the mouth with
     the words alone)."""
     try:
         with _espeak._LOCK:
-            eng = _espeak.engine()
-            if not eng.set_voice(_resolve_voice(eng, voice)):
-                return []
-            per_word = [eng.text_to_phonemes(w.word) for w in words]
+            resolved = _resolve_voice(_espeak.engine(), voice)
+        per_word = _espeak.run_text_to_phonemes([w.word for w in words], resolved) if words else []
     except (_espeak.EngineError, SpeechError):
         return []
     out: list[TimedPhoneme] = []
     for w, names in zip(words, per_word):
-        marked = [(n.lstrip("\u02c8\u02cc"), 2 if "\u02c8" in n else 1 if "\u02cc" in n else 0) for n in names if n]
+        marked = [_espeak.split_stress(n) for n in names if n]
         if not marked or w.end <= w.start:
             continue
         shares = [(STRESSED_SHARE if k == 2 else VOWEL_SHARE) if is_vowel(n) else 1.0 for n, k in marked]
