@@ -531,7 +531,7 @@ def _gaze_targets(plan, speaker, rng: np.random.Generator, stop) -> tuple[np.nda
     audience = count < 2
     target = np.zeros((n, 2), np.float64)
     utterances = plan.utterances
-    addressees = [_addressee(utterances, i) for i in range(len(utterances))]
+    addressees = _addressees([u.speaker for u in utterances])
     # listening: at whoever started last (between lines the last speaker, until the next
     # line's motion starts); after its own line, at the one it spoke to
     if not audience:
@@ -592,9 +592,13 @@ def _gaze_targets(plan, speaker, rng: np.random.Generator, stop) -> tuple[np.nda
     return target, shifts
 
 
-def _addressee(utterances, i: int):
-    """Whom utterance ``i`` speaks to: the next line's other speaker, else the previous one's
-    (None: nobody else speaks)."""
-    me = utterances[i].speaker
-    nxt = next((v.speaker for v in utterances[i + 1 :] if v.speaker != me), None)
-    return nxt if nxt is not None else next((v.speaker for v in reversed(utterances[:i]) if v.speaker != me), None)
+def _addressees(speakers: list) -> list:
+    """Whom each line speaks to, given the lines' ``speakers`` in order: the next line's other
+    speaker, else the previous one's (None: nobody else speaks). Linear: one pass each way."""
+    n = len(speakers)
+    nxt, prev = [None] * n, [None] * n
+    for i in range(n - 2, -1, -1):  # the first other speaker after line i
+        nxt[i] = speakers[i + 1] if speakers[i + 1] != speakers[i] else nxt[i + 1]
+    for i in range(1, n):  # ... and before it
+        prev[i] = speakers[i - 1] if speakers[i - 1] != speakers[i] else prev[i - 1]
+    return [a if a is not None else b for a, b in zip(nxt, prev)]
