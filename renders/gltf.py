@@ -164,15 +164,15 @@ def glb_bytes(clip: MotionClip, rig: Rig, mesh: bool = True) -> bytes:
     t_acc = buf.add(times, FLOAT, "SCALAR", minmax=True)
     quats = continuous_quats(matrix_to_quat(motion.local))  # (T, B, 4)
     samplers, channels = [], []
-    for i in range(len(rig.bones)):
-        samplers.append({"input": t_acc, "output": buf.add(quats[:, i], FLOAT, "VEC4"), "interpolation": "LINEAR"})
-        channels.append({"sampler": len(samplers) - 1, "target": {"node": i, "path": "rotation"}})
-    samplers.append({"input": t_acc, "output": buf.add(motion.root_translation, FLOAT, "VEC3"), "interpolation": "LINEAR"})
-    channels.append({"sampler": len(samplers) - 1, "target": {"node": 0, "path": "translation"}})
 
     def channel(node: int, path: str, values: np.ndarray, kind: str) -> None:
+        """A LINEAR channel animating ``path`` of ``node`` with ``values``, one key per frame."""
         samplers.append({"input": t_acc, "output": buf.add(values, FLOAT, kind), "interpolation": "LINEAR"})
         channels.append({"sampler": len(samplers) - 1, "target": {"node": node, "path": path}})
+
+    for i in range(len(rig.bones)):
+        channel(i, "rotation", quats[:, i], "VEC4")
+    channel(0, "translation", motion.root_translation, "VEC3")
 
     face = clip.face
     if face is not None and mesh and rig.name == "sgt":
