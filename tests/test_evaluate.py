@@ -231,3 +231,18 @@ def test_train_default_extractor_on_a_corpus(corpus, tmp_path):
     train = [c["poses"] for c in load_corpus(corpus, "train")]
     again = fgd.train_extractor(train, epochs=2, seed=1)  # the same training, on the train split
     assert np.array_equal(again.features(train), ext.features(train))
+
+
+def test_hellinger_bound_own_style_is_the_rules_row(corpus):
+    """scripts/hellinger_bound.py's "own style" row is sgt eval's re-seeded teacher (the rules
+    row) to the digit, so its neutral and other-style rows measure that teacher without the
+    clip's hidden style, as docs/model.md says; without the style it is further away."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    import hellinger_bound  # lazy: a script, found on the path added above
+
+    every = load_corpus(corpus, None)
+    rows = {r["name"]: r for r in E.evaluate_corpus(corpus, split="all", seed=4, extractor=None)}
+    got = hellinger_bound.distances(every, 4)
+    assert got["own style"] == pytest.approx(rows["rules"]["hellinger"], rel=1e-9)
+    assert got["neutral style"] != pytest.approx(got["own style"], rel=1e-3)
+    assert np.isfinite(got["another clip's style"])
