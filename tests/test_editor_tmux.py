@@ -185,8 +185,9 @@ def test_typing_and_ctrl_s_in_one_burst_save_exactly_what_was_typed(tmux, tmp_pa
     tmux.wait_for("utterance 1")
     tmux("send-keys", "-t", "t", "guide: x.", "Enter", "C-s", "y", "BSpace", "z")
     tmux.wait_for("saved ")
-    shown = tmux.wait_for("zguide: first.")
-    assert "burst.sgt [+]" in shown  # the z typed after ctrl+s is not saved yet
+    tmux.wait_for("zguide: first.")
+    # the z typed after ctrl+s is not saved yet (the header's mark may be drawn a frame after the text)
+    tmux.wait_for("burst.sgt [+]", timeout=10.0)
     assert script.read_text() == "guide: x.\nguide: first.\n"
     tmux("send-keys", "-t", "t", "BSpace", "C-s")
     shown = tmux.wait_gone("burst.sgt [+]")
