@@ -2,7 +2,8 @@
 
 The network regresses its teacher and averages away the per-take holds and strokes (model card,
 "Known limits"). This engine does not regress: it *retrieves*. The database
-(``model/weights/matching_db.npz``, built by ``python -m model.training.matching_db``) holds
+(``model/weights/matching_db.npz``, built by ``python -m model.training.matching_db``; a user's
+own, of their BVH takes, by ``sgt train --engine matching``, :attr:`Options.database`) holds
 the training takes' motion (poses, 15 fps) with their per-frame speech features (the same audio
 and word features the network reads, :mod:`model.features`, reduced by a PCA) and each frame's
 style (SGToolkit Eq. 4-6). Generation walks the utterance in segments of :data:`SEGMENT`
@@ -32,6 +33,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import zipfile
+import zlib
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -77,11 +80,12 @@ STRIDE = 2
 
 def options_from(options) -> "Options":
     """The matching :class:`Options` for the options a command gives (a :class:`model.neural.Options`
-    or None): its smoothing, blend, ramp and take posture carry over; the database is the shipped one."""
+    or None): its smoothing, blend, ramp, take posture and database carry over."""
     if options is None or isinstance(options, Options):
         return options or Options()
     return Options(smoothing=getattr(options, "smoothing", Options.smoothing), blend=getattr(options, "blend", True),
-                   ramp=getattr(options, "ramp", 6), take_posture=getattr(options, "take_posture", True))
+                   ramp=getattr(options, "ramp", 6), take_posture=getattr(options, "take_posture", True),
+                   database=getattr(options, "database", None))
 
 
 class DatabaseError(ValueError):
@@ -230,22 +234,34 @@ def window_keys(feats: np.ndarray, starts: np.ndarray) -> np.ndarray:
 
 
 def load(path=None) -> Database:
-    """The database at ``path`` (default: the shipped one), cached per path."""
-    return _load(str(Path(path) if path else DEFAULT_DB))
+    """The database at ``path`` (default: the shipped one), cached per path and file version (a
+    database rebuilt in place is read again by a running service or editor)."""
+    p = Path(path) if path else DEFAULT_DB
+    try:
+        st = p.stat()
+    except OSError:
+        st = None
+    if st is None or not p.is_file():
+        raise DatabaseError(f"no matching database at {p}: build it with {_rebuild(p)}")
+    return _load(str(p), st.st_mtime_ns, st.st_size)
+
+
+def _rebuild(p: Path) -> str:
+    """The command that builds the database at ``p``: the shipped one from the corpus, a user's
+    with ``sgt train``."""
+    if p.resolve() == DEFAULT_DB.resolve():
+        return "python -m model.training.matching_db --corpus data/corpus"
+    return f"sgt train --engine matching --data DIR -o {p.parent} (or --corpus DIR; it writes matching_db.npz there)"
 
 
 @lru_cache(maxsize=2)
-def _load(path: str) -> Database:
+def _load(path: str, _mtime_ns: int, _size: int) -> Database:
     p = Path(path)
-    if not p.is_file():
-        raise DatabaseError(f"no matching database at {p}: build it with "
-                            "python -m model.training.matching_db --corpus data/corpus")
     try:
         with np.load(p, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
-            if meta.get("format") != FORMAT or meta.get("version") != VERSION:
-                raise DatabaseError(f"{p} is not a version-{VERSION} {FORMAT} file: rebuild it with "
-                                    "python -m model.training.matching_db")
+            if not isinstance(meta, dict) or meta.get("format") != FORMAT or meta.get("version") != VERSION:
+                raise DatabaseError(f"{p} is not a version-{VERSION} {FORMAT} file: rebuild it with {_rebuild(p)}")
             f32 = {k: z[k].astype(np.float32) for k in ("frame_style", "take_style", "audio_mean", "audio_basis",
                                                          "feat_mean", "feat_std", "key_mean", "key_basis",
                                                          "pose_mean", "pose_basis", "speech_keys")}
@@ -253,14 +269,21 @@ def _load(path: str) -> Database:
             clip_starts = z["clip_starts"].astype(np.int64)
     except DatabaseError:
         raise
-    except (OSError, ValueError, KeyError, json.JSONDecodeError) as exc:
-        raise DatabaseError(f"{p} is not a readable matching database ({exc}): rebuild it with "
-                            "python -m model.training.matching_db") from None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error, json.JSONDecodeError) as exc:
+        # (a truncated or damaged zip raises BadZipFile or zlib.error, neither an OSError)
+        raise DatabaseError(f"{p} is not a readable matching database ({exc}): rebuild it with {_rebuild(p)}") from None
     if poses.ndim != 2 or poses.shape[1] != POSE_DIM or meta.get("segment") != SEGMENT or meta.get("stride") != STRIDE \
             or meta.get("blend") != BLEND or f32["audio_mean"].shape != (AUDIO_DIM,):
-        raise DatabaseError(f"{p} was built with other settings: rebuild it with python -m model.training.matching_db")
-    return Database(poses=poses, clip_starts=clip_starts, cands=candidate_starts(clip_starts), meta=meta,
-                    **f32).finalise()
+        raise DatabaseError(f"{p} was built with other settings: rebuild it with {_rebuild(p)}")
+    try:
+        if len(clip_starts) < 2 or clip_starts[0] != 0 or clip_starts[-1] != len(poses) or (np.diff(clip_starts) < 0).any():
+            raise ValueError("its takes' offsets do not fit its frames")
+        cands = candidate_starts(clip_starts)
+        if len(f32["speech_keys"]) != len(cands) or len(f32["frame_style"]) != len(poses):
+            raise ValueError("its arrays do not fit together")
+        return Database(poses=poses, clip_starts=clip_starts, cands=cands, meta=meta, **f32).finalise()
+    except (ValueError, IndexError) as exc:
+        raise DatabaseError(f"{p} is not a readable matching database ({exc}): rebuild it with {_rebuild(p)}") from None
 
 
 def draw_take(db: Database, key) -> int:
@@ -364,7 +387,8 @@ def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None 
         nxt = -1 if cur is None else int(db.next_cand[cur])
         if s == 0 and tail is None:  # the first segment: one of the best few, by the seed
             cost = cost.copy() if cost is static[s] else cost
-            best = np.argpartition(cost, FIRST_CHOICES)[:FIRST_CHOICES]
+            k = min(FIRST_CHOICES, len(cost))  # (a small user database may have fewer candidates)
+            best = np.argpartition(cost, k - 1)[:k]
             best = best[np.argsort(cost[best], kind="stable")]
             pick = int(best[rng.integers(len(best))])
         else:

@@ -45,6 +45,7 @@ class Options:
     weights: str | None = None  # path; None = the shipped weights
     threads: int | None = None  # torch threads; None = DEFAULT_THREADS
     take_posture: bool = True  # draw the take's posture and drift from the weights' training takes (model.take_posture)
+    database: str | None = None  # the matching engine's database (model.matching), passed on to it; None = the shipped one
 
 
 def use_threads(n: int | None) -> None:

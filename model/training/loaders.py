@@ -32,6 +32,7 @@ import numpy as np
 from core.skeleton import FPS, JOINTS, pose_from_positions
 from core.words import TimedWord
 from dsl.speech.recording import read_timings
+from dsl.speech.types import SpeechError
 from model.features import audio_features, load_audio, word_features
 
 
@@ -453,7 +454,10 @@ def load_take(take: Take, *, features: bool = True, **bvh_kwargs) -> dict:
     n = len(poses)
     words = []
     if take.timings_path is not None:
-        timed, _source = read_timings(take.timings_path)
+        try:
+            timed, _source = read_timings(take.timings_path)
+        except SpeechError as exc:  # (its message names the file)
+            raise LoaderError(str(exc)) from None
         words = [TimedWord(w, float(a), float(b)) for w, a, b in timed]
     clip = {"id": take.name, "poses": poses,
             "meta": {"text": " ".join(w.word for w in words), "words": [w.to_dict(6) for w in words], "source": "bvh",
@@ -463,10 +467,23 @@ def load_take(take: Take, *, features: bool = True, **bvh_kwargs) -> dict:
         ids, onsets = word_features(words, n)
         clip["word_ids"], clip["onsets"] = ids, onsets
         if take.audio_path is not None:
-            clip["audio"] = audio_features(load_audio(take.audio_path), n)
+            try:
+                audio = load_audio(take.audio_path)
+            except (OSError, RuntimeError, ValueError, EOFError) as exc:  # soundfile's errors are RuntimeErrors
+                raise LoaderError(f"cannot read the audio {str(take.audio_path)!r}: {exc}") from None
+            clip["audio"] = audio_features(audio, n)
     return clip
 
 
-def load_folder(root, *, features: bool = True, **bvh_kwargs) -> list[dict]:
-    """Every take of a folder (see :func:`find_takes`) as clip dicts (see :func:`load_take`)."""
-    return [load_take(t, features=features, **bvh_kwargs) for t in find_takes(root)]
+def load_folder(root, *, features: bool = True, progress=None, **bvh_kwargs) -> list[dict]:
+    """Every take of a folder (see :func:`find_takes`) as clip dicts (see :func:`load_take`);
+    ``progress(done, total, name)`` after each take."""
+    takes = find_takes(root)
+    clips = []
+    for n, t in enumerate(takes):
+        if progress:
+            progress(n, len(takes), t.name)
+        clips.append(load_take(t, features=features, **bvh_kwargs))
+    if progress:
+        progress(len(takes), len(takes), "")
+    return clips

@@ -38,7 +38,8 @@ def _pca(x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """(mean, basis (D, k)) of the rows of ``x``; each component's sign fixed (largest entry positive)."""
     x = np.asarray(x, np.float64)
     mean = x.mean(0)
-    cov = np.cov((x - mean).T)
+    # (one row has no covariance: np.cov would give NaN; any basis serves a single point)
+    cov = np.cov((x - mean).T) if len(x) > 1 else np.zeros((x.shape[1], x.shape[1]))
     vals, vecs = np.linalg.eigh(cov)
     basis = vecs[:, np.argsort(vals)[::-1][:k]]
     basis *= np.sign(basis[np.abs(basis).argmax(0), np.arange(basis.shape[1])])
@@ -55,22 +56,42 @@ def build(corpus, split: str = "train") -> tuple[dict, dict]:
     return arrays, meta
 
 
-def build_from_clips(clips) -> tuple[dict, dict]:
+def gives_segments(n_frames: int) -> bool:
+    """Whether a take of ``n_frames`` frames holds a candidate segment (see :func:`min_frames`)."""
+    return len(matching.candidate_starts(np.array([0, n_frames]))) > 0
+
+
+def min_frames() -> int:
+    """The fewest frames of a take that holds a candidate segment (a segment, its blend and the
+    entry frames before it: :func:`model.matching.candidate_starts`)."""
+    return next(n for n in range(1, 10 * matching.SEGMENT) if gives_segments(n))
+
+
+def build_from_clips(clips, progress=None) -> tuple[dict, dict]:
     """The arrays and meta of a database of ``clips`` (dicts with ``poses`` (T, 27), ``audio``
     (T, AUDIO_DIM), ``word_ids`` and ``onsets`` (T,) and an ``id``, as :func:`load_corpus` gives
-    them); each clip needs at least ``SEGMENT + BLEND + 2`` frames to give a candidate."""
+    them); each clip needs at least :func:`min_frames` frames to give a candidate.
+    ``progress(done, total, what)`` after each clip's features."""
+    if not clips:
+        raise ValueError("no takes to build a database from")
     poses = [np.asarray(c["poses"], np.float32) for c in clips]
     lengths = np.array([len(p) for p in poses])
     clip_starts = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
     audio = np.concatenate([c["audio"] for c in clips]).astype(np.float32)
     audio_mean, audio_basis = _pca(audio, matching.AUDIO_COMPONENTS)
-    feats = np.concatenate([matching.frame_features(c["audio"], c["word_ids"], c["onsets"], audio_mean, audio_basis)
-                            for c in clips])
+    feats = []
+    for n, c in enumerate(clips):
+        if progress:
+            progress(n, len(clips), str(c["id"]))
+        feats.append(matching.frame_features(c["audio"], c["word_ids"], c["onsets"], audio_mean, audio_basis))
+    if progress:
+        progress(len(clips), len(clips), "")
+    feats = np.concatenate(feats)
     feat_mean, feat_std = feats.mean(0), np.maximum(feats.std(0), 1e-6)
     feats = (feats - feat_mean) / feat_std * matching.FEATURE_WEIGHTS
     cands = matching.candidate_starts(clip_starts)
     if not len(cands):
-        raise ValueError(f"no take is long enough for a segment ({matching.SEGMENT + matching.BLEND + 2} frames)")
+        raise ValueError(f"no take is long enough for a segment ({min_frames()} frames)")
     # windows never reach into the neighbouring take: hold each take's edge frames
     keys = []
     for a, b in zip(clip_starts[:-1], clip_starts[1:]):

@@ -12,7 +12,8 @@ The key is the sha256 of a canonical JSON rendering of:
 - the speech: the voice, rate and pitch and the espeak-ng build that speaks them, or for a
   recording the sha256 of the audio file and of its timings file (or the aligner that
   times it, when there is none);
-- the generator: the engine; for ``neural`` the sha256 of the weights, the smoothing and the
+- the generator: the engine; for ``neural`` the sha256 of the weights, for ``matching`` that of
+  its database (``--database`` or the shipped one); for both the smoothing and the
   pose-control blend, and the seed its speaker's take posture is drawn with (the script's
   seed, none with ``--no-take-posture``); the seed the engine receives (``--seed`` or
   ``@seed``, plus the utterance's number, as :func:`model.generate.clips_from_plan` seeds it;
@@ -48,13 +49,15 @@ class Settings:
     smoothing: str = "one_euro"
     blend: bool = True
     weights: str | None = None  # None: the shipped weights
+    database: str | None = None  # the matching engine's database; None: the shipped one
     take_posture: bool = True  # the neural engine draws each speaker's take posture and drift (model.take_posture)
     auto_gestures: bool = False  # gestures chosen from the words where a script has no mark (sgt_tui.suggesting)
 
     def options(self):
         from model.neural import Options  # lazy: numpy, the engine
 
-        return Options(smoothing=self.smoothing, blend=self.blend, weights=self.weights, take_posture=self.take_posture)
+        return Options(smoothing=self.smoothing, blend=self.blend, weights=self.weights, take_posture=self.take_posture,
+                       database=self.database)
 
     def describe(self) -> dict:
         """The settings as the manifest records them."""
@@ -62,6 +65,9 @@ class Settings:
         if self.engine == "neural":
             out.update(smoothing=self.smoothing, blend=self.blend, take_posture=self.take_posture,
                        weights_sha256=weights_hash(self.weights))
+        elif self.engine == "matching":
+            out.update(smoothing=self.smoothing, blend=self.blend, take_posture=self.take_posture,
+                       database_sha256=database_hash(self.database))
         if self.auto_gestures:  # (only when set: builds without it keep their manifests)
             from library.words import BUILTIN_WORDS  # lazy: the library package
 
@@ -87,6 +93,13 @@ def weights_hash(weights: str | None) -> str:
     if export.is_file():
         return _hash_once(str(path)) + "+" + _hash_once(str(export))
     return _hash_once(str(path))
+
+
+def database_hash(database: str | None) -> str:
+    """The matching engine's database file's sha256 (``database`` or the shipped one)."""
+    from model.matching import DEFAULT_DB  # lazy: numpy
+
+    return _hash_once(str(Path(database) if database else DEFAULT_DB))
 
 
 @lru_cache(maxsize=256)
@@ -168,8 +181,10 @@ def utterance_payload(utt, lib, base_seed: int, settings: Settings, files=None) 
     }
     if settings.engine not in _SEEDLESS:
         payload["seed"] = (base_seed if settings.seed is None else settings.seed) + utt.index
-    if settings.engine == "neural":
-        payload.update(weights=weights_hash(settings.weights), smoothing=settings.smoothing, blend=settings.blend,
+    if settings.engine in ("neural", "matching"):
+        model = ({"weights": weights_hash(settings.weights)} if settings.engine == "neural"
+                 else {"database": database_hash(settings.database)})
+        payload.update(model, smoothing=settings.smoothing, blend=settings.blend,
                        # the speaker's take posture is drawn with the script's seed, not the utterance's
                        take_posture=(base_seed if settings.seed is None else settings.seed) if settings.take_posture else None)
     return payload

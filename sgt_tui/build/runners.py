@@ -24,7 +24,7 @@ from pathlib import Path
 
 from core.fileio import atomic_write
 from core.interrupts import import_optional
-from sgt_tui.build.keys import weights_hash
+from sgt_tui.build.keys import database_hash, weights_hash
 from sgt_tui.build.work import Task, TaskResult, run_task, warm_up
 
 OnResult = Callable[[TaskResult], None]
@@ -199,20 +199,21 @@ def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: Local
 
 # -- Ray --------------------------------------------------------------------------------------
 
-#: Per Ray worker process: weights sha256 -> the local file holding them (and their ONNX
-#: export beside it, when the weights have one).
+#: Per Ray worker process: weights (or matching database) sha256 -> the local file holding
+#: them (and the weights' ONNX export beside it, when they have one).
 _WEIGHTS_FILES: dict[str, str] = {}
 
 
-def _local_weights(digest: str, holder: list) -> str:
-    """The weights as a file on this worker, fetched from the object store once per process."""
+def _local_weights(digest: str, holder: list, suffix: str = ".pt") -> str:
+    """The weights (``suffix`` ``.npz``: the matching database) as a file on this worker,
+    fetched from the object store once per process."""
     path = _WEIGHTS_FILES.get(digest)
     if path is None:
         import tempfile
 
         import ray  # lazy: ray
 
-        path = os.path.join(tempfile.gettempdir(), f"sgt-weights-{digest}.pt")
+        path = os.path.join(tempfile.gettempdir(), f"sgt-{'weights' if suffix == '.pt' else 'matching'}-{digest}{suffix}")
         if not os.path.isfile(path):
             atomic_write(path, ray.get(holder[0]))
         if len(holder) > 1:  # the ONNX export beside it, so workers run what local ones run
@@ -223,9 +224,9 @@ def _local_weights(digest: str, holder: list) -> str:
     return path
 
 
-def _ray_task(task: Task, weights: tuple | None) -> TaskResult:
+def _ray_task(task: Task, weights: tuple | None, database: tuple | None = None) -> TaskResult:
     local = _local_weights(*weights) if weights is not None else None
-    return run_task(task, weights=local)
+    return run_task(task, weights=local, database=_local_weights(*database, ".npz") if database is not None else None)
 
 
 def run_ray(tasks: Sequence[Task], address: str | None, on_result: OnResult, *, jobs: int | None = None) -> None:
@@ -265,8 +266,11 @@ def run_ray(tasks: Sequence[Task], address: str | None, on_result: OnResult, *, 
             if export.is_file():
                 holder.append(ray.put(export.read_bytes()))
             weights = (weights_hash(settings.weights), holder)
+        database = None
+        if settings is not None and settings.engine == "matching" and settings.database:  # (the shipped one is in the checkout)
+            database = (database_hash(settings.database), [ray.put(Path(settings.database).read_bytes())])
         remote = ray.remote(num_cpus=1, max_retries=3)(_ray_task)
-        pending = [remote.remote(task, weights) for task in tasks]
+        pending = [remote.remote(task, weights, database) for task in tasks]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             try:

@@ -86,9 +86,9 @@ def warm_up(settings: Settings) -> None:
         pass  # reported by the first task, with the script it concerns
 
 
-def run_task(task: Task, weights: str | None = None) -> TaskResult:
-    """Generate the task's utterances; ``weights`` overrides the settings' weights path (a
-    Ray worker's local copy of the same file)."""
+def run_task(task: Task, weights: str | None = None, database: str | None = None) -> TaskResult:
+    """Generate the task's utterances; ``weights`` and ``database`` override the settings' weights
+    and matching database paths (a Ray worker's local copies of the same files)."""
     from pathlib import Path
 
     from model.generate import GenerateError, generate  # lazy: numpy, the engines
@@ -96,10 +96,10 @@ def run_task(task: Task, weights: str | None = None) -> TaskResult:
     one_thread()
     settings = task.settings
     options = settings.options()
-    if weights is not None:
+    if weights is not None or database is not None:
         import dataclasses
 
-        options = dataclasses.replace(options, weights=weights)
+        options = dataclasses.replace(options, weights=weights or options.weights, database=database or options.database)
     try:
         take = generate(Path(task.path), source=task.source, engine=settings.engine, utterances=sorted(task.keys),
                         seed=settings.seed, options=options, seed_poses=False, perform=False)

@@ -13,11 +13,12 @@ and --wav (one WAV per utterance), and OUT/manifest.json listing every output wi
 sha256 and, per utterance, its cache key and whether this build took it from the cache.
 
 Each utterance is cached by the content of everything that changes its motion (text,
-controls, the gestures they play, voice, rate, pitch, recordings, engine, weights, seed),
-so editing one line regenerates one utterance, and a build with nothing changed writes
-nothing. Outputs are written atomically: a killed build leaves no half-written file and
-the next one finishes it; an output that no longer matches the manifest (changed or
-removed) is made again and reported. One build at a time writes OUT: a second one waits
+controls, the gestures they play, voice, rate, pitch, recordings, engine, weights or
+matching database, seed), so editing one line regenerates one utterance, and a build
+with nothing changed writes nothing. Outputs are written atomically: a killed build
+leaves no half-written file and the next one finishes it; an output that no longer
+matches the manifest (changed
+or removed) is made again and reported. One build at a time writes OUT: a second one waits
 for it (--no-wait: fails instead). Scripts with errors are reported (every problem, as
 'sgt check' does), as is a script whose output would be one of the build's inputs (its
 recording or timings file, another script); the others still build; the exit status is 1
@@ -29,7 +30,7 @@ work on Ray (a local instance, or a cluster at ADDRESS; pip install -e '.[ray]')
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import ENGINE_CHOICES, add_post_options, add_seed_option, positive_int
+    from sgt_tui.commands.common import ENGINE_CHOICES, add_database_option, add_post_options, add_seed_option, positive_int
     from sgt_tui.commands.generate import ENGINE_HELP
 
     p = sub.add_parser("build", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -46,6 +47,7 @@ def register(sub) -> None:
     add_seed_option(p, "random seed for every script (default: each script's @seed)")
     add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
+    add_database_option(p)
     p.add_argument("--auto-gestures", action="store_true",
                    help="where a script has no mark, the gestures its words call for ('sgt suggest' shows them)")
     p.add_argument("--no-wait", action="store_true",
@@ -60,14 +62,17 @@ def run(args) -> int:
     from sgt_tui.build import BuildCache, Settings, build, find_sources
     from sgt_tui.build.lock import Busy
     from sgt_tui.build.runners import RunnerError, default_jobs
-    from sgt_tui.commands.common import existing_file, output_folder, print_diagnostics
+    from sgt_tui.commands.common import database_option, existing_file, output_folder, print_diagnostics
     from sgt_tui.errors import InputError, UsageError
     from sgt_tui.progress import BuildProgress
 
     out = output_folder(args.output)
     cache = BuildCache(output_folder(args.cache, "--cache") if args.cache else None)
     weights = str(existing_file(args.weights).resolve()) if args.weights else None
+    database = database_option(args.database, args.engine)
+    database = str(Path(database).resolve()) if database else None
     settings = Settings(engine=args.engine, seed=args.seed, smoothing=args.smoothing, blend=not args.no_blend, weights=weights,
+                        database=database,
                         take_posture=not args.no_take_posture, auto_gestures=args.auto_gestures)
     exports = [name for name in ("bvh", "glb", "wav") if getattr(args, name)]
     if args.ray is not None and args.jobs is not None and args.ray:

@@ -136,6 +136,13 @@ def add_take_posture_option(p) -> None:
                         "the wandering; docs/model.md)")
 
 
+def add_database_option(p) -> None:
+    """``--database``: the matching engine's database (generate, build, serve; read by :func:`database_option`)."""
+    p.add_argument("--database", metavar="PATH",
+                   help="the matching engine's database (default: the shipped model/weights/matching_db.npz; "
+                        "'sgt train --engine matching' builds one of your own takes)")
+
+
 def add_seed_option(p, help_text: str) -> None:
     p.add_argument("--seed", type=seed, metavar="N", help=f"{help_text} (0 to {SEED_MAX})")
 
@@ -169,6 +176,27 @@ def _existing(path: str, kind: str, option: str = "") -> Path:
     if kind == "folder" and not stat.S_ISDIR(st.st_mode):
         raise InputError(f"{where} is a file, not a folder")
     return Path(path)
+
+
+def database_option(path: str | None, engine: str | None) -> str | None:
+    """``--database PATH`` checked before any work: the file (missing or unreadable: exit 1), read
+    as a matching database (damaged, another format, built with other settings: the engine's
+    one-line message, exit 1). A usage error when ``engine`` (None: the default engine) is not
+    ``matching``, which alone reads it; ``engine="matching"`` where each request chooses (serve)."""
+    if path is None:
+        return None
+    from model import matching  # lazy: numpy, the engine
+    from model.generate import DEFAULT_ENGINE  # lazy: numpy, the engines
+
+    if (engine or DEFAULT_ENGINE) != "matching":
+        raise UsageError(f"--database is the matching engine's database; the {engine or DEFAULT_ENGINE} engine "
+                         "does not read it: add --engine matching")
+    found = str(existing_file(path))
+    try:
+        matching.load(found)
+    except matching.DatabaseError as exc:
+        raise InputError(str(exc)) from None
+    return found
 
 
 def check_utterances(script, requested) -> None:

@@ -20,11 +20,12 @@ the 27-number poses, and each speaker's continuous track over the whole performa
 --threads sets torch's thread count (default 1: on a shared or small machine more threads
 wait for each other; benchmarks/bench_threads.py measures it)."""
 
-ENGINE_HELP = "neural (default: the trained generator), keyframe (splines through your pose controls), rules (procedural)"
+ENGINE_HELP = ("neural (default: the trained generator), matching (motion matching over a database of takes: the shipped "
+               "one or --database), keyframe (splines through your pose controls), rules (procedural)")
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import ENGINE_CHOICES, add_post_options, add_seed_option, utterance_number
+    from sgt_tui.commands.common import ENGINE_CHOICES, add_database_option, add_post_options, add_seed_option, utterance_number
 
     p = sub.add_parser("generate", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
@@ -36,6 +37,7 @@ def register(sub) -> None:
     add_seed_option(p, "random seed (default: the script's @seed); another seed, another take")
     add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
+    add_database_option(p)
     add_threads_option(p)
     p.add_argument("--auto-gestures", action="store_true",
                    help="where the script has no mark, the gestures its words call for ('sgt suggest' shows them)")
@@ -53,14 +55,15 @@ def run(args) -> int:
     from core.skeleton import FPS
     from model.neural import Options
     from sgt_tui.commands.clips import generate_script
-    from sgt_tui.commands.common import existing_file, inputs_of, output_file, output_format, shown
+    from sgt_tui.commands.common import database_option, existing_file, inputs_of, output_file, output_format, shown
 
     path = existing_file(args.file)
     fmt = output_format(args.output, args.format, ("json", "npz"))
     weights = str(existing_file(args.weights)) if args.weights else None
-    out = output_file(args.output, binary=fmt == "npz", inputs=inputs_of(path, weights))
+    database = database_option(args.database, args.engine)
+    out = output_file(args.output, binary=fmt == "npz", inputs=inputs_of(path, weights, database))
     options = Options(smoothing=args.smoothing, blend=not args.no_blend, weights=weights, threads=args.threads,
-                      take_posture=not args.no_take_posture)
+                      take_posture=not args.no_take_posture, database=database)
     take = generate_script(path, engine=args.engine, utterances=args.utterance, seed=args.seed, options=options,
                            auto_gestures=args.auto_gestures)
     take.save(out, format=fmt)

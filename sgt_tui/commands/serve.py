@@ -20,7 +20,7 @@ is required (--token, or the SGT_SERVE_TOKEN environment variable); clients send
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import non_negative_int, positive_float, positive_int
+    from sgt_tui.commands.common import add_database_option, non_negative_int, positive_float, positive_int
 
     p = sub.add_parser("serve", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
@@ -39,6 +39,7 @@ def register(sub) -> None:
                    help="a client must send a request's headers within this time of connecting or of its "
                         "previous answer, or it is disconnected (default 10)")
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
+    add_database_option(p)
     p.set_defaults(run=run)
 
 
@@ -48,15 +49,17 @@ def run(args) -> int:
 
     from model.runtime import load_runner
     from model.weights import WeightsError
-    from sgt_tui.commands.common import existing_file
+    from sgt_tui.commands.common import database_option, existing_file
     from sgt_tui.errors import InputError, UsageError
     from sgt_tui.serve.config import ConfigError, ServeConfig, checked
 
     weights = str(existing_file(args.weights)) if args.weights else None
+    database = database_option(args.database, "matching")  # for the requests that ask for the matching engine
     try:
         config = checked(ServeConfig(host=args.host, port=args.port, token=args.token, allow=tuple(Path(a) for a in args.allow),
                                      workers=args.workers, queue=args.queue, max_body=args.max_body, max_text=args.max_text,
-                                     timeout=args.timeout, header_timeout=args.header_timeout, weights=weights))
+                                     timeout=args.timeout, header_timeout=args.header_timeout, weights=weights,
+                                     database=database))
     except ConfigError as exc:
         raise UsageError(str(exc)) from None
     try:

@@ -15,7 +15,14 @@ when launched by torchrun (DistributedDataParallel; gloo on CPU, NCCL on CUDA), 
 the global batch, split over the processes. Per-epoch losses and validation
 figures go to OUT/metrics.jsonl; OUT/generator.pt holds the weights of the epoch with the
 best validation score (PCS/0.014 + SCS/0.249), OUT/last.pt the last epoch's. Copy
-OUT/generator.pt to model/weights/generator.pt to ship it."""
+OUT/generator.pt to model/weights/generator.pt to ship it.
+
+--engine matching builds the matching engine's database instead (no network, no
+epochs: seconds to minutes): every take of --data (no validation split: the database
+holds them all), or the train split of --corpus, as OUT/matching_db.npz. Takes shorter
+than a segment (1.2 s) are left out with a warning. Generate with it:
+'sgt generate FILE -o OUT.json --engine matching --database OUT/matching_db.npz'
+(also 'sgt build' and 'sgt serve' take --database)."""
 
 
 def register(sub) -> None:
@@ -28,45 +35,57 @@ def register(sub) -> None:
     src.add_argument("--data", metavar="DIR",
                      help="train on your own motion instead: BVH takes with WAV audio and TextGrid/JSON word "
                           "timings, in the GENEA/Trinity layout (Motion/, Audio/, Transcripts/) or one flat folder; "
-                          "the last tenth of the takes (at least one) is the validation split")
+                          "the last tenth of the takes (at least one) is the validation split (with --engine matching: "
+                          "none, every take goes into the database)")
     p.add_argument("-o", "--out", default="runs/default", help="output folder (default runs/default)")
-    p.add_argument("--epochs", type=positive_int, default=TrainConfig.epochs, help=f"epochs (default {TrainConfig.epochs})")
-    p.add_argument("--steps", type=positive_int, default=TrainConfig.steps_per_epoch, help=f"steps per epoch (default {TrainConfig.steps_per_epoch})")
-    p.add_argument("--batch", type=positive_int, default=TrainConfig.batch, help=f"windows per step (default {TrainConfig.batch})")
-    p.add_argument("--threads", type=positive_int, default=TrainConfig.threads, help=f"CPU threads (default {TrainConfig.threads})")
-    p.add_argument("--minutes", type=positive_float, help="stop after this much time (at the end of an epoch)")
-    p.add_argument("--no-gan", action="store_true", help="switch the adversarial term off")
-    p.add_argument("--gan-weight", type=non_negative_float, default=TrainConfig.beta,
-                   help=f"weight of the adversarial term (default {TrainConfig.beta:g}; --no-gan sets 0)")
-    p.add_argument("--ctrl-weight", type=non_negative_float, default=TrainConfig.ctrl,
-                   help=f"weight of the L1 term on pose-controlled frames, 0 = off (default {TrainConfig.ctrl:g})")
-    p.add_argument("--style-weight", type=non_negative_float, default=TrainConfig.gamma,
-                   help=f"weight of the style-consistency term (Eq. 7 gamma; default {TrainConfig.gamma:g})")
-    p.add_argument("--vel-weight", type=non_negative_float, default=TrainConfig.vel,
-                   help=f"weight of the L1 velocity term, 0 = off (default {TrainConfig.vel:g})")
-    p.add_argument("--hist-weight", type=non_negative_float, default=TrainConfig.hist,
-                   help="weight of the Hellinger distance between the generated and reference joint-speed histograms "
-                        f"(too few still and fast frames is what a regression makes), 0 = off (default {TrainConfig.hist:g})")
-    p.add_argument("--kl", type=non_negative_float, default=TrainConfig.kl,
-                   help="KL weight of the conditional-VAE noise: a training-only encoder reads each reference window "
-                        f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
-    p.add_argument("--p-prior", type=share, default=TrainConfig.p_prior,
-                   help="with --kl: share of uncontrolled training windows whose noise comes from the prior (windows with "
-                        f"controls always get the prior's; default {TrainConfig.p_prior:g})")
-    p.add_argument("--restyle", type=share, default=TrainConfig.p_restyle, metavar="P",
-                   help="share of speech windows trained on a style request other than their own, with the style "
-                        f"and adversarial terms only, so style controls reach the whole range (default {TrainConfig.p_restyle:g})")
-    p.add_argument("--window", type=positive_int, default=TrainConfig.window,
-                   help=f"training window in frames (default {TrainConfig.window})")
-    p.add_argument("--device", choices=("auto", "cpu"), default=TrainConfig.device,
-                   help="auto: CUDA when present, else the CPU (default auto)")
-    p.add_argument("--seed", type=seed, default=0)
-    p.add_argument("--fresh", action="store_true", help="ignore an existing checkpoint")
-    p.add_argument("--hidden", type=positive_int, default=128, help="network width")
-    p.add_argument("--no-gru", action="store_true", help="convolutions only (faster, see docs/model.md)")
-    p.add_argument("--smooth", type=non_negative_int, default=5, metavar="TAPS",
-                   help="taps of the in-network low-pass on free frames, 0 = off (default 5, see docs/model.md)")
-    p.set_defaults(run=run)
+    p.add_argument("--engine", choices=("neural", "matching"), default="neural",
+                   help="neural (default): train the network, OUT/generator.pt; matching: build the matching "
+                        "engine's database of the takes, OUT/matching_db.npz (for 'sgt generate --engine matching "
+                        "--database OUT/matching_db.npz'); the network's options below do not apply to it")
+    network = p.add_argument_group("the network's training (--engine neural only)")
+    network_options = []
+
+    def add(*names, **kw) -> None:
+        network_options.append(network.add_argument(*names, **kw))
+
+    add("--epochs", type=positive_int, default=TrainConfig.epochs, help=f"epochs (default {TrainConfig.epochs})")
+    add("--steps", type=positive_int, default=TrainConfig.steps_per_epoch, help=f"steps per epoch (default {TrainConfig.steps_per_epoch})")
+    add("--batch", type=positive_int, default=TrainConfig.batch, help=f"windows per step (default {TrainConfig.batch})")
+    add("--threads", type=positive_int, default=TrainConfig.threads, help=f"CPU threads (default {TrainConfig.threads})")
+    add("--minutes", type=positive_float, help="stop after this much time (at the end of an epoch)")
+    add("--no-gan", action="store_true", help="switch the adversarial term off")
+    add("--gan-weight", type=non_negative_float, default=TrainConfig.beta,
+        help=f"weight of the adversarial term (default {TrainConfig.beta:g}; --no-gan sets 0)")
+    add("--ctrl-weight", type=non_negative_float, default=TrainConfig.ctrl,
+        help=f"weight of the L1 term on pose-controlled frames, 0 = off (default {TrainConfig.ctrl:g})")
+    add("--style-weight", type=non_negative_float, default=TrainConfig.gamma,
+        help=f"weight of the style-consistency term (Eq. 7 gamma; default {TrainConfig.gamma:g})")
+    add("--vel-weight", type=non_negative_float, default=TrainConfig.vel,
+        help=f"weight of the L1 velocity term, 0 = off (default {TrainConfig.vel:g})")
+    add("--hist-weight", type=non_negative_float, default=TrainConfig.hist,
+        help="weight of the Hellinger distance between the generated and reference joint-speed histograms "
+             f"(too few still and fast frames is what a regression makes), 0 = off (default {TrainConfig.hist:g})")
+    add("--kl", type=non_negative_float, default=TrainConfig.kl,
+        help="KL weight of the conditional-VAE noise: a training-only encoder reads each reference window "
+             f"so that each seed is a different take, not the average one; 0 = off (default {TrainConfig.kl:g})")
+    add("--p-prior", type=share, default=TrainConfig.p_prior,
+        help="with --kl: share of uncontrolled training windows whose noise comes from the prior (windows with "
+             f"controls always get the prior's; default {TrainConfig.p_prior:g})")
+    add("--restyle", type=share, default=TrainConfig.p_restyle, metavar="P",
+        help="share of speech windows trained on a style request other than their own, with the style "
+             f"and adversarial terms only, so style controls reach the whole range (default {TrainConfig.p_restyle:g})")
+    add("--window", type=positive_int, default=TrainConfig.window,
+        help=f"training window in frames (default {TrainConfig.window})")
+    add("--device", choices=("auto", "cpu"), default=TrainConfig.device,
+        help="auto: CUDA when present, else the CPU (default auto)")
+    add("--seed", type=seed, default=0)
+    add("--fresh", action="store_true", help="ignore an existing checkpoint")
+    add("--hidden", type=positive_int, default=128, help="network width")
+    add("--no-gru", action="store_true", help="convolutions only (faster, see docs/model.md)")
+    add("--smooth", type=non_negative_int, default=5, metavar="TAPS",
+        help="taps of the in-network low-pass on free frames, 0 = off (default 5, see docs/model.md)")
+    # (dest, flag, default) of each network option: --engine matching refuses them when given
+    p.set_defaults(run=run, network_options=tuple((a.dest, a.option_strings[0], a.default) for a in network_options))
 
 
 def run(args) -> int:
@@ -76,11 +95,15 @@ def run(args) -> int:
     from sgt_tui.commands.common import existing_folder, output_folder
     from sgt_tui.errors import InputError
 
+    if args.engine == "matching":
+        _no_network_options(args)
     if args.data:
         existing_folder(args.data, "--data")
     elif not Path(args.corpus).exists():
         raise InputError(f"--corpus {args.corpus}: no such corpus; make one with: sgt corpus -o {args.corpus}")
     output_folder(args.out)
+    if args.engine == "matching":
+        return _build_database(args)
 
     from model.training.train import TrainConfig, train
     from sgt_tui.progress import ProgressBar
@@ -91,14 +114,7 @@ def run(args) -> int:
             return 1
         train_clips, val_clips = loaded
     else:
-        corpus = Path(args.corpus)
-        from model.training.corpus import CorpusError, load_corpus
-
-        try:
-            train_clips = load_corpus(corpus, "train")
-            val_clips = load_corpus(corpus, "val")
-        except (CorpusError, OSError, ValueError) as exc:
-            raise InputError(f"cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}") from None
+        train_clips, val_clips = _corpus_split(Path(args.corpus), "train"), _corpus_split(Path(args.corpus), "val")
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else args.gan_weight, seed=args.seed,
                       threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight, hist=args.hist_weight,
@@ -115,25 +131,121 @@ def run(args) -> int:
     return 0
 
 
+def _corpus_split(corpus, split: str) -> list:
+    """The clips of a corpus's split; a corpus that cannot be read: one line, exit 1."""
+    from model.training.corpus import CorpusError, load_corpus
+    from sgt_tui.errors import InputError
+
+    try:
+        return load_corpus(corpus, split)
+    except (CorpusError, OSError, ValueError) as exc:
+        raise InputError(f"cannot load the corpus at {corpus}: {exc}\n  make one with: sgt corpus -o {corpus}") from None
+
+
 def _user_data(root):
     """(train, val) clips from a BVH folder (model/loaders.py), or None after printing the error."""
     import sys
 
-    from model.features import silence_features
-    from model.training.loaders import LoaderError, load_folder
-
-    try:
-        clips = load_folder(root)
-    except LoaderError as exc:
-        print(f"sgt train: error: {exc}", file=sys.stderr)
+    clips = _user_takes(root)
+    if clips is None:
         return None
-    for c in clips:
-        if "audio" not in c:
-            print(f"sgt train: warning: take '{c['id']}' has no audio; it trains with silence", file=sys.stderr)
-            c["audio"] = silence_features(len(c["poses"]))
     if len(clips) < 2:
         print(f"sgt train: error: {root} has {len(clips)} take(s); at least 2 are needed (one for validation)", file=sys.stderr)
         return None
     n_val = max(1, len(clips) // 10)
     print(f"{len(clips)} takes from {root}: {len(clips) - n_val} for training, {n_val} for validation", file=sys.stderr)
     return clips[:-n_val], clips[-n_val:]
+
+
+def _user_takes(root):
+    """Every take of a BVH folder (model/training/loaders.py) as clips, silence for a take without
+    audio (with a warning); None after printing the error."""
+    import sys
+
+    from model.features import silence_features
+    from model.training.loaders import LoaderError, load_folder
+    from sgt_tui.progress import ProgressBar
+
+    try:
+        clips = load_folder(root, progress=ProgressBar("takes"))
+    except LoaderError as exc:
+        print(f"sgt train: error: {exc}", file=sys.stderr)
+        return None
+    for c in clips:
+        if "audio" not in c:
+            print(f"sgt train: warning: take '{c['id']}' has no audio; it is used with silence (its speech features "
+                  "say nobody speaks)", file=sys.stderr)
+            c["audio"] = silence_features(len(c["poses"]))
+    return clips
+
+
+def _no_network_options(args) -> None:
+    """Usage error when a network option was set with --engine matching (a value other than its default)."""
+    from sgt_tui.errors import UsageError
+
+    given = [flag for dest, flag, default in args.network_options if getattr(args, dest) != default]
+    if given:
+        raise UsageError(f"{', '.join(given)}: the network's training option{'s' if len(given) > 1 else ''}; "
+                         "--engine matching builds a database and has no such setting: leave "
+                         f"{'them' if len(given) > 1 else 'it'} out")
+
+
+def _build_database(args) -> int:
+    """sgt train --engine matching: the matching engine's database of the takes, OUT/matching_db.npz."""
+    import sys
+    import time
+    from pathlib import Path
+
+    from core.skeleton import FPS
+    from sgt_tui.commands.common import output_file, shown
+    from sgt_tui.errors import InputError
+    from sgt_tui.progress import ProgressBar
+
+    t0 = time.perf_counter()
+    out = Path(args.out) / "matching_db.npz"
+    if args.data:
+        from model.training.loaders import LoaderError, find_takes
+
+        root = Path(args.data)
+        try:
+            takes = find_takes(root)
+        except LoaderError as exc:
+            raise InputError(str(exc)) from None
+        inputs = [p for t in takes for p in (t.bvh_path, t.audio_path, t.timings_path)]
+        output_file(str(out), "-o", inputs=inputs)
+        clips = _user_takes(root)
+        if clips is None:
+            return 1
+        source = f"{len(clips)} take(s) of {root} (all of them: a database needs no validation split)"
+    else:
+        corpus = Path(args.corpus)
+        output_file(str(out), "-o", inputs=[p for p in corpus.iterdir() if p.is_file()] if corpus.is_dir() else [corpus])
+        clips = _corpus_split(corpus, "train")
+        source = f"the {len(clips)} train-split take(s) of {corpus}"
+    from model.training import matching_db
+
+    short = [c for c in clips if not matching_db.gives_segments(len(c["poses"]))]
+    for c in short:
+        n = len(c["poses"])
+        print(f"sgt train: warning: take '{c['id']}' is {n / FPS:.2f} s ({n} frames), shorter than a segment "
+              f"({matching_db.min_frames()} frames): left out", file=sys.stderr)
+    clips = [c for c in clips if matching_db.gives_segments(len(c["poses"]))]
+    if not clips:
+        raise InputError(f"no usable take in {source}: each needs at least {matching_db.min_frames()} frames "
+                         f"({matching_db.min_frames() / FPS:.1f} s) of motion")
+    print(f"building a matching database of {source}" + (f", {len(short)} left out" if short else ""), file=sys.stderr)
+    arrays, meta = matching_db.build_from_clips(clips, progress=ProgressBar("database"))
+    if args.data:
+        meta.update(source="bvh", data=root.name)
+    else:
+        meta.update(split="train", corpus=corpus.name)
+    digest = matching_db.write(out, arrays, meta)
+    print(f"wrote {shown(out)}: {meta['takes']} take{'s' if meta['takes'] != 1 else ''}, {meta['frames']} frames ({meta['frames'] / FPS / 60:.1f} min), "
+          f"{meta['candidates']} candidate segments, {_size(out.stat().st_size)}, sha256 {digest}, "
+          f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    print(f"use it: sgt generate FILE -o OUT.json --engine matching --database {shown(out)}", file=sys.stderr)
+    return 0
+
+
+def _size(n: int) -> str:
+    return f"{n / 2**20:.1f} MiB" if n >= 2**20 else f"{n / 1024:.0f} KiB"

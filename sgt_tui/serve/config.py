@@ -29,6 +29,7 @@ class ServeConfig:
     timeout: float = 30.0  # seconds a request may take (reading the body, waiting and working); then 408
     header_timeout: float = 10.0  # seconds a client may take to send a request's headers (sgt_tui.serve.listen)
     weights: str | None = None  # generator weights; None = the shipped ones
+    database: str | None = None  # the matching engine's database; None = the shipped one
     stream_idle: float = 60.0  # seconds a stream may wait for its next message
 
     @property

@@ -77,7 +77,7 @@ def generate_request(config: ServeConfig, req: GenerateRequest, library, upload:
 
 
 def _generate(config: ServeConfig, req: GenerateRequest, source: str, path: Path, library) -> dict:
-    options = Options(weights=config.weights)
+    options = Options(weights=config.weights, database=config.database)
     try:
         take = generate(path, source=source, engine=req.engine, utterances=req.utterances, seed=req.seed,
                         timing=req.timing, options=options, library=_library_for(source, library))
