@@ -1058,7 +1058,8 @@ file), drop the directive, or have the operator allow-list the folder that holds
 RECORDING_MISMATCH = rule(
     "SGT407", "recording-mismatch", ERROR,
     "{detail}",
-    "the utterance must say exactly what the recording says; or give the words' times with timings=FILE",
+    "the utterance must say exactly what the recording says; or give the words' times with timings=FILE "
+    "('sgt align' writes the aligner's for you to review)",
     """
 Without a timings file, a recording (`@audio FILE`) is aligned to its utterance's words
 with pocketsphinx, and the alignment is checked: a word the recording does not say (the
@@ -1076,7 +1077,9 @@ Example: `@audio said.wav` before `bot: Well, hello there my dear friend.` when 
 recording says "Well, hello there my friend." (the error is at 'dear').
 
 Fix: make the utterance say what the recording says, or record it again; if the aligner is
-wrong, give the words' times with `timings=FILE` (a TextGrid or JSON).
+wrong, give the words' times with `timings=FILE` (a TextGrid or JSON): `sgt align SCRIPT`
+writes the times the aligner found, whatever its verdict, for you to review (in Praat with
+`--format textgrid`) and name on the directive.
 """,
     example="@audio said.wav\nbot: Well, hello there my dear friend.\n",
     files={"said.wav": "@speech:Well, hello there my friend."},

@@ -14,12 +14,13 @@ echo "    festival + festvox voices: the corpus's voices besides espeak-ng (mode
 echo "    ffmpeg: ffprobe, the independent reader of sgt's MP4s in the tests;"
 echo "    blender + python3-numpy: Blender's glTF/BVH importers read the rig exports in tests/test_rigs_blender.py;"
 echo "    neovim: a real client of 'sgt lsp' in tests/test_nvim.py; nodejs + npm: the VS Code extension, editors/vscode;"
-echo "    chromium: the browser tests of 'sgt view' (tests/test_view_browser.py, headless, DevTools protocol))"
+echo "    chromium: the browser tests of 'sgt view' (tests/test_view_browser.py, headless, DevTools protocol);"
+echo "    praat: reads the TextGrids 'sgt align' writes, in tests/test_align_command.py)"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
     espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min alsa-utils \
     pocketsphinx-testdata festival festvox-kallpc16k festvox-kdlpc16k festvox-us-slt-hts \
-    ffmpeg blender python3-numpy neovim chromium fonts-liberation >/dev/null
+    ffmpeg blender python3-numpy neovim chromium fonts-liberation praat >/dev/null
 if ! command -v npm >/dev/null; then  # (a Node.js of its own, from NodeSource say, brings its npm)
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
 fi

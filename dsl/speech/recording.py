@@ -26,7 +26,7 @@ from typing import Sequence
 
 import numpy as np
 
-from core.fileio import atomic_write
+from core.fileio import atomic_write, json_text
 from core.reading import InputFileError, loads_json, read_bytes
 from core.words import TimedWord
 
@@ -391,6 +391,17 @@ def _cached_alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Pat
     """Word times from pocketsphinx (cached by the audio's and the words' content); a
     recording that does not say the transcript's words raises SpeechError ("mismatch") naming
     the first word that differs and its time, cached too."""
+    times, mismatch = _alignment(audio_path, text, spans, samples, sr, cdir)
+    if mismatch:
+        k, t, reason = int(mismatch[0]), float(mismatch[1]), str(mismatch[2])
+        raise SpeechError(f"{audio_path}: {reason}", word_index=k, time=t, kind="mismatch", file=audio_path,
+                          reason=reason)
+    return times
+
+
+def _alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Path):
+    """(times, mismatch) of :func:`_cached_alignment`, the verdict returned instead of raised:
+    mismatch is None or [word index, seconds, reason]."""
     words = [text[s:e] for s, e in spans]
     key = cache.content_hash({"kind": "pocketsphinx-align", "algorithm": cache.ALGORITHM_VERSION,
                               "aligner": align.VERSION, "audio": cache.file_hash(audio_path), "words": words})
@@ -399,14 +410,60 @@ def _cached_alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Pat
     if meta is not None and meta.get("key") == key and len(meta.get("times", [])) == len(words):
         times, mismatch = [(float(a), float(b)) for a, b in meta["times"]], meta.get("mismatch")
     elif not words:
-        return []
+        return [], None
     else:
         times, mismatch = align.align_words(samples, sr, words)
         cdir.mkdir(parents=True, exist_ok=True)
         cache.write_json(meta_path, {"key": key, "source": "pocketsphinx", "times": [list(t) for t in times],
                                      "mismatch": list(mismatch) if mismatch else None})
-    if mismatch:
-        k, t, reason = int(mismatch[0]), float(mismatch[1]), str(mismatch[2])
-        raise SpeechError(f"{audio_path}: {reason}", word_index=k, time=t, kind="mismatch", file=audio_path,
-                          reason=reason)
-    return times
+    return times, mismatch
+
+
+def align_recording(audio_path: Path, text: str, word_spans, cache_dir: Path | None = None):
+    """The automatic alignment of a recording whatever its verdict (``sgt align``): ((start,
+    end) seconds per word span, None or the reason :func:`check_recording` would reject the
+    transcript for, as "word N ...: ..."), cached as :func:`load_recording` caches it.
+    Raises :class:`SpeechError` when the audio cannot be read or aligned at all."""
+    spans = check_spans(text, word_spans)
+    audio_path = Path(audio_path)
+    samples, sr = read_audio(audio_path)
+    cdir = Path(cache_dir) if cache_dir is not None else cache.default_cache_dir()
+    times, mismatch = _alignment(audio_path, text, spans, samples, sr, cdir)
+    return times, (str(mismatch[2]) if mismatch else None)
+
+
+def timings_text(words: Sequence[str], times: Sequence[tuple[float, float]], fmt: str, duration: float) -> str:
+    """A timings file that :func:`read_timings` reads back: ``fmt`` "json" (a list of
+    {"word", "start", "end"}, the times rounded to 0.1 ms) or "textgrid" (a Praat long-format
+    TextGrid with one interval tier "words", empty intervals between the words, so Praat opens
+    it beside the recording to correct by hand); ``duration``: the recording's length (s)."""
+    rows = [(w, round(float(a), 4), round(float(max(b, a)), 4)) for w, (a, b) in zip(words, times)]
+    if fmt == "json":
+        lines = [json_text({"word": w, "start": a, "end": b}) for w, a, b in rows]  # a word a line: diffs read well
+        return "[\n" + ",\n".join(lines) + "\n]\n" if lines else "[]\n"
+    if fmt != "textgrid":
+        raise ValueError(f"unknown timings format {fmt!r}")
+    end = max([duration] + [b for _, _, b in rows])
+    cells: list[tuple[float, float, str]] = []
+    at = 0.0
+    for w, a, b in rows:
+        a = max(a, at)
+        if a > at:
+            cells.append((at, a, ""))
+        b = max(b, a + 0.0001)  # (Praat refuses an interval of no length)
+        cells.append((a, b, w))
+        at = b
+    if end > at:
+        cells.append((at, end, ""))
+
+    def q(label: str) -> str:
+        return '"' + label.replace('"', '""') + '"'
+
+    out = ['File type = "ooTextFile"', 'Object class = "TextGrid"', "", "xmin = 0", f"xmax = {end:.4f}",
+           "tiers? <exists>", "size = 1", "item []:", "    item [1]:", '        class = "IntervalTier"',
+           '        name = "words"', "        xmin = 0", f"        xmax = {end:.4f}",
+           f"        intervals: size = {len(cells)}"]
+    for i, (a, b, label) in enumerate(cells, 1):
+        out += [f"        intervals [{i}]:", f"            xmin = {a:.4f}", f"            xmax = {b:.4f}",
+                f"            text = {q(label)}"]
+    return "\n".join(out) + "\n"

@@ -1,0 +1,124 @@
+"""sgt align: write the aligner's word times of a script's recordings as timings files."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "write the word times the aligner finds in a script's recordings, as timings files to review"
+DESCRIPTION = """\
+For every utterance spoken from a recording (@audio FILE, without timings=), align the
+utterance's words to the recording with pocketsphinx, exactly as 'sgt check' and
+'sgt compile' do (the same cached alignment), and write the words' times as a timings
+file: FILE's name with .timings.json (--format json, the default) or .TextGrid (--format
+textgrid, which Praat opens beside the recording), in FILE's folder or in -o DIR.
+
+It says whether the check accepts the transcript. When the check rejects a transcript
+that you know is right (the aligner is not perfect: docs/language.md measures how often),
+this is the way forward: review the times (listen in Praat, or read them), correct any
+that are off, and name the file on the directive, '@audio FILE timings=TIMINGS'; the
+recording is then timed by the file and not checked by the aligner. Existing timings
+files are never replaced without --force."""
+
+FORMATS = {"json": ".timings.json", "textgrid": ".TextGrid"}
+
+
+def register(sub) -> None:
+    from sgt_tui.commands.common import utterance_number
+
+    p = sub.add_parser("align", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("file", metavar="FILE", help="script file (.sgt)")
+    p.add_argument("-o", "--out-dir", metavar="DIR", help="folder for the timings files (default: each recording's own folder)")
+    p.add_argument("--format", choices=tuple(FORMATS), default="json",
+                   help="json: a list of {word, start, end} (default); textgrid: a Praat TextGrid with a 'words' tier")
+    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N",
+                   help="only utterance N (0-based; repeatable)")
+    p.add_argument("--force", action="store_true", help="replace timings files that exist")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    import sys
+    from pathlib import Path
+
+    from core.fileio import atomic_write_text
+    from dsl.compiler import load_script
+    from dsl.speech import SpeechError
+    from dsl.speech.recording import align_recording, read_audio, timings_text
+    from sgt_tui.commands.common import (
+        check_utterances,
+        existing_file,
+        inputs_of,
+        output_file,
+        output_folder,
+        print_diagnostics,
+        shown,
+    )
+    from sgt_tui.errors import UsageError
+
+    path = existing_file(args.file)
+    out_dir = output_folder(args.out_dir, "--out-dir") if args.out_dir else None
+    script, _lib, diags = load_script(path)
+    syntax = [d for d in script.diagnostics if d.is_error]
+    if script.header is None or syntax:
+        print_diagnostics(syntax or diags, {str(path): script.source})
+        print(f"sgt align: fix these first ('sgt check {path}' lists every problem)", file=sys.stderr)
+        return 1
+    check_utterances(script, args.utterance)
+    chosen = [u for u in script.utterances if not args.utterance or u.index in args.utterance]
+    todo = [u for u in chosen if u.audio is not None and u.audio.timings is None]
+    for u in chosen:
+        if u.audio is not None and u.audio.timings is not None:
+            print(f"[{u.index}] line {u.line}: timed by {u.audio.timings}: skipped", file=sys.stderr)
+    if not todo:
+        if args.utterance:
+            raise UsageError(f"no utterance of {', '.join(map(str, args.utterance))} is spoken from a recording "
+                             "without timings=: nothing to align")
+        print(f"{shown(path)} has no recording without timings= to align (@audio FILE before an utterance)", file=sys.stderr)
+        return 0
+    suffix = FORMATS[args.format]
+    targets = []
+    inputs = inputs_of(path)
+    for u in todo:
+        folder = out_dir if out_dir is not None else Path(u.audio.path).parent
+        target = folder / (Path(u.audio.path).stem + suffix)
+        if target in [t for _, t in targets]:
+            raise UsageError(f"utterances {targets[[t for _, t in targets].index(target)][0].index} and {u.index} "
+                             f"would both write {target}: give them recordings of other names, or use --utterance")
+        if target.exists() and not args.force:
+            raise UsageError(f"{target} exists (a timings file you may have corrected): add --force to replace it, "
+                             "or write elsewhere with -o DIR")
+        output_file(str(target), "--out-dir", inputs=inputs)
+        targets.append((u, target))
+    failed = 0
+    for u, target in targets:
+        words = [u.text[a:b] for a, b in u.word_spans]
+        try:
+            times, rejection = align_recording(u.audio.path, u.text, u.word_spans)
+            samples, sr = read_audio(Path(u.audio.path))
+        except SpeechError as exc:
+            print(f"[{u.index}] line {u.line}: {exc.message}", file=sys.stderr)
+            failed += 1
+            continue
+        atomic_write_text(target, timings_text(words, times, args.format, len(samples) / sr))
+        named = _as_named(target, path)
+        print(f"[{u.index}] line {u.line}: wrote {shown(target)}: {len(words)} words, "
+              f"{times[0][0]:.2f}-{times[-1][1]:.2f} s" if times else f"[{u.index}] line {u.line}: wrote {shown(target)}")
+        if rejection is None:
+            print("    the check accepts this transcript (no timings file is needed; with one, its times are used as written)")
+        else:
+            print(f"    the check REJECTS this transcript: {rejection}")
+            print(f"    if the transcript is right, review these times and use them: @audio {_as_named(u.audio.path, path)} "
+                  f"timings={named}")
+    return 1 if failed else 0
+
+
+def _as_named(target, script) -> str:
+    """``target`` as a directive of ``script`` names it: relative to the script's folder where it
+    lies under it, else absolute."""
+    from pathlib import Path
+
+    target, folder = Path(target).resolve(), Path(script).resolve().parent
+    try:
+        return str(target.relative_to(folder))
+    except ValueError:
+        return str(target)
