@@ -8,7 +8,9 @@ stream keeps that lookahead and gives the search what is known when a segment st
 - a segment is chosen when its first frame is decided, i.e. once the speech is known up to 7
   frames past it; its **speech term** is the mean squared distance over the known part of the
   window only (frames ``t - 2`` to ``t + 6`` of the 18 the offline key covers: the database's
-  keys are a PCA of whole windows, so each candidate's known part is read back from its key);
+  keys are a PCA of whole windows, so each candidate's known part is read back from its key;
+  chosen by measurement over rescaling it or estimating the whole key from the known part,
+  docs/serve.md);
 - the **entry**, **style** and **continue-bonus** terms, the first segment drawn among the best
   by the seed, the **cross-fade** of a new take from the old one's continuation and the in-engine
   **pause hold** are :func:`~model.matching.match`'s, frame by frame (a pause is known when its
