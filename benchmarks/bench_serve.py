@@ -16,7 +16,10 @@ Starts `sgt serve` on 127.0.0.1 (a free port, loopback only) in its own process 
    word sent when it starts: how far the known speech runs ahead of the last decided frame
    after each message), the compute per network call (median, p99), and how the stream's
    motion compares with the offline engine on the same words (mean angle per bone, speed and
-   jerk ratios).
+   jerk ratios); then the same for the matching engine's stream (model/matching_stream.py)
+   against the offline matching engine, on the words alone and on espeak-ng's audio in 0.2 s
+   chunks, with the offline engine's take of another seed as the yardstick (``--engine
+   matching`` in ``--stream-only``: that part alone).
 The load is bounded in count (CLIENTS threads) and in time (SECONDS), and never leaves the machine.
 """
 
@@ -165,7 +168,7 @@ def stream_figures() -> None:
     from core.skeleton import FPS
     from dsl import compile_text
     from model import neural, postprocess
-    from model.features import AUDIO_DIM
+    from model.features import AUDIO_DIM, word_features
     from model.runtime import load_runner
     from model.streaming import LOOKAHEAD_S, StreamGenerator
 
@@ -173,25 +176,9 @@ def stream_figures() -> None:
     lags, calls, angles, speed, jerk = [], [], [], [], []
     for n, text in enumerate(SENTENCES):
         words = list(compile_text(f"guide: {text}", timing="estimate").plan.utterances[0].words)
-        gen = StreamGenerator(runner, seed=n)
-        pending, frames, emitted = list(words), [], 0
-        for k in range(1, int(words[-1].end * FPS) + 2):
-            t = k / FPS
-            starting = [w for w in pending if w.start <= t]
-            pending = pending[len(starting):]
-            t0 = time.perf_counter()
-            got = [gen.add_words(starting)] if starting else []
-            got.append(gen.known_until(t))
-            calls.append((time.perf_counter() - t0, sum(map(len, got))))
-            for f in got:
-                emitted += len(f)
-                frames.append(f)
-            if emitted:  # how far the known speech runs ahead of the last decided frame
-                lags.append(gen.known - (emitted - 1) / FPS)
-        frames.append(gen.finish())
-        stream = np.concatenate(frames)
+        stream = _feed_frame_by_frame(StreamGenerator(runner, seed=n), words, lags, calls)
         m = len(stream)
-        ids, onsets = neural.word_features(words, m)
+        ids, onsets = word_features(words, m)
         offline = postprocess.calm_pauses(postprocess.one_euro(neural.network_motion(
             runner, np.zeros((m, AUDIO_DIM), np.float32), ids, onsets, ControlArrays.empty(m), n, words=words)), words)
         angle, fast, jerky = _compare(stream, offline)
@@ -207,6 +194,111 @@ def stream_figures() -> None:
     print(f"  vs the offline engine on the same words ({len(SENTENCES)} sentences): mean angle per bone "
           f"{statistics.mean(angles):.1f} deg, speed x{statistics.mean(speed):.2f}, jerk x{statistics.mean(jerk):.2f}")
     audio_stream_figures(runner)
+
+
+def matching_stream_figures() -> None:
+    """The matching engine's stream (model/matching_stream.py) as :func:`stream_figures` measures
+    the network's: the lag after each message and the compute per decided frame (time advancing
+    a frame at a time), then its motion against the offline matching engine (``matching.match``
+    and ``matching.finish``, its take drawn with the same seed, the pauses held) on the same words,
+    and on espeak-ng's audio in 0.2 s chunks with the words that start in each; the offline
+    engine's take of another seed (seed + 100) against the same offline take is the yardstick."""
+    import numpy as np
+
+    from core.controls import ControlArrays
+    from dsl import compile_text
+    from dsl.speech.audio import read_wav, resample_poly
+    from model import matching, postprocess
+    from model.features import SAMPLE_RATE, audio_features, silence_features, word_features
+    from model.matching_stream import MatchingStreamGenerator
+    from model.streaming import LOOKAHEAD_S
+
+    db = matching.load()
+
+    def offline(features, words, seed, m):
+        ids, onsets = word_features(words, m)
+        arrays = ControlArrays.empty(m)
+        raw = matching.match(db, features, ids, onsets, arrays, seed, matching.draw_take(db, seed), None,
+                             postprocess.pause_frames(words, m))
+        return matching.finish(raw, arrays, words=words)
+
+    lags, calls, rows = [], [], {"words": [], "audio": [], "yardstick": []}
+    for n, text in enumerate(SENTENCES):
+        words = list(compile_text(f"guide: {text}", timing="estimate").plan.utterances[0].words)
+        stream = _feed_frame_by_frame(MatchingStreamGenerator(db, seed=n), words, lags, calls)
+        m = len(stream)
+        off = offline(silence_features(m), words, n, m)
+        rows["words"].append(_compare(stream, off))
+        rows["yardstick"].append(_compare(offline(silence_features(m), words, n + 100, m), off))
+        # with the speech audio, in 0.2 s chunks
+        u = compile_text(f"guide: {text}").plan.utterances[0]
+        data, rate = read_wav(u.audio_path)
+        x, words = data[:, 0], list(u.words)
+        stream = _feed_audio(MatchingStreamGenerator(db, seed=n), x, rate, words, [])
+        m = len(stream)
+        audio16 = resample_poly(x, SAMPLE_RATE, rate).astype(np.float32)
+        rows["audio"].append(_compare(stream, offline(audio_features(audio16, m), words, n, m)))
+    per_frame = sorted(s / k for s, k in calls if k)
+    print(f"matching stream: stated lookahead {LOOKAHEAD_S:.3f} s; measured: after each of {len(lags)} messages the last "
+          f"decided frame is {min(lags):.3f}-{max(lags):.3f} s behind the known speech")
+    print(f"  compute per decided frame (a search every 12 frames): median {statistics.median(per_frame) * 1000:.2f} ms, "
+          f"mean {statistics.mean(per_frame) * 1000:.2f} ms, p99 {per_frame[int(0.99 * (len(per_frame) - 1))] * 1000:.2f} ms, "
+          f"max {per_frame[-1] * 1000:.2f} ms (n={len(per_frame)})")
+    for name, label in (("words", "the words alone"), ("audio", "espeak-ng's audio in 0.2 s chunks"),
+                        ("yardstick", "(yardstick) the offline engine's take of another seed")):
+        angle, speed, jerk = (statistics.mean(r[i] for r in rows[name]) for i in range(3))
+        print(f"  {label} vs the offline matching engine ({len(SENTENCES)} sentences): mean angle per bone "
+              f"{angle:.1f} deg, speed x{speed:.2f}, jerk x{jerk:.2f}")
+
+
+def _feed_frame_by_frame(gen, words, lags: list, calls: list):
+    """Feed ``words`` to the stream ``gen`` as a TTS says them (each word when it starts), time
+    advancing one frame at a time; appends to ``lags`` how far the known speech runs ahead of
+    the last decided frame after each message, and to ``calls`` (seconds, frames decided) per
+    message. Returns every frame, the rest after ``finish``."""
+    import numpy as np
+
+    from core.skeleton import FPS
+
+    pending, frames, emitted = list(words), [], 0
+    for k in range(1, int(words[-1].end * FPS) + 2):
+        t = k / FPS
+        starting = [w for w in pending if w.start <= t]
+        pending = pending[len(starting):]
+        t0 = time.perf_counter()
+        got = [gen.add_words(starting)] if starting else []
+        got.append(gen.known_until(t))
+        calls.append((time.perf_counter() - t0, sum(map(len, got))))
+        emitted += sum(map(len, got))
+        frames += got
+        if emitted:
+            lags.append(gen.known - (emitted - 1) / FPS)
+    frames.append(gen.finish())
+    return np.concatenate(frames)
+
+
+def _feed_audio(gen, x, rate: int, words, per_chunk: list):
+    """Feed the speech ``x`` (at ``rate``) to the stream ``gen`` in 0.2 s chunks, each with the
+    words that start in it; appends the seconds of each chunk's calls to ``per_chunk``."""
+    import numpy as np
+
+    from dsl.speech.audio import StreamResampler
+    from model.features import SAMPLE_RATE
+
+    resampler, out, pending = StreamResampler(rate, SAMPLE_RATE), [gen.add_audio(np.zeros(0, np.float32))], list(words)
+    step = int(0.2 * rate)
+    for at in range(0, len(x), step):
+        end = min(len(x), at + step) / rate
+        starting = [w for w in pending if w.start < end]
+        pending = pending[len(starting):]
+        t0 = time.perf_counter()
+        if starting:
+            out.append(gen.add_words(starting))
+        out.append(gen.add_audio(resampler.push(x[at : at + step])))
+        out.append(gen.known_until(end))
+        per_chunk.append(time.perf_counter() - t0)
+    out += [gen.add_audio(resampler.flush()), gen.finish()]
+    return np.concatenate(out)
 
 
 def _compare(stream, offline) -> tuple[float, float, float]:
@@ -227,11 +319,10 @@ def audio_stream_figures(runner) -> None:
     import numpy as np
 
     from core.controls import ControlArrays
-    from core.skeleton import FPS
     from dsl import compile_text
-    from dsl.speech.audio import StreamResampler, read_wav, resample_poly
+    from dsl.speech.audio import read_wav, resample_poly
     from model import neural, postprocess
-    from model.features import SAMPLE_RATE, audio_features
+    from model.features import SAMPLE_RATE, audio_features, word_features
     from model.streaming import StreamGenerator
 
     with_audio, words_only, per_chunk = [], [], []
@@ -240,24 +331,10 @@ def audio_stream_figures(runner) -> None:
         data, rate = read_wav(u.audio_path)
         x = data[:, 0]
         words = list(u.words)  # on the audio's clock (the audio starts at the first frame here)
-        gen = StreamGenerator(runner, seed=n)
-        resampler, out, pending = StreamResampler(rate, SAMPLE_RATE), [gen.add_audio(np.zeros(0, np.float32))], list(words)
-        step = int(0.2 * rate)
-        for at in range(0, len(x), step):
-            end = min(len(x), at + step) / rate
-            starting = [w for w in pending if w.start < end]
-            pending = pending[len(starting):]
-            t0 = time.perf_counter()
-            if starting:
-                out.append(gen.add_words(starting))
-            out.append(gen.add_audio(resampler.push(x[at : at + step])))
-            out.append(gen.known_until(end))
-            per_chunk.append(time.perf_counter() - t0)
-        out += [gen.add_audio(resampler.flush()), gen.finish()]
-        stream = np.concatenate(out)
+        stream = _feed_audio(StreamGenerator(runner, seed=n), x, rate, words, per_chunk)
         m = len(stream)
         audio16 = resample_poly(x, SAMPLE_RATE, rate).astype(np.float32)
-        ids, onsets = neural.word_features(words, m)
+        ids, onsets = word_features(words, m)
         offline = postprocess.calm_pauses(postprocess.one_euro(neural.network_motion(
             runner, audio_features(audio16, m), ids, onsets, ControlArrays.empty(m), n, words=words)), words)
         with_audio.append(_compare(stream, offline))
@@ -281,12 +358,17 @@ def main() -> int:
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--stream-only", action="store_true")
+    ap.add_argument("--engine", choices=("all", "neural", "matching"), default="all",
+                    help="the streams measured (default: both)")
     ap.add_argument("--load-only", action="store_true", help="skip the streaming figures")
     ap.add_argument("--rounds", type=int, default=1, help="load runs per tree, alternating (default 1)")
     add_before_option(ap)
     args = ap.parse_args()
     if not args.load_only:
-        stream_figures()
+        if args.engine != "matching":
+            stream_figures()
+        if args.engine != "neural":
+            matching_stream_figures()
     if args.stream_only:
         return 0
     import tempfile

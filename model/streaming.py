@@ -28,6 +28,7 @@ offline engine uses the whole utterance's, which a stream does not have yet).
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -55,28 +56,29 @@ class StreamError(ValueError):
     """Input the stream cannot take (words out of order, an unknown style, ...)."""
 
 
-class StreamGenerator:
-    """Feed timed words (:meth:`add_words`) and say how far the speech is known
-    (:meth:`known_until`); each call returns the frames it could decide, (n, 27) poses.
-    :meth:`finish` returns the rest."""
+def parse_style(style: dict[str, float] | None) -> tuple[np.ndarray, np.ndarray]:
+    """(style, mask) (3,) float32 of a client's style request ``{"speed": 1.0, ...}``; raises
+    :class:`StreamError` for an unknown name or a value out of range."""
+    values = np.zeros(len(STYLE_NAMES), np.float32)
+    mask = np.zeros(len(STYLE_NAMES), np.float32)
+    for name, value in (style or {}).items():
+        if name not in STYLE_INDEX:
+            raise StreamError(f"unknown style '{name}': use {', '.join(STYLE_NAMES)}")
+        if not isinstance(value, (int, float)) or not -STYLE_LIMIT <= value <= STYLE_LIMIT:
+            raise StreamError(f"style {name} must be a number from -{STYLE_LIMIT} to {STYLE_LIMIT}")
+        values[STYLE_INDEX[name]], mask[STYLE_INDEX[name]] = value, 1.0
+    return values, mask
 
-    def __init__(self, runner, *, seed: int = 0, style: dict[str, float] | None = None, smoothing: bool = True) -> None:
-        self.runner = runner
-        self.z = np.random.default_rng(seed).standard_normal(runner.noise_dim).astype(np.float32)
-        self.style = np.zeros(len(STYLE_NAMES), np.float32)
-        self.style_mask = np.zeros(len(STYLE_NAMES), np.float32)
-        for name, value in (style or {}).items():
-            if name not in STYLE_INDEX:
-                raise StreamError(f"unknown style '{name}': use {', '.join(STYLE_NAMES)}")
-            if not isinstance(value, (int, float)) or not -STYLE_LIMIT <= value <= STYLE_LIMIT:
-                raise StreamError(f"style {name} must be a number from -{STYLE_LIMIT} to {STYLE_LIMIT}")
-            self.style[STYLE_INDEX[name]], self.style_mask[STYLE_INDEX[name]] = value, 1.0
-        # the take's posture and drift (model.take_posture), unless the client asks for space or handedness
-        asked = any(self.style_mask[STYLE_INDEX[n]] for n in take_posture.YIELDS_TO_STYLES)
-        self.take = None if asked else take_posture.draw(getattr(runner, "takes", None), seed)
-        if self.take is not None and take_posture.asks_slower(self.style[None], self.style_mask[None])[0]:
-            self.take = take_posture.Take(self.take.posture)  # the drift gives way to a slower speed
-        self.drift_frame = 0  # the drift's clock: it stands still in pauses (take_posture.drift_clock)
+
+class StreamBase:
+    """What every streaming engine shares: the words and audio as they arrive, when a frame may
+    be decided (the speech known ``LOOKAHEAD_S`` past it), the pause spans and the offline
+    engines' pause hold on the frames returned. An engine decides one frame per :meth:`_step`
+    and smooths the frames it returns in :meth:`_smooth` (:class:`StreamGenerator`, the
+    network; :class:`model.matching_stream.MatchingStreamGenerator`, the matching engine)."""
+
+    def __init__(self, *, style: dict[str, float] | None = None, smoothing: bool = True) -> None:
+        self.style, self.style_mask = parse_style(style)
         self.smoothing = smoothing
         self.filter_state: dict = {}
         self.emitted = 0  # frames returned so far
@@ -84,6 +86,7 @@ class StreamGenerator:
         self.last_filtered: np.ndarray | None = None  # the last returned frame before the pause hold
         self.hold_target: np.ndarray | None = None  # the pose the current pause holds (its frame before)
         self.words: list[TimedWord] = []
+        self.word_ends: list[float] = []  # each word's end, for finding the recent words in O(log n)
         self.known = 0.0  # seconds of speech known
         self.done = 0  # frames decided
         self.finished = False
@@ -111,6 +114,7 @@ class StreamGenerator:
                 raise StreamError(f"word '{text}' starts at {start:.3f} s, but the speech was said to be known up to "
                                   f"{self.known:.3f} s (silence after the last word): send words before saying so")
             self.words.append(TimedWord(text, float(start), float(end)))
+            self.word_ends.append(float(end))
         return self.known_until(max(self.known, self.last_word_end))
 
     def add_audio(self, samples: np.ndarray) -> np.ndarray:
@@ -162,28 +166,6 @@ class StreamGenerator:
         self.finished = True
         return self._emit(out)
 
-    def _step(self, limit: int, final: bool = False) -> np.ndarray:
-        """Run the network for the next STEP frames (fewer at ``limit``); returns their raw poses
-        with the take's posture and drift (``final``: no word follows, as :meth:`_pause_span`)."""
-        a = self.done
-        s = max(0, a - CONTEXT)
-        e = min(a + STEP + LOOKAHEAD, max(limit, a + 1))
-        n = e - s
-        t0 = s / FPS
-        recent = [TimedWord(w.word, w.start - t0, w.end - t0) for w in self.words if w.end > t0 - 1.0 / FPS]
-        ids, onsets = word_features(recent, n)
-        free = np.zeros((n, POSE_DIM), np.float32)
-        y = self.runner.run_window(self._audio_features(s, e), ids, onsets, free, np.zeros(n, np.float32),
-                                   np.repeat(self.style[None], n, 0), np.repeat(self.style_mask[None], n, 0), self.z)
-        k = min(STEP, e - a)
-        self.done += k
-        spans = [self._pause_span(a + i, final) for i in range(k)]
-        self.spans += spans  # the pause hold of _calm_pauses reads them when the frames are returned
-        moving = [span is None for span in spans]
-        frames = take_posture.clock_of(moving, self.drift_frame)  # as drift_clock: still in pauses
-        self.drift_frame += sum(moving)
-        return take_posture.with_posture(y[a - s : a - s + k], self.take, frames=frames)
-
     def _audio_features(self, s: int, e: int) -> np.ndarray:
         """Features of frames [s, e): silence without audio; with it, levels relative to the
         speech level of the last LEVEL_WINDOW_S seconds of audio up to frame e."""
@@ -197,8 +179,23 @@ class StreamGenerator:
     def _emit(self, pieces: list[np.ndarray]) -> np.ndarray:
         if not pieces:
             return np.zeros((0, POSE_DIM), np.float32)
-        raw = np.concatenate(pieces)
-        return self._calm_pauses(one_euro(raw, state=self.filter_state) if self.smoothing else raw)
+        return self._calm_pauses(self._smooth(np.concatenate(pieces)))
+
+    def _step(self, limit: int, final: bool = False) -> np.ndarray:
+        """Decide the next frames (at least one, none at or past ``limit``), appending each one's
+        pause span to ``self.spans`` (``final``: no word follows, as :meth:`_pause_span`); returns
+        their poses before :meth:`_smooth`."""
+        raise NotImplementedError
+
+    def _smooth(self, raw: np.ndarray) -> np.ndarray:
+        """The causal 1-euro filter, continued across calls (``smoothing``)."""
+        return one_euro(raw, state=self.filter_state) if self.smoothing else raw
+
+    def _recent_words(self, s: int) -> list[TimedWord]:
+        """The words that reach into frame ``s`` or later, on a clock that starts at frame ``s``."""
+        t0 = s / FPS
+        first = bisect.bisect_right(self.word_ends, t0 - 1.0 / FPS)  # ends never decrease (words in order)
+        return [TimedWord(w.word, w.start - t0, w.end - t0) for w in self.words[first:]]
 
     def _calm_pauses(self, frames: np.ndarray) -> np.ndarray:
         """The offline engine's pause hold (:func:`model.postprocess.calm_pauses`) on frames about
@@ -240,3 +237,40 @@ class StreamGenerator:
             return None
         stop = math.ceil(following * FPS) if math.isfinite(following) else math.inf
         return (math.floor(end * FPS) + 1, stop) if f < stop else None
+
+
+class StreamGenerator(StreamBase):
+    """The network's stream. Feed timed words (:meth:`add_words`) and say how far the speech is
+    known (:meth:`known_until`); each call returns the frames it could decide, (n, 27) poses.
+    :meth:`finish` returns the rest."""
+
+    def __init__(self, runner, *, seed: int = 0, style: dict[str, float] | None = None, smoothing: bool = True) -> None:
+        super().__init__(style=style, smoothing=smoothing)
+        self.runner = runner
+        self.z = np.random.default_rng(seed).standard_normal(runner.noise_dim).astype(np.float32)
+        # the take's posture and drift (model.take_posture), unless the client asks for space or handedness
+        asked = any(self.style_mask[STYLE_INDEX[n]] for n in take_posture.YIELDS_TO_STYLES)
+        self.take = None if asked else take_posture.draw(getattr(runner, "takes", None), seed)
+        if self.take is not None and take_posture.asks_slower(self.style[None], self.style_mask[None])[0]:
+            self.take = take_posture.Take(self.take.posture)  # the drift gives way to a slower speed
+        self.drift_frame = 0  # the drift's clock: it stands still in pauses (take_posture.drift_clock)
+
+    def _step(self, limit: int, final: bool = False) -> np.ndarray:
+        """Run the network for the next STEP frames (fewer at ``limit``); returns their raw poses
+        with the take's posture and drift (``final``: no word follows, as :meth:`_pause_span`)."""
+        a = self.done
+        s = max(0, a - CONTEXT)
+        e = min(a + STEP + LOOKAHEAD, max(limit, a + 1))
+        n = e - s
+        ids, onsets = word_features(self._recent_words(s), n)
+        free = np.zeros((n, POSE_DIM), np.float32)
+        y = self.runner.run_window(self._audio_features(s, e), ids, onsets, free, np.zeros(n, np.float32),
+                                   np.repeat(self.style[None], n, 0), np.repeat(self.style_mask[None], n, 0), self.z)
+        k = min(STEP, e - a)
+        self.done += k
+        spans = [self._pause_span(a + i, final) for i in range(k)]
+        self.spans += spans  # the pause hold of _calm_pauses reads them when the frames are returned
+        moving = [span is None for span in spans]
+        frames = take_posture.clock_of(moving, self.drift_frame)  # as drift_clock: still in pauses
+        self.drift_frame += sum(moving)
+        return take_posture.with_posture(y[a - s : a - s + k], self.take, frames=frames)

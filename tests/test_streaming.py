@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from streams import assert_each_frame_waits_for_its_lookahead
 
 from core.skeleton import FPS, N_BONES
 from core.words import TimedWord
@@ -55,20 +56,7 @@ def test_lookahead_is_the_stated_one_when_time_advances_frame_by_frame(words):
     """A TTS says each word (with its end) when it starts; time advances one frame at a time.
     Every frame needs the speech known exactly LOOKAHEAD_S past it: it is emitted by the first
     message after which that much is known, never before."""
-    gen = StreamGenerator(load_runner(None), seed=0)
-    pending = list(words)
-    emitted = 0
-    for k in range(1, int(words[-1].end * FPS) + 30):
-        t = k / FPS
-        before = gen.known
-        starting = [w for w in pending if w.start <= t]
-        pending = pending[len(starting):]
-        frames = [gen.add_words(starting)] if starting else []
-        frames.append(gen.known_until(t))
-        for i in range(sum(map(len, frames))):
-            frame_time = (emitted + i) / FPS
-            assert before < frame_time + LOOKAHEAD_S - 1e-9 <= gen.known
-        emitted += sum(map(len, frames))
+    emitted = assert_each_frame_waits_for_its_lookahead(StreamGenerator(load_runner(None), seed=0), words)
     assert emitted > 40
     assert LOOKAHEAD_S <= 0.5
 

@@ -54,7 +54,7 @@ def run(args) -> int:
     from sgt_tui.serve.config import ConfigError, ServeConfig, checked
 
     weights = str(existing_file(args.weights)) if args.weights else None
-    database = database_option(args.database, "matching")  # for the requests that ask for the matching engine
+    database = database_option(args.database, "matching")  # for the requests and streams that ask for the matching engine
     try:
         config = checked(ServeConfig(host=args.host, port=args.port, token=args.token, allow=tuple(Path(a) for a in args.allow),
                                      workers=args.workers, queue=args.queue, max_body=args.max_body, max_text=args.max_text,

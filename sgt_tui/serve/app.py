@@ -197,7 +197,7 @@ def create_app(config: ServeConfig) -> FastAPI:
     @app.websocket("/v1/stream")
     async def stream(socket: WebSocket):
         await socket.accept()
-        session = StreamSession(state["runner"], state["library"])
+        session = StreamSession(state["runner"], state["library"], config.database)
         pool: Pool = state["pool"]
         try:
             while not session.closed:

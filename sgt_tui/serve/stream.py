@@ -6,11 +6,11 @@ client message (a dict) and returns the messages to send back. The WebSocket end
 tested without a network.
 
 Client messages (``type``): ``start`` (first; optional ``seed``, ``style``, ``rate``,
-``smoothing``), ``words`` (timed words on the stream's clock, seconds), ``text`` (text as an LLM
+``smoothing``, ``engine``: ``neural`` or ``matching``), ``words`` (timed words on the stream's clock, seconds), ``text`` (text as an LLM
 produces it: complete words are timed by the language's estimate at ``rate``), ``audio`` (the
 next chunk of the speech audio, base64 16-bit PCM, with the timed words it holds), ``time`` (the
 speech is known up to ``t``: silence after the last word), ``end``.
-Server messages: ``ready`` (fps, lookahead, joints, bones), ``timed`` (the times given to words
+Server messages: ``ready`` (engine, fps, lookahead, joints, bones), ``timed`` (the times given to words
 that came as text), ``frames`` (``start`` frame index, ``poses`` (n, 27), ``positions``
 (n, 10, 3)), ``error`` (what is wrong; the stream goes on), ``done``.
 """
@@ -28,8 +28,10 @@ from core.words import TimedWord
 from dsl.compiler import compile_text
 from dsl.plain import plain_script
 from dsl.speech.audio import StreamResampler
+from model import matching
 from model.features import SAMPLE_RATE
-from model.streaming import LOOKAHEAD_S, StreamError, StreamGenerator
+from model.matching_stream import MatchingStreamGenerator
+from model.streaming import LOOKAHEAD_S, StreamBase, StreamError, StreamGenerator
 
 #: The longest stream, in seconds of motion: a word or time past it is refused.
 MAX_SECONDS = 600.0
@@ -42,16 +44,20 @@ MAX_TEXT_MESSAGE = 20_000
 MAX_AUDIO_CHUNK = 1_000_000
 #: The sample rates an audio chunk may have (resampled to the model's).
 AUDIO_RATES = (8000, 11025, 16000, 22050, 24000, 32000, 44100, 48000)
+#: The engines a stream may run (``engine`` in ``start``; the first is the default).
+ENGINES = ("neural", "matching")
 _DUMMY = "sgtnextword"
 
 
 class StreamSession:
-    """One stream; ``library`` is the loaded motion library the text is compiled with."""
+    """One stream; ``library`` is the loaded motion library the text is compiled with,
+    ``database`` the matching engine's (None: the shipped one; ``sgt serve --database``)."""
 
-    def __init__(self, runner, library) -> None:
+    def __init__(self, runner, library, database: str | None = None) -> None:
         self.runner = runner
         self.library = library
-        self.generator: StreamGenerator | None = None
+        self.database = database
+        self.generator: StreamBase | None = None
         self.rate: int | None = None
         self.pending = ""  # text not yet timed (the last word may be incomplete)
         self.clock: float | None = None  # where the next timed text word starts
@@ -101,9 +107,10 @@ class StreamSession:
     def _start(self, message: dict) -> list[dict]:
         if self.generator is not None:
             raise StreamError("the stream has already started")
-        unknown = set(message) - {"type", "seed", "style", "rate", "smoothing"}
+        unknown = set(message) - {"type", "seed", "style", "rate", "smoothing", "engine"}
         if unknown:
-            raise StreamError(f"unknown start field(s): {', '.join(sorted(unknown))} (use seed, style, rate, smoothing)")
+            raise StreamError(f"unknown start field(s): {', '.join(sorted(unknown))} "
+                              "(use seed, style, rate, smoothing, engine)")
         seed, style, rate = message.get("seed", 0), message.get("style") or {}, message.get("rate")
         if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed < 2**31:
             raise StreamError('"seed" must be a whole number from 0')
@@ -114,9 +121,19 @@ class StreamSession:
         smoothing = message.get("smoothing", True)
         if not isinstance(smoothing, bool):
             raise StreamError('"smoothing" must be true or false')
-        self.generator = StreamGenerator(self.runner, seed=seed, style=style, smoothing=smoothing)
+        engine = message.get("engine", ENGINES[0])
+        if engine not in ENGINES:
+            raise StreamError(f'"engine" must be one of {", ".join(ENGINES)}')
+        if engine == "matching":
+            try:
+                db = matching.load(self.database)
+            except matching.DatabaseError as exc:
+                raise StreamError(f"the matching engine cannot run: {exc}") from None
+            self.generator = MatchingStreamGenerator(db, seed=seed, style=style, smoothing=smoothing)
+        else:
+            self.generator = StreamGenerator(self.runner, seed=seed, style=style, smoothing=smoothing)
         self.rate = rate
-        return [{"type": "ready", "fps": FPS, "lookahead_s": round(LOOKAHEAD_S, 4), "joints": list(JOINTS),
+        return [{"type": "ready", "engine": engine, "fps": FPS, "lookahead_s": round(LOOKAHEAD_S, 4), "joints": list(JOINTS),
                  "bones": [list(b) for b in BONES]}]
 
     def _audio(self, message: dict) -> list[dict]:
