@@ -299,15 +299,16 @@ def normal(word: str) -> str:
 # -- recordings ------------------------------------------------------------------------------
 
 
-def spec_of(i: int) -> dict:
-    """Recording ``i``'s recipe (recording 0 is issue 27's)."""
+def spec_of(i: int, sentences: list[str] = TTS_SENTENCES) -> dict:
+    """Recording ``i``'s recipe (recording 0 is issue 27's); the synthetic voices say some of
+    ``sentences``."""
     if i == 0:  # three sentences of an audiobook reader, 2.5 s of room noise at -45 dBFS between them
         return {"speaker": "librivox", "sentences": [1, 4, 2], "gaps": [2.5, 2.5], "noise": -45.0,
                 "extra": None, "edges": (1.5, 1.5), "rate": 16000, "channels": 1, "format": "wav",
                 "levels": [0.0, 0.0, 0.0], "seed": 0}
     rng = np.random.default_rng(1000 + i)
     speaker = SPEAKERS[i % len(SPEAKERS)]
-    pool = {"librivox": 5, "cards": 5, "alsa": 8}.get(speaker, len(TTS_SENTENCES))
+    pool = {"librivox": 5, "cards": 5, "alsa": 8}.get(speaker, len(sentences))
     n = int(rng.integers(2, 5)) if pool > 5 else int(rng.integers(2, 4))
     return {
         "speaker": speaker,
@@ -329,8 +330,9 @@ def spec_of(i: int) -> dict:
 class Sources:
     """The sentences of every speaker, made once (synthesized into ``folder``)."""
 
-    def __init__(self, folder: Path) -> None:
+    def __init__(self, folder: Path, sentences: list[str] = TTS_SENTENCES) -> None:
         self.folder = Path(folder)
+        self.sentences = sentences  # what the synthetic voices say
         self.folder.mkdir(parents=True, exist_ok=True)
         self._human: dict[str, list[Sentence]] = {}
         self._tts: dict[tuple, Sentence] = {}
@@ -344,7 +346,7 @@ class Sources:
         kind, voice = speaker.split(":", 1)
         key = (speaker, k, spec.get("tts_rate"), spec.get("stretch"))
         if key not in self._tts:
-            text = TTS_SENTENCES[k]
+            text = self.sentences[k]
             if kind == "espeak":
                 self._tts[key] = espeak_sentence(text, voice, spec["tts_rate"], self.folder / "espeak")
             else:
@@ -352,11 +354,11 @@ class Sources:
         return self._tts[key]
 
 
-def make_recording(i: int, folder: Path, sources: Sources) -> Recording:
-    """Recording ``i`` (see :func:`spec_of`), written into ``folder``."""
+def make_recording(i: int, folder: Path, sources: Sources, spec: dict | None = None) -> Recording:
+    """Recording ``i`` (see :func:`spec_of`; or made by ``spec``), written into ``folder``."""
     import soundfile as sf
 
-    spec = spec_of(i)
+    spec = spec or spec_of(i)
     sr = spec["rate"]
     rng = np.random.default_rng(spec["seed"])
     sentences = [sources.sentence(spec, k) for k in spec["sentences"]]

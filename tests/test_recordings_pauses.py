@@ -30,6 +30,8 @@ pytestmark = pytest.mark.skipif(WHY is not None, reason=WHY or "")
 SUBSET = [2, 5, 14, 17, 22, 33]
 #: Recordings whose wrong transcripts (a word added, dropped, changed) are tried.
 WRONG = [7, 46]
+#: A human recording (the LibriVox reader) whose changed word only the phones' fit catches.
+POOR_FIT = 9
 #: How far (s) a sentence's first word may start from its known onset: the issue's recording,
 #: and the others (a soft "th" or a vowel onset at 8 kHz starts a little late: about one
 #: motion frame at 15 fps).
@@ -40,7 +42,7 @@ ONSET_TOLERANCE, ONSET_TOLERANCE_SOFT = 0.05, 0.08
 def corpus(tmp_path_factory):
     """The recordings the tests use, made once per session: {index: Recording}."""
     folder = tmp_path_factory.mktemp("recordings")
-    which = sorted({0, *SUBSET, *WRONG})
+    which = sorted({0, *SUBSET, *WRONG, POOR_FIT})
     return dict(zip(which, R.corpus(folder, which)))
 
 
@@ -103,6 +105,23 @@ def test_a_transcript_with_a_word_added_dropped_or_changed_is_rejected(corpus, a
         if kind != "dropped":  # a dropped word's audio may go to a neighbour further on
             assert abs(e.word_index - at) <= 1, (kind, at, e.message)
         assert " it hears " in e.message, e.message  # what the aligner heard there instead
+
+
+def test_a_changed_word_that_the_decode_keeps_is_caught_by_its_phones_fit(corpus, tmp_path, monkeypatch):
+    """The transcript has "kitchen" where the reader says "an" ("not an ill disposed young
+    man"): the decode in which every word may be left out keeps it, but its phones fit the
+    audio far worse than they fit in correct transcripts (align.poor_fits); the correct
+    transcript passes the same check."""
+    rec = corpus[POOR_FIT]
+    kind, text, at = R.wrong_transcripts(rec, POOR_FIT)[2]
+    assert kind == "changed"
+    with pytest.raises(SpeechError) as ei:
+        _load(rec, text, tmp_path / "a")
+    e = ei.value
+    assert e.kind == "mismatch" and abs(e.word_index - at) <= 1 and "does not sound like the recording" in e.message
+    _load(rec, rec.text, tmp_path / "a")
+    monkeypatch.setattr(align, "POOR_FIT_Z", float("inf"))  # without the fit check, the word passes
+    assert len(_load(rec, text, tmp_path / "b").words) == len(R.words_of(text))
 
 
 def test_a_breath_or_a_click_is_not_speech_and_a_vowel_is():

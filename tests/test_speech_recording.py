@@ -260,3 +260,28 @@ def test_a_transcript_that_does_not_match_the_recording_is_rejected(tmp_path, tr
         with pytest.raises(SpeechError) as again:
             load_recording(path, transcript, spans_of(transcript), cache_dir=tmp_path / "c")
     assert again.value.message == e.message and again.value.word_index == index
+
+
+def test_poor_fits_flags_a_word_whose_phones_fit_far_worse_than_usual():
+    """dsl.speech.align.poor_fits: each phone's score per frame, relative to the recording's
+    median word, against the table of how that phone fits in correct transcripts; a word of
+    at least POOR_FIT_PHONES phones whose phones sit more than POOR_FIT_Z spreads above it on
+    average is flagged, shorter words never (their fit rests on a few frames)."""
+    from dsl.speech import align
+
+    table = align.phone_fit()
+
+    def word(phones, spreads=0.0, frames=10, level=-20.0):
+        # a phone scoring (median + spreads * spread) times the recording's level per frame
+        return [(p, frames, int(round(level * frames * (table[p][0] + spreads * table[p][1])))) for p in phones]
+
+    usual = [word(["HH", "AH", "L", "OW"]), word(["DH", "EH", "R"]), word(["M", "AY"]), word(["F", "R", "EH", "N", "D"]),
+             word(["T", "AH", "D", "EY"])]
+    assert align.poor_fits(usual) == []
+    bad = usual[:3] + [word(["P", "AA", "K", "AH", "T"], spreads=4.0)] + usual[4:]
+    found = align.poor_fits(bad)
+    assert [k for k, _ in found] == [3] and found[0][1] > align.POOR_FIT_Z
+    assert align.poor_fits(usual[:3] + [word(["P", "AA", "K", "AH", "T"], spreads=2.0)] + usual[4:]) == []
+    short = usual[:2] + [word(["AH", "T"], spreads=6.0)] + usual[3:]  # two phones: never judged
+    assert align.poor_fits(short) == []
+    assert align.poor_fits(None) == [] and align.poor_fits([None, None]) == []
