@@ -6,16 +6,16 @@ import argparse
 
 HELP = "write the word times the aligner finds in a script's recordings, as timings files to review"
 DESCRIPTION = """\
-For every utterance spoken from a recording (@audio FILE, without timings=), align the
-utterance's words to the recording with pocketsphinx, exactly as 'sgt check' and
-'sgt compile' do (the same cached alignment), and write the words' times as a timings
-file: FILE's name with .timings.json (--format json, the default) or .TextGrid (--format
-textgrid, which Praat opens beside the recording), in FILE's folder or in -o DIR.
+For every utterance of the script FILE spoken from a recording (@audio REC, without
+timings=), align the utterance's words to the recording with pocketsphinx, exactly as
+'sgt check' and 'sgt compile' do (the same cached alignment), and write the words'
+times as a timings file: REC's name with .timings.json (--format json, the default) or .TextGrid (--format
+textgrid, which Praat opens beside the recording), in REC's folder or in -o DIR.
 
 It says whether the check accepts the transcript. When the check rejects a transcript
 that you know is right (the aligner is not perfect: docs/language.md measures how often),
 this is the way forward: review the times (listen in Praat, or read them), correct any
-that are off, and name the file on the directive, '@audio FILE timings=TIMINGS'; the
+that are off, and name the file on the directive, '@audio REC timings=TIMINGS'; the
 recording is then timed by the file and not checked by the aligner. Existing timings
 files are never replaced without --force."""
 
