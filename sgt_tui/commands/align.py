@@ -9,8 +9,9 @@ DESCRIPTION = """\
 For every utterance of the script FILE spoken from a recording (@audio REC, without
 timings=), align the utterance's words to the recording with pocketsphinx, exactly as
 'sgt check' and 'sgt compile' do (the same cached alignment), and write the words'
-times as a timings file: REC's name with .timings.json (--format json, the default) or .TextGrid (--format
-textgrid, which Praat opens beside the recording), in REC's folder or in -o DIR.
+times as a timings file: REC's name with .timings.json (--format json, the default)
+or .TextGrid (--format textgrid, which Praat opens beside the recording), in REC's
+folder or in -o DIR.
 
 It says whether the check accepts the transcript. When the check rejects a transcript
 that you know is right (the aligner is not perfect: docs/language.md measures how often),
