@@ -315,6 +315,65 @@ async def test_code_action_re_times_a_gesture_whose_stroke_misses_its_word(clien
     assert await _diagnostics(client, uri) == []  # the stroke now lands on its word
 
 
+async def test_a_rejected_recording_can_be_timed_by_the_aligners_times_in_one_action(client: LanguageClient, workspace):
+    """SGT407 (the check rejects a recording's transcript) offers to write the times the
+    aligner found (sgt align's file) and name it on the @audio directive: the command writes
+    the file, the client applies the edit, and the diagnostic is gone; with the file there,
+    the action names it and never replaces it."""
+    import numpy as np  # lazy: only this test makes a recording
+    import soundfile as sf  # lazy: only this test makes a recording
+
+    from dsl.speech import _espeak, synthesize  # lazy: espeak-ng, only this test speaks
+
+    if _espeak.find_library() is None:
+        pytest.skip("libespeak-ng not installed")
+    said = "Well, hello there my friend. How are you today?"
+    speech = synthesize(said, [(0, 4), (6, 11), (12, 17), (18, 20), (21, 27), (29, 32), (33, 36), (37, 40), (41, 46)],
+                        cache_dir=workspace / "syn")
+    x, sr = sf.read(str(speech.audio_path))
+    sf.write(str(workspace / "said.wav"), np.concatenate([np.zeros(sr // 4), x, np.zeros(sr // 4)]), sr)
+    text = "@audio said.wav\nbot: Well, hello there my dear friend. How are you today?\n"
+    uri = await _open(client, workspace, text, "said.sgt")
+    assert [d.code for d in client.diagnostics[uri]] == ["SGT407"]
+    edits = []
+
+    @client.feature(lsp.WORKSPACE_APPLY_EDIT)
+    def apply_edit(params: lsp.ApplyWorkspaceEditParams):
+        edits.extend(params.edit.changes[uri])
+        return lsp.ApplyWorkspaceEditResult(applied=True)
+
+    (offered,) = [a.title for a in await _actions(client, uri, text, "dear") if "aligner" in a.title]
+    # (pytest-lsp's client reads a code action that carries a command as a Command; the
+    # action itself, as the server builds it:)
+    from sgt_tui.lsp import actions  # lazy: the server's code, in this process
+    from sgt_tui.lsp.documents import Documents  # lazy: the server's code, in this process
+
+    doc = Documents().open(uri, text, 1)
+    pos = _pos(text, "dear", 1)
+    (action,) = [a for a in actions.code_actions(doc, lsp.Range(pos, pos)) if a.title == offered]
+    assert action.edit is None and action.command.command == "sgt.writeTimings" and action.command.arguments == [uri, 2]
+    result = await client.workspace_execute_command_async(lsp.ExecuteCommandParams(
+        action.command.command, action.command.arguments))
+    target = workspace / "said.timings.json"
+    assert result["path"] == str(target) and "'dear'" in result["rejection"] and target.exists()
+    fixed = _apply(text, edits)
+    assert fixed == "@audio said.wav timings=said.timings.json\nbot: Well, hello there my dear friend. How are you today?\n"
+    client.text_document_did_change(lsp.DidChangeTextDocumentParams(
+        lsp.VersionedTextDocumentIdentifier(uri=uri, version=2), [lsp.TextDocumentContentChangeWholeDocument(fixed)]))
+    assert await _diagnostics(client, uri) == []  # timed by the file now
+    # the file exists: the action only names it, and the command refuses to replace it
+    client.text_document_did_change(lsp.DidChangeTextDocumentParams(
+        lsp.VersionedTextDocumentIdentifier(uri=uri, version=3), [lsp.TextDocumentContentChangeWholeDocument(text)]))
+    await _diagnostics(client, uri)
+    before = target.read_bytes()
+    (named,) = [a for a in await _actions(client, uri, text, "dear") if "exists" in a.title]
+    assert named.command is None
+    assert _apply(text, named.edit.changes[uri]).startswith("@audio said.wav timings=said.timings.json\n")
+    with pytest.raises(Exception, match="exists"):
+        await client.workspace_execute_command_async(lsp.ExecuteCommandParams("sgt.writeTimings", [uri, 2]))
+    assert target.read_bytes() == before
+
+
 # -- formatting, symbols, folding, semantic tokens, inlay hints ------------------------------
 
 async def test_formatting_is_sgt_fmt(client: LanguageClient, workspace):

@@ -432,6 +432,15 @@ def align_recording(audio_path: Path, text: str, word_spans, cache_dir: Path | N
     return times, (str(mismatch[2]) if mismatch else None)
 
 
+def aligner_timings(audio_path: Path, text: str, word_spans, fmt: str = "json", cache_dir: Path | None = None):
+    """What ``sgt align`` writes for a recording: (the timings file's text in ``fmt``
+    (:func:`timings_text`), the words' (start, end) times, the check's rejection or None)."""
+    times, rejection = align_recording(audio_path, text, word_spans, cache_dir)
+    samples, sr = read_audio(Path(audio_path))
+    words = [text[a:b] for a, b in check_spans(text, word_spans)]
+    return timings_text(words, times, fmt, len(samples) / sr), times, rejection
+
+
 def timings_text(words: Sequence[str], times: Sequence[tuple[float, float]], fmt: str, duration: float) -> str:
     """A timings file that :func:`read_timings` reads back: ``fmt`` "json" (a list of
     {"word", "start", "end"}, the times rounded to 0.1 ms) or "textgrid" (a Praat long-format

@@ -44,7 +44,7 @@ def run(args) -> int:
     from core.fileio import atomic_write_text
     from dsl.compiler import load_script
     from dsl.speech import SpeechError
-    from dsl.speech.recording import align_recording, read_audio, timings_text
+    from dsl.speech.recording import aligner_timings
     from sgt_tui.commands.common import (
         check_utterances,
         existing_file,
@@ -92,17 +92,15 @@ def run(args) -> int:
         targets.append((u, target))
     failed = 0
     for u, target in targets:
-        words = [u.text[a:b] for a, b in u.word_spans]
         try:
-            times, rejection = align_recording(u.audio.path, u.text, u.word_spans)
-            samples, sr = read_audio(Path(u.audio.path))
+            text, times, rejection = aligner_timings(u.audio.path, u.text, u.word_spans, args.format)
         except SpeechError as exc:
             print(f"[{u.index}] line {u.line}: {exc.message}", file=sys.stderr)
             failed += 1
             continue
-        atomic_write_text(target, timings_text(words, times, args.format, len(samples) / sr))
+        atomic_write_text(target, text)
         named = _as_named(target, path)
-        print(f"[{u.index}] line {u.line}: wrote {shown(target)}: {len(words)} words, "
+        print(f"[{u.index}] line {u.line}: wrote {shown(target)}: {len(times)} words, "
               f"{times[0][0]:.2f}-{times[-1][1]:.2f} s" if times else f"[{u.index}] line {u.line}: wrote {shown(target)}")
         if rejection is None:
             print("    the check accepts this transcript (no timings file is needed; with one, its times are used as written)")

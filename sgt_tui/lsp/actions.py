@@ -88,7 +88,49 @@ def code_actions(doc: Document, rng: lsp.Range) -> list[lsp.CodeAction]:
             out += _retime(doc, d, wire)
         elif d.code == rules.UNCLOSED.code:
             out += _close(doc, d, wire)
+        elif d.code == rules.RECORDING_MISMATCH.code:
+            out += _use_aligner_times(doc, d, wire)
     return out
+
+
+#: The command that writes the aligner's times of a recording and names them on its directive.
+WRITE_TIMINGS = "sgt.writeTimings"
+
+
+def aligner_times(doc: Document, line: int):
+    """For the utterance on (1-based) ``line`` spoken from a recording without ``timings=``:
+    (the utterance, the timings file ``sgt align`` writes for it, the edit that names that file
+    on the ``@audio`` directive); None for any other line."""
+    from pathlib import Path
+
+    info = doc.analysis().utterance_at(line)
+    u = info.utterance if info is not None else None
+    if u is None or u.audio is None or u.audio.timings is not None:
+        return None
+    w = u.audio.where
+    row = w.line + info.line_shift
+    written = doc.line(row - 1)[w.col - 1: w.col - 1 + w.length]
+    quote = written[0] if written[:1] in ("\"", "'") else ""
+    name = Path(written.strip("\"'"))
+    named = str(name.with_name(name.stem + ".timings.json"))
+    target = Path(u.audio.path).with_name(Path(u.audio.path).stem + ".timings.json")
+    return u, target, lsp.TextEdit(doc.span(row, w.col + w.length, 0), f" timings={quote}{named}{quote}")
+
+
+def _use_aligner_times(doc: Document, d: Diagnostic, wire: lsp.Diagnostic) -> list[lsp.CodeAction]:
+    """For a recording the check rejects (SGT407): write the times the aligner found to a
+    timings file (``sgt align``'s) and name it on the directive, or name the one that exists."""
+    found = aligner_times(doc, d.line)
+    if found is None:
+        return []
+    _, target, edit = found
+    if target.exists():
+        return [lsp.CodeAction(f"time the words by {target.name}, which exists (not the aligner)",
+                               kind=lsp.CodeActionKind.QuickFix, diagnostics=[wire],
+                               edit=lsp.WorkspaceEdit(changes={doc.uri: [edit]}))]
+    title = f"write the aligner's word times to {target.name} and time the words by it (review it)"
+    return [lsp.CodeAction(title, kind=lsp.CodeActionKind.QuickFix, diagnostics=[wire],
+                           command=lsp.Command(title, WRITE_TIMINGS, arguments=[doc.uri, d.line]))]
 
 
 def _close(doc: Document, d: Diagnostic, wire: lsp.Diagnostic) -> list[lsp.CodeAction]:

@@ -18,6 +18,9 @@ from pygls.lsp.server import LanguageServer
 from pygls.uris import to_fs_path
 
 from dsl.fmt import FormatError
+from core.fileio import atomic_write_text
+from dsl.speech import SpeechError
+from dsl.speech.recording import aligner_timings
 from sgt_tui import cli
 from sgt_tui.lsp import actions, features, outline
 from sgt_tui.lsp.documents import Document, Documents
@@ -225,6 +228,37 @@ def preview(ls: SgtServer, *args) -> dict:
         return ls.previews.render(ls.doc(spec["uri"]), spec["line"], engine=spec.get("engine"))
     except PreviewFailed as exc:
         raise _failed(str(exc)) from None
+
+
+@server.command(actions.WRITE_TIMINGS)
+async def write_timings(ls: SgtServer, *args) -> dict:
+    """``sgt.writeTimings``: arguments ``[uri, line]`` (1-based line of an utterance spoken from
+    a recording without ``timings=``). Writes the times the aligner finds (``sgt align``'s file,
+    never over one that exists), then asks the client to name the file on the ``@audio``
+    directive; answers ``{"path", "rejection"}`` (the check's reason, or None)."""
+    if len(args) != 2 or not isinstance(args[0], str) or not isinstance(args[1], int):
+        raise _failed("sgt.writeTimings takes a document URI and a 1-based line")
+    doc = ls.doc(args[0])
+    found = actions.aligner_times(doc, args[1])
+    if found is None:
+        raise _failed(f"line {args[1]} is not an utterance spoken from a recording without timings=")
+    u, target, edit = found
+    if target.exists():
+        raise _failed(f"{target} exists: name it with timings= (it is not replaced)")
+    try:
+        rejection = await asyncio.to_thread(_write_aligner_times, u, target)
+    except (SpeechError, OSError) as exc:
+        raise _failed(f"{target}: {getattr(exc, 'message', None) or exc}") from None
+    await ls.workspace_apply_edit_async(lsp.ApplyWorkspaceEditParams(
+        lsp.WorkspaceEdit(changes={doc.uri: [edit]}), label=f"time the words by {target.name}"))
+    return {"path": str(target), "rejection": rejection}
+
+
+def _write_aligner_times(u, target) -> str | None:
+    """Align ``u``'s recording and write its words' times to ``target`` (as ``sgt align``)."""
+    text, _, rejection = aligner_timings(u.audio.path, u.text, u.word_spans)
+    atomic_write_text(target, text)
+    return rejection
 
 
 def serve() -> None:
