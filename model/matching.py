@@ -43,7 +43,7 @@ import numpy as np
 
 from core.controls import STYLE_NAMES
 from core.skeleton import FPS, JOINT_INDEX, POSE_DIM, normalize_pose, positions_from_pose
-from model import postprocess
+from model import postprocess, take_posture
 from model.features import AUDIO_DIM, level_db, speech_inputs, word_id
 
 DEFAULT_DB = Path(__file__).with_name("weights") / "matching_db.npz"
@@ -539,28 +539,10 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     db = load(opts.database)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
-    key = getattr(inputs, "take_key", None)
-    take = draw_take(db, seed if key is None else key) if opts.take_posture else None
-    a = seeded(inputs)
+    take = draw_take(db, take_posture.take_key(inputs, seed)) if opts.take_posture else None
+    a = postprocess.seeded_controls(inputs)
     raw = match(db, audio, ids, onsets, a, seed, take, getattr(inputs, "start_poses", None),
                 postprocess.pause_frames(inputs.words, n))
     return finish(raw, a, smoothing=opts.smoothing, blend=opts.blend, ramp=opts.ramp, words=inputs.words)
 
 
-def seeded(inputs):
-    """The control arrays with ``inputs.start_poses`` (the track's poses where the utterance
-    starts) as pose controls on the first frames the user left free, as the neural engine
-    seeds them: the blend then starts the utterance exactly where the speaker's track is."""
-    start = getattr(inputs, "start_poses", None)
-    a = inputs.arrays
-    if start is None or not len(start):
-        return a
-    arrays = dataclasses.replace(a, pose=a.pose.copy(), pose_mask=a.pose_mask.copy(),
-                                 bone_mask=None if a.bone_mask is None else a.bone_mask.copy())
-    k = min(len(start), arrays.n_frames)
-    free = arrays.pose_mask[:k] < 0.5
-    arrays.pose[:k][free] = np.asarray(start[:k], np.float32)[free]
-    arrays.pose_mask[:k][free] = 1.0
-    if arrays.bone_mask is not None:
-        arrays.bone_mask[:k][free] = 1.0
-    return arrays

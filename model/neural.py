@@ -15,7 +15,6 @@ Post-processing (:mod:`model.postprocess`) is switchable through :class:`Options
 
 from __future__ import annotations
 
-import dataclasses
 import sys
 from dataclasses import dataclass
 
@@ -107,8 +106,8 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     use_threads(opts.threads)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
-    arrays = _seeded(inputs)
-    raw = network_motion(model, audio, ids, onsets, arrays, seed, _take_key(inputs, seed), opts.take_posture,
+    arrays = postprocess.seeded_controls(inputs)
+    raw = network_motion(model, audio, ids, onsets, arrays, seed, take_posture.take_key(inputs, seed), opts.take_posture,
                          take_posture.drift_start(inputs.words), inputs.words)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
                               blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words,
@@ -131,29 +130,3 @@ def network_motion(model, audio, ids, onsets, arrays, seed: int, take_key=None, 
     return take_posture.with_posture(raw, drawn, take_posture.posture_weight(arrays),
                                      take_posture.drift_clock(len(raw), drift_start, words),
                                      take_posture.drift_weight(arrays))
-
-
-def _take_key(inputs, seed: int):
-    """The take's draw key: the speaker's within a performance, else the engine's seed."""
-    key = getattr(inputs, "take_key", None)
-    return seed if key is None else key
-
-
-def _seeded(inputs):
-    """The control arrays with ``inputs.start_poses`` (the track's poses where the utterance
-    starts) as pose controls on the first frames the user left free, as a window after the
-    first gets its predecessor's as seed poses: the utterance starts where the speaker's
-    track is (the blend then follows them exactly and eases into the network's motion)."""
-    start = getattr(inputs, "start_poses", None)
-    if start is None or not len(start):
-        return inputs.arrays
-    a = inputs.arrays
-    arrays = dataclasses.replace(a, pose=a.pose.copy(), pose_mask=a.pose_mask.copy(),
-                                 bone_mask=None if a.bone_mask is None else a.bone_mask.copy())
-    k = min(len(start), arrays.n_frames)
-    free = arrays.pose_mask[:k] < 0.5
-    arrays.pose[:k][free] = np.asarray(start[:k], np.float32)[free]
-    arrays.pose_mask[:k][free] = 1.0
-    if arrays.bone_mask is not None:  # a seeded frame controls every bone
-        arrays.bone_mask[:k][free] = 1.0
-    return arrays

@@ -255,3 +255,10 @@ def with_posture(poses: np.ndarray, take: Take | None, weight=None, frames=None,
     out = np.array(poses, np.float32)
     out[on] = normalize_pose(out[on] + offsets[on])
     return out
+
+
+def take_key(inputs, seed: int):
+    """The key a take is drawn with (:func:`draw`): the speaker's within a performance
+    (``inputs.take_key``), else the engine's seed."""
+    key = getattr(inputs, "take_key", None)
+    return seed if key is None else key
