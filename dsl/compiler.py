@@ -70,12 +70,14 @@ def _skipped_specs(library):
     return skipped
 
 
-def load_script(path: Path | str, *, library=None, source: str | None = None):
+def load_script(path: Path | str, *, library=None, source: str | None = None, resources: bool = True):
     """Read and analyse a script file: the text (:func:`dsl.parser.analyse`), the motion
     library's problems, and the voices and recordings it uses (:mod:`dsl.resources`).
 
     This is the one analysis ``sgt check``, ``compile``, ``say``, ``generate`` and the editor
-    share. Returns (script, library, diagnostics); an unreadable file is a diagnostic."""
+    share. Returns (script, library, diagnostics); an unreadable file is a diagnostic.
+    ``resources=False`` leaves the voices and recordings unchecked (``sgt align`` times the
+    recordings itself)."""
     path = Path(path)
     diags: list[Diagnostic] = []
     if source is None:
@@ -103,7 +105,9 @@ def load_script(path: Path | str, *, library=None, source: str | None = None):
     script = analyse(source, str(path), gesture_names=lambda header: get_library(header).names(),
                      base_dir=path.parent, skipped_gesture=skipped)
     lib = get_library(script.header)  # also with no utterance: its problems are reported
-    diags = diags + script.diagnostics + [library_diagnostic(p) for p in lib.problems] + check_resources(script)
+    diags = diags + script.diagnostics + [library_diagnostic(p) for p in lib.problems]
+    if resources:
+        diags += check_resources(script)
     return script, lib, diags
 
 

@@ -83,7 +83,9 @@ def _voice_span(script: Script, utt: Utterance) -> Span | None:
     return where.get("")
 
 
-def _shown(path, script_path: str) -> str:
+def shown_from(path, script_path) -> str:
+    """``path`` as a directive of the script at ``script_path`` names it: relative to the
+    script's folder where it lies under it, else as it is."""
     try:
         return str(Path(path).resolve().relative_to(Path(script_path).resolve().parent))
     except (ValueError, OSError):
@@ -101,16 +103,16 @@ def speech_diagnostic(script: Script, utt: Utterance, exc: SpeechError) -> Diagn
         return rules.SPEECH_CRASH.at(file, utt.line, 1, 1, detail=exc.message)
     if exc.kind == "audio" and audio is not None:
         w = audio.where
-        return rules.UNREADABLE_AUDIO.at(file, w.line, w.col, w.length, audio=_shown(audio.path, file), reason=exc.reason)
+        return rules.UNREADABLE_AUDIO.at(file, w.line, w.col, w.length, audio=shown_from(audio.path, file), reason=exc.reason)
     if exc.kind == "timings" and audio is not None and audio.timings_where is not None:
         w = audio.timings_where
-        return rules.BAD_TIMINGS.at(file, w.line, w.col, w.length, timings=_shown(audio.timings, file), reason=exc.reason)
+        return rules.BAD_TIMINGS.at(file, w.line, w.col, w.length, timings=shown_from(audio.timings, file), reason=exc.reason)
     if exc.kind == "mismatch" and audio is not None and audio.timings is None:  # the automatic alignment
         idx = exc.word_index
         w = utt.words[idx].where if idx is not None and 0 <= idx < len(utt.words) else Span(utt.line, 1, 1)
         a = audio.where
         return rules.RECORDING_MISMATCH.at(
-            file, w.line, w.col, w.length, detail=f"{_shown(audio.path, file)}: {exc.reason}",
+            file, w.line, w.col, w.length, detail=f"{shown_from(audio.path, file)}: {exc.reason}",
             related=(Related("the recording", file, a.line, a.col, a.length),))
     if exc.kind == "mismatch":
         related = ()
@@ -127,7 +129,7 @@ def speech_diagnostic(script: Script, utt: Utterance, exc: SpeechError) -> Diagn
             place = (utt.line, 1, 1)
         message = exc.message
         if audio is not None and audio.timings is not None:
-            message = message.replace(str(audio.timings), _shown(audio.timings, file))
+            message = message.replace(str(audio.timings), shown_from(audio.timings, file))
         return rules.TIMINGS_MISMATCH.at(file, *place, detail=message, related=related)
     if audio is not None:
         w = audio.where

@@ -419,26 +419,23 @@ def _alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Path):
     return times, mismatch
 
 
-def align_recording(audio_path: Path, text: str, word_spans, cache_dir: Path | None = None):
-    """The automatic alignment of a recording whatever its verdict (``sgt align``): ((start,
-    end) seconds per word span, None or the reason :func:`check_recording` would reject the
-    transcript for, as "word N ...: ..."), cached as :func:`load_recording` caches it.
-    Raises :class:`SpeechError` when the audio cannot be read or aligned at all."""
+#: The file name ``sgt align`` gives a recording's timings, by format: the recording's stem and this.
+TIMINGS_SUFFIX = {"json": ".timings.json", "textgrid": ".TextGrid"}
+
+
+def aligner_timings(audio_path: Path, text: str, word_spans, fmt: str = "json", cache_dir: Path | None = None):
+    """The automatic alignment of a recording whatever its verdict, as ``sgt align`` writes it
+    (cached as :func:`load_recording` caches it): (the timings file's text in ``fmt``
+    (:func:`timings_text`), the words' (start, end) times, None or the reason
+    :func:`check_recording` would reject the transcript for). Raises :class:`SpeechError` when
+    the audio cannot be read or aligned at all."""
     spans = check_spans(text, word_spans)
     audio_path = Path(audio_path)
     samples, sr = read_audio(audio_path)
     cdir = Path(cache_dir) if cache_dir is not None else cache.default_cache_dir()
     times, mismatch = _alignment(audio_path, text, spans, samples, sr, cdir)
-    return times, (str(mismatch[2]) if mismatch else None)
-
-
-def aligner_timings(audio_path: Path, text: str, word_spans, fmt: str = "json", cache_dir: Path | None = None):
-    """What ``sgt align`` writes for a recording: (the timings file's text in ``fmt``
-    (:func:`timings_text`), the words' (start, end) times, the check's rejection or None)."""
-    times, rejection = align_recording(audio_path, text, word_spans, cache_dir)
-    samples, sr = read_audio(Path(audio_path))
-    words = [text[a:b] for a, b in check_spans(text, word_spans)]
-    return timings_text(words, times, fmt, len(samples) / sr), times, rejection
+    words = [text[a:b] for a, b in spans]
+    return timings_text(words, times, fmt, len(samples) / sr), times, (str(mismatch[2]) if mismatch else None)
 
 
 def timings_text(words: Sequence[str], times: Sequence[tuple[float, float]], fmt: str, duration: float) -> str:

@@ -20,16 +20,14 @@ that are off, and name the file on the directive, '@audio REC timings=TIMINGS'; 
 recording is then timed by the file and not checked by the aligner. Existing timings
 files are never replaced without --force."""
 
-FORMATS = {"json": ".timings.json", "textgrid": ".TextGrid"}
-
-
 def register(sub) -> None:
+    from dsl.speech.recording import TIMINGS_SUFFIX
     from sgt_tui.commands.common import utterance_number
 
     p = sub.add_parser("align", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
     p.add_argument("-o", "--out-dir", metavar="DIR", help="folder for the timings files (default: each recording's own folder)")
-    p.add_argument("--format", choices=tuple(FORMATS), default="json",
+    p.add_argument("--format", choices=tuple(TIMINGS_SUFFIX), default="json",
                    help="json: a list of {word, start, end} (default); textgrid: a Praat TextGrid with a 'words' tier")
     p.add_argument("--utterance", type=utterance_number, action="append", metavar="N",
                    help="only utterance N (0-based; repeatable)")
@@ -44,7 +42,8 @@ def run(args) -> int:
     from core.fileio import atomic_write_text
     from dsl.compiler import load_script
     from dsl.speech import SpeechError
-    from dsl.speech.recording import aligner_timings
+    from dsl.resources import shown_from
+    from dsl.speech.recording import TIMINGS_SUFFIX, aligner_timings
     from sgt_tui.commands.common import (
         check_utterances,
         existing_file,
@@ -58,7 +57,7 @@ def run(args) -> int:
 
     path = existing_file(args.file)
     out_dir = output_folder(args.out_dir, "--out-dir") if args.out_dir else None
-    script, _lib, diags = load_script(path)
+    script, _lib, diags = load_script(path, resources=False)  # (the recordings are aligned below, once)
     syntax = [d for d in script.diagnostics if d.is_error]
     if script.header is None or syntax:
         print_diagnostics(syntax or diags, {str(path): script.source})
@@ -76,7 +75,7 @@ def run(args) -> int:
                              "without timings=: nothing to align")
         print(f"{shown(path)} has no recording without timings= to align (@audio FILE before an utterance)", file=sys.stderr)
         return 0
-    suffix = FORMATS[args.format]
+    suffix = TIMINGS_SUFFIX[args.format]
     targets = []
     inputs = inputs_of(path)
     for u in todo:
@@ -99,25 +98,14 @@ def run(args) -> int:
             failed += 1
             continue
         atomic_write_text(target, text)
-        named = _as_named(target, path)
+        named = shown_from(target.resolve(), path)
         print(f"[{u.index}] line {u.line}: wrote {shown(target)}: {len(times)} words, "
               f"{times[0][0]:.2f}-{times[-1][1]:.2f} s" if times else f"[{u.index}] line {u.line}: wrote {shown(target)}")
         if rejection is None:
             print("    the check accepts this transcript (no timings file is needed; with one, its times are used as written)")
         else:
             print(f"    the check REJECTS this transcript: {rejection}")
-            print(f"    if the transcript is right, review these times and use them: @audio {_as_named(u.audio.path, path)} "
+            print(f"    if the transcript is right, review these times and use them: @audio {shown_from(u.audio.path, path)} "
                   f"timings={named}")
     return 1 if failed else 0
 
-
-def _as_named(target, script) -> str:
-    """``target`` as a directive of ``script`` names it: relative to the script's folder where it
-    lies under it, else absolute."""
-    from pathlib import Path
-
-    target, folder = Path(target).resolve(), Path(script).resolve().parent
-    try:
-        return str(target.relative_to(folder))
-    except ValueError:
-        return str(target)
