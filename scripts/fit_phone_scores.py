@@ -75,10 +75,9 @@ def _scores(args) -> list[tuple[str, float]]:
         x16 = resample_poly(x16, A.ALIGN_SR, int(sr))
     mask, hop = audio.voice_activity(samples, sr)
     pcm = A.aligner_pcm(x16, A.speech_frames(x16, mask, hop / sr), hop / sr)
-    aligner = A._Aligner()
-    aligner.align(pcm, R.words_of(rec.text))
+    _, phones = A._Aligner().align(pcm, R.words_of(rec.text))
     out = []
-    for word in A.relative_scores(aligner.last_phones or []):
+    for word in A.relative_scores(phones or []):
         out += word or []
     return out
 

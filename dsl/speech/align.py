@@ -146,7 +146,6 @@ def normalise_for_dict(word: str) -> str:
 class _Aligner:
     def __init__(self) -> None:
         self._free = None  # the free (language model) decoder of :meth:`heard`, made when needed
-        self.last_phones = None  # the phones of the words of the last :meth:`align` (see :meth:`phones`)
         try:
             pocketsphinx = import_optional("pocketsphinx")
         except ImportError as e:  # pragma: no cover - dependency is declared
@@ -208,10 +207,10 @@ class _Aligner:
             tokens.append(name)
         return tokens
 
-    def align(self, pcm: bytes, words: list[str]) -> list[tuple[float, float]]:
-        """(start, end) seconds for each word in ``pcm`` (16 kHz, see :func:`aligner_pcm`): the
-        forced alignment, in 10 ms frames; raises SpeechError when alignment fails. The phones
-        of each word (:meth:`phones`) are kept in ``self.last_phones``."""
+    def align(self, pcm: bytes, words: list[str]):
+        """((start, end) seconds for each word in ``pcm`` (16 kHz, see :func:`aligner_pcm`): the
+        forced alignment, in 10 ms frames; the phones of each word, :meth:`phones`); raises
+        SpeechError when alignment fails."""
         tokens: list[str | None] = []
         segs: list = []
         decoder = None
@@ -244,8 +243,7 @@ class _Aligner:
             else:
                 _, a, b = next(it)
                 times.append((max(0.0, a / FRAME_RATE), max(0.0, (b + 1) / FRAME_RATE)))
-        self.last_phones = self.phones(decoder, pcm, tokens)
-        return _fill_gaps(times, words)
+        return _fill_gaps(times, words), self.phones(decoder, pcm, tokens)
 
     def phones(self, decoder, pcm: bytes, tokens: list[str | None]) -> list[list[tuple[str, int, int]] | None] | None:
         """Each word's phones as (phone, frames, acoustic score) from pocketsphinx's second,
@@ -377,11 +375,12 @@ def poor_fits(phones) -> list[tuple[int, float]]:
     if not phones:
         return []
     table = phone_fit()
-    fallback = (float(np.median([m for m, _ in table.values()])), float(np.median([d for _, d in table.values()])))
+    usual = (float(np.median([m for m, _ in table.values()])), float(np.median([d for _, d in table.values()])))
     out = []
     for k, word in enumerate(relative_scores(phones)):
         if word and len(word) >= POOR_FIT_PHONES:
-            z = float(np.mean([(r - table.get(name, fallback)[0]) / table.get(name, fallback)[1] for name, r in word]))
+            fits = [table.get(name, usual) for name, _ in word]  # (a phone the table lacks: the median phone's)
+            z = float(np.mean([(r - m) / spread for (_, r), (m, spread) in zip(word, fits)]))
             if z > POOR_FIT_Z:
                 out.append((k, z))
     return out
@@ -468,11 +467,11 @@ def align_words(samples: np.ndarray, sample_rate: int, words: list[str]):
     speech = speech_frames(x16, mask, hop / sample_rate)
     pcm = aligner_pcm(x16, speech, hop / sample_rate)
     try:
-        times = _aligner.align(pcm, words)
+        times, phones = _aligner.align(pcm, words)
     except SpeechError:  # the recording as it is, breaths and all
         pcm = aligner_pcm(x16, np.ones(len(mask), dtype=bool), hop / sample_rate)
-        times = _aligner.align(pcm, words)
-    poor = poor_fits(_aligner.last_phones)
+        times, phones = _aligner.align(pcm, words)
+    poor = poor_fits(phones)
     times = trim_to_voice(times, speech, hop, sample_rate)
     absent = _aligner.absent_words(pcm, words, times)
     found = first_mismatch(words, times, absent, speech & periodic_frames(x16, len(mask), hop / sample_rate),

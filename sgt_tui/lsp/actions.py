@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import difflib
 import re
+from pathlib import Path
 
 from lsprotocol import types as lsp
 
@@ -102,8 +103,6 @@ def aligner_times(doc: Document, line: int):
     """For the utterance on (1-based) ``line`` spoken from a recording without ``timings=``:
     (the utterance, the timings file ``sgt align`` writes for it, the edit that names that file
     on the ``@audio`` directive); None for any other line."""
-    from pathlib import Path
-
     info = doc.analysis().utterance_at(line)
     u = info.utterance if info is not None else None
     if u is None or u.audio is None or u.audio.timings is not None:
