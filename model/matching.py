@@ -312,6 +312,60 @@ def schedule(n: int, pauses=None) -> list[tuple[int, int, bool]]:
     return pieces
 
 
+
+def entry_state(db: Database, a, b) -> np.ndarray:
+    """(pose, velocity) in the pose PCA of two consecutive poses: where a segment is entered from."""
+    pa, pb = (np.stack([a, b]).astype(np.float32) - db.pose_mean) @ db.pose_basis
+    return np.concatenate([pb, pb - pa])
+
+
+def entry_cost(db: Database, prev: np.ndarray) -> np.ndarray:
+    """(M,) each candidate's entry cost from the state ``prev`` (:func:`entry_state`), less the
+    part that is the same for every candidate: pose (weight W_POSE) and velocity (W_VELOCITY)."""
+    p = db.pose_basis.shape[1]
+    w = np.concatenate([np.full(p, np.sqrt(W_POSE)), np.full(p, np.sqrt(W_VELOCITY))]).astype(np.float32)
+    cost = db.entry @ (w * prev).astype(np.float32)
+    cost *= -2.0
+    cost += db.entry_sq
+    return cost
+
+
+def pick_candidate(cost: np.ndarray, nxt: int, bonus: float, rng=None) -> int:
+    """The candidate a segment plays: with ``rng`` (the first segment), one of the
+    :data:`FIRST_CHOICES` best drawn by it; else the best, or the playing take's continuation
+    ``nxt`` (-1: none) when it is within ``bonus`` of the best."""
+    if rng is not None:
+        k = min(FIRST_CHOICES, len(cost))  # (a small user database may have fewer candidates)
+        best = np.argpartition(cost, k - 1)[:k]
+        best = best[np.argsort(cost[best], kind="stable")]
+        return int(best[rng.integers(len(best))])
+    pick = int(np.argmin(cost))
+    if nxt >= 0 and pick != nxt and cost[nxt] - bonus <= cost[pick]:
+        pick = nxt
+    return pick
+
+
+def segment_frames(db: Database, j: int, length: int, source=None) -> np.ndarray:
+    """The database's frames ``j`` on, ``length`` and :data:`BLEND` more; cross-faded over
+    the first BLEND from ``source`` (what the motion continues with) when one is given."""
+    seg = db.poses[j : j + length + BLEND]
+    if source is not None:
+        fade = postprocess.smoothstep(np.arange(1, BLEND + 1) / (BLEND + 1)).astype(np.float32)[:, None]
+        seg = seg.copy()
+        seg[:BLEND] = normalize_pose((1 - fade) * source + fade * seg[:BLEND])
+    return seg
+
+
+def held_frames(db: Database, pos: int, anchor: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Frames of a pause: the pose the speaker paused in (``anchor``), :data:`postprocess.PAUSE_HOLD`
+    of it, and the rest the playing take's continuation from database frame ``pos`` (+ ``offsets``,
+    held at its take's last frame)."""
+    end = db.clip_starts[np.searchsorted(db.clip_starts, pos, side="right")]
+    cont = db.poses[np.minimum(pos + np.asarray(offsets), end - 1)]
+    keep = 1.0 - postprocess.PAUSE_HOLD
+    return normalize_pose(keep * cont + (1.0 - keep) * anchor)
+
+
 def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None = None,
           start_pose: np.ndarray | None = None, pauses: np.ndarray | None = None) -> np.ndarray:
     """The matched motion (T, 27) before post-processing. ``take``: the drawn take whose style
@@ -341,13 +395,6 @@ def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None 
     pose_mask = np.asarray(arrays.pose_mask) > 0.5
     rng = np.random.default_rng((0x4D42, int(seed)))
     out = np.zeros((n + SEGMENT + BLEND, POSE_DIM), np.float32)
-    fade = postprocess.smoothstep(np.arange(1, BLEND + 1) / (BLEND + 1)).astype(np.float32)[:, None]
-    entry_w = np.concatenate([np.full(db.pose_basis.shape[1], np.sqrt(W_POSE)),
-                              np.full(db.pose_basis.shape[1], np.sqrt(W_VELOCITY))]).astype(np.float32)
-
-    def state(a, b):  # (pose, velocity) in the pose PCA of two consecutive poses
-        pa, pb = (np.stack([a, b]).astype(np.float32) - db.pose_mean) @ db.pose_basis
-        return np.concatenate([pb, pb - pa])
 
     cur = None  # the playing candidate, when the last piece played all of its segment
     pos = None  # the database frame the playing take continues with
@@ -355,28 +402,23 @@ def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None 
     prev = None  # (pose, velocity) in the pose PCA where the next segment starts
     if start_pose is not None and len(start_pose):
         sp = np.asarray(start_pose, np.float32)
-        prev = state(sp[-2] if len(sp) > 1 else sp[-1], sp[-1])
+        prev = entry_state(db, sp[-2] if len(sp) > 1 else sp[-1], sp[-1])
     s = 0
     for t, length, held in pieces:
         if held:  # hold the pose the speaker paused in, with a share of the take's continuation
             anchor = out[t - 1]
             if pos is not None:
-                end = db.clip_starts[np.searchsorted(db.clip_starts, pos, side="right")]
-                cont = db.poses[np.minimum(pos + np.arange(length), end - 1)]
-                keep = 1.0 - postprocess.PAUSE_HOLD
-                out[t : t + length] = normalize_pose(keep * cont + (1.0 - keep) * anchor)
+                out[t : t + length] = held_frames(db, pos, anchor, np.arange(length))
             else:
                 out[t : t + length] = anchor
             before = out[t + length - 2] if length > 1 else anchor
-            prev = state(before, out[t + length - 1])
+            prev = entry_state(db, before, out[t + length - 1])
             tail = np.repeat(out[t + length - 1 : t + length], BLEND, axis=0)
             cur = pos = None
             continue
         cost = static[s]
         if prev is not None:
-            cost = db.entry @ (entry_w * prev).astype(np.float32)
-            cost *= -2.0
-            cost += db.entry_sq
+            cost = entry_cost(db, prev)
             cost += static[s]
         ctl = np.flatnonzero(pose_mask[t : t + length])
         if len(ctl):  # a pose control in the segment: its pose in the candidate near the request
@@ -385,28 +427,16 @@ def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None 
             d = db.pose_pca[db.cands + k] - want
             cost = cost + W_CONTROL * (d * d).sum(1)
         nxt = -1 if cur is None else int(db.next_cand[cur])
-        if s == 0 and tail is None:  # the first segment: one of the best few, by the seed
-            cost = cost.copy() if cost is static[s] else cost
-            k = min(FIRST_CHOICES, len(cost))  # (a small user database may have fewer candidates)
-            best = np.argpartition(cost, k - 1)[:k]
-            best = best[np.argsort(cost[best], kind="stable")]
-            pick = int(best[rng.integers(len(best))])
-        else:
-            pick = int(np.argmin(cost))
-            bonus = CONTINUE_BONUS_STYLED if styled[s] else CONTINUE_BONUS
-            if nxt >= 0 and pick != nxt and cost[nxt] - bonus <= cost[pick]:
-                pick = nxt
+        first = s == 0 and tail is None  # the first segment: one of the best few, by the seed
+        pick = pick_candidate(cost, nxt, CONTINUE_BONUS_STYLED if styled[s] else CONTINUE_BONUS, rng if first else None)
         j = int(db.cands[pick])
-        seg = db.poses[j : j + length + BLEND]
         source = tail if tail is not None else (db.poses[pos : pos + BLEND] if pos is not None else None)
-        if source is not None and pick != nxt:  # cross-fade from what the motion continues with
-            seg = seg.copy()
-            seg[:BLEND] = normalize_pose((1 - fade) * source + fade * seg[:BLEND])
+        seg = segment_frames(db, j, length, source if pick != nxt else None)  # cross-faded from what the motion continues with
         out[t : t + len(seg)] = seg
         cur = pick if length == SEGMENT else None
         pos, tail = j + length, None
-        prev = state(db.poses[j + length - 2], db.poses[j + length - 1]) if length > 1 else \
-            state(out[t - 1] if t > 0 else db.poses[j], db.poses[j])
+        prev = entry_state(db, db.poses[j + length - 2], db.poses[j + length - 1]) if length > 1 else \
+            entry_state(db, out[t - 1] if t > 0 else db.poses[j], db.poses[j])
         s += 1
     out = out[:n].copy()
     if SNAP_FRAMES > 0:  # re-timed strokes turn no bone faster than the teacher's limit

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.skeleton import POSE_DIM, normalize_pose
+from core.skeleton import POSE_DIM
 from model import postprocess
 from model.features import word_features
 from model.matching import (
@@ -46,17 +46,19 @@ from model.matching import (
     CONTINUE_BONUS,
     CONTINUE_BONUS_STYLED,
     FEATURE_WEIGHTS,
-    FIRST_CHOICES,
     ONE_EURO_MIN_CUTOFF,
     SEGMENT,
-    W_POSE,
     W_SPEECH,
     W_STYLE,
     W_TAKE_STYLE,
-    W_VELOCITY,
     Database,
     draw_take,
+    entry_cost,
+    entry_state,
     frame_features,
+    held_frames,
+    pick_candidate,
+    segment_frames,
 )
 from model.streaming import LOOKAHEAD, STEP, StreamBase
 
@@ -117,9 +119,6 @@ class MatchingStreamGenerator(StreamBase):
             target[~on], weight[~on] = db.take_style[take][~on], W_TAKE_STYLE
         self.style_cost = (weight @ db.cand_style_sq_t - (2.0 * weight * target) @ db.cand_style_t).astype(np.float32)
         self.bonus = CONTINUE_BONUS_STYLED if W_STYLE > 0 and (weight >= W_STYLE).any() else CONTINUE_BONUS
-        p = db.pose_basis.shape[1]
-        self.entry_w = np.concatenate([np.full(p, np.sqrt(W_POSE)), np.full(p, np.sqrt(W_VELOCITY))]).astype(np.float32)
-        self.fade = postprocess.smoothstep(np.arange(1, BLEND + 1) / (BLEND + 1)).astype(np.float32)[:, None]
         # the search's state, as in match
         self.segments = 0  # segments chosen so far
         self.seg: np.ndarray | None = None  # the playing segment's frames (cross-fade applied)
@@ -133,11 +132,6 @@ class MatchingStreamGenerator(StreamBase):
         self.hold_i = 0
         self.recent = np.zeros((0, POSE_DIM), np.float32)  # the last two decided frames before smoothing
         self.last_limited: np.ndarray | None = None  # the last frame limit_velocity returned
-
-    def _state(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """(pose, velocity) in the pose PCA of two consecutive poses (as match's ``state``)."""
-        pa, pb = (np.stack([a, b]).astype(np.float32) - self.db.pose_mean) @ self.db.pose_basis
-        return np.concatenate([pb, pb - pa])
 
     def _step(self, limit: int, final: bool = False) -> np.ndarray:
         f = self.done
@@ -160,10 +154,7 @@ class MatchingStreamGenerator(StreamBase):
         i, self.hold_i = self.hold_i, self.hold_i + 1
         if self.hold_pos is None:
             return self.anchor.copy()
-        end = db.clip_starts[np.searchsorted(db.clip_starts, self.hold_pos, side="right")]
-        cont = db.poses[min(self.hold_pos + i, end - 1)]
-        keep = 1.0 - postprocess.PAUSE_HOLD
-        return normalize_pose(keep * cont + (1.0 - keep) * self.anchor).astype(np.float32)
+        return held_frames(db, self.hold_pos, self.anchor, i).astype(np.float32)
 
     def _played(self, f: int) -> np.ndarray:
         if self.seg is None or f - self.seg_start >= SEGMENT:
@@ -176,33 +167,23 @@ class MatchingStreamGenerator(StreamBase):
         db = self.db
         cur, pos, tail, prev = -1, None, None, None
         if self.holding:  # after a pause: from the pose held, as match does
-            prev = self._state(self.recent[-2] if len(self.recent) > 1 else self.recent[-1], self.recent[-1])
+            prev = entry_state(db, self.recent[-2] if len(self.recent) > 1 else self.recent[-1], self.recent[-1])
             tail = np.repeat(self.recent[-1:], BLEND, axis=0)
             self.holding = False
         elif self.seg is not None:  # the playing segment has played all of its frames
             j = self.seg_frame
             cur, pos = self.pick, j + SEGMENT
-            prev = self._state(db.poses[j + SEGMENT - 2], db.poses[j + SEGMENT - 1])
+            prev = entry_state(db, db.poses[j + SEGMENT - 2], db.poses[j + SEGMENT - 1])
         cost = self._speech_cost(t)
         cost += self.style_cost
         if prev is not None:
-            cost += db.entry_sq
-            cost -= 2.0 * (db.entry @ (self.entry_w * prev).astype(np.float32))
+            cost += entry_cost(db, prev)
         nxt = -1 if cur < 0 else int(db.next_cand[cur])
-        if self.segments == 0 and tail is None:  # the first segment: one of the best few, by the seed
-            k = min(FIRST_CHOICES, len(cost))
-            best = np.argpartition(cost, k - 1)[:k]
-            best = best[np.argsort(cost[best], kind="stable")]
-            pick = int(best[self.rng.integers(len(best))])
-        else:
-            pick = int(np.argmin(cost))
-            if nxt >= 0 and pick != nxt and cost[nxt] - self.bonus <= cost[pick]:
-                pick = nxt
+        first = self.segments == 0 and tail is None  # the first segment: one of the best few, by the seed
+        pick = pick_candidate(cost, nxt, self.bonus, self.rng if first else None)
         j = int(db.cands[pick])
-        seg = db.poses[j : j + SEGMENT + BLEND].copy()
         source = tail if tail is not None else (db.poses[pos : pos + BLEND] if pos is not None else None)
-        if source is not None and pick != nxt:  # cross-fade from what the motion continues with
-            seg[:BLEND] = normalize_pose((1 - self.fade) * source + self.fade * seg[:BLEND])
+        seg = segment_frames(db, j, SEGMENT, source if pick != nxt else None)  # cross-faded from what the motion continues with
         self.seg, self.seg_start, self.seg_frame, self.pick = seg.astype(np.float32), t, j, pick
         self.segments += 1
 
