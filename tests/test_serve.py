@@ -448,3 +448,19 @@ def test_stream_errors_are_messages_and_the_stream_goes_on(api):
         assert "22050 Hz" in ws.receive_json()["message"]
         ws.send_json({"type": "end"})
         assert receive_until(ws, "done")[-1]["type"] == "done"
+
+
+def test_a_generator_that_cannot_run_answers_503_without_the_servers_paths(tmp_path, caplog):
+    """The matching database is checked when the service starts; one damaged later makes the
+    requests that need it a 503 whose message names no server file (the log does)."""
+    import shutil
+
+    from model import matching  # lazy: numpy, the engine
+
+    db = tmp_path / "mine.npz"
+    shutil.copyfile(matching.DEFAULT_DB, db)
+    with client(database=str(db)) as api:
+        db.write_bytes(b"not a database")
+        r = api.post("/v1/generate", json={"script": "guide: Hello there.", "engine": "matching", "timing": "estimate"})
+    assert r.status_code == 503 and "cannot run" in r.json()["error"]
+    assert "mine.npz" not in r.text and str(tmp_path) not in r.text and "mine.npz" in caplog.text

@@ -91,7 +91,8 @@ def _generate(config: ServeConfig, req: GenerateRequest, source: str, path: Path
                                     "the service goes on") from None
         if exc.diagnostics:
             raise RequestError(422, str(exc).replace(str(path), REQUEST_FILE), diagnostics_json(exc.diagnostics, path)) from None
-        raise RequestError(503, f"the generator cannot run: {exc}") from None
+        log.error("the generator cannot run: %s", exc)  # (names the server's files: for its log, not the client)
+        raise RequestError(503, "the generator cannot run on the server (the server's log says why)") from None
     buf = io.BytesIO()
     save_motion(buf, take.clips, format="json", tracks=take.tracks)  # as sgt generate writes it, less the server's path
     rest = {"timing": take.timing, "diagnostics": diagnostics_json(take.diagnostics, path)}

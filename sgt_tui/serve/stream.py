@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import base64
 import binascii
+import logging
 import re
 
 import numpy as np
@@ -32,6 +33,8 @@ from model import matching
 from model.features import SAMPLE_RATE
 from model.matching_stream import MatchingStreamGenerator
 from model.streaming import LOOKAHEAD_S, StreamBase, StreamError, StreamGenerator
+
+log = logging.getLogger("sgt.serve")
 
 #: The longest stream, in seconds of motion: a word or time past it is refused.
 MAX_SECONDS = 600.0
@@ -127,8 +130,10 @@ class StreamSession:
         if engine == "matching":
             try:
                 db = matching.load(self.database)
-            except matching.DatabaseError as exc:
-                raise StreamError(f"the matching engine cannot run: {exc}") from None
+            except matching.DatabaseError as exc:  # (the server's file: its path goes to the log, not the client)
+                log.error("stream: the matching database cannot be read: %s", exc)
+                raise StreamError("the matching engine cannot run: the server's matching database cannot be read "
+                                  "(the server's log says why)") from None
             self.generator = MatchingStreamGenerator(db, seed=seed, style=style, smoothing=smoothing)
         else:
             self.generator = StreamGenerator(self.runner, seed=seed, style=style, smoothing=smoothing)
