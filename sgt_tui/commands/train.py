@@ -224,12 +224,13 @@ def _build_database(args) -> int:
         source = f"the {len(clips)} train-split take(s) of {corpus}"
     from model.training import matching_db
 
-    short = [c for c in clips if not matching_db.gives_segments(len(c["poses"]))]
+    usable = [matching_db.gives_segments(len(c["poses"])) for c in clips]
+    short = [c for c, ok in zip(clips, usable) if not ok]
     for c in short:
         n = len(c["poses"])
         print(f"sgt train: warning: take '{c['id']}' is {n / FPS:.2f} s ({n} frames), shorter than a segment "
               f"({matching_db.min_frames()} frames): left out", file=sys.stderr)
-    clips = [c for c in clips if matching_db.gives_segments(len(c["poses"]))]
+    clips = [c for c, ok in zip(clips, usable) if ok]
     if not clips:
         raise InputError(f"no usable take in {source}: each needs at least {matching_db.min_frames()} frames "
                          f"({matching_db.min_frames() / FPS:.1f} s) of motion")
