@@ -69,3 +69,69 @@ def test_neovim_sees_a_diagnostic_a_completion_and_a_definition(tmp_path):
     assert ("SGT201", 0, 34) in codes, result["diagnostics"]  # point_rigth, 0-based line and column
     assert {"point_right", "point_left", "wave"} <= set(result["completion"])
     assert result["definition"] == (ROOT / "library" / "gestures" / "wave.toml").as_uri()
+
+
+# Neovim takes the language server's action for a recording the check rejects (SGT407): the
+# command writes the aligner's times, Neovim applies the edit the server sends, and the
+# diagnostic goes away.
+INIT_ALIGN = """
+local out = os.getenv("SGT_TEST_OUT")
+dofile(os.getenv("SGT_LUA")).setup({ cmd = { os.getenv("SGT_PYTHON"), "-m", "sgt_tui.cli", "lsp" } })
+vim.cmd("edit " .. os.getenv("SGT_SCRIPT"))
+local result = {}
+vim.wait(30000, function() return #vim.diagnostic.get(0) > 0 end, 50)
+result.before = {}
+for _, d in ipairs(vim.diagnostic.get(0)) do table.insert(result.before, d.code) end
+local uri = vim.uri_from_bufnr(0)
+local params = { textDocument = { uri = uri }, range = { start = { line = 1, character = 30 }, ["end"] = { line = 1, character = 30 } },
+                 context = { diagnostics = {} } }  -- (the server reads its own analysis)
+local titles, command = {}, nil
+for _, reply in pairs(vim.lsp.buf_request_sync(0, "textDocument/codeAction", params, 20000) or {}) do
+  for _, action in ipairs(reply.result or {}) do
+    table.insert(titles, action.title)
+    if type(action.command) == "table" and action.command.command == "sgt.writeTimings" then command = action.command end
+  end
+end
+result.titles = titles
+if command then
+  vim.lsp.buf_request_sync(0, "workspace/executeCommand", command, 60000)
+end
+vim.wait(30000, function() return #vim.diagnostic.get(0) == 0 end, 50)
+result.line = vim.api.nvim_buf_get_lines(0, 0, 1, false)[1]
+result.after = {}
+for _, d in ipairs(vim.diagnostic.get(0)) do table.insert(result.after, d.code) end
+local file = io.open(out, "w")
+file:write(vim.fn.json_encode(result))
+file:close()
+vim.cmd("qa!")
+"""
+
+
+def test_neovim_times_a_rejected_recording_by_the_aligners_times(tmp_path):
+    import numpy as np  # lazy: only this test makes a recording
+    import soundfile as sf  # lazy: only this test makes a recording
+
+    from dsl.speech import _espeak, synthesize  # lazy: espeak-ng, only this test speaks
+
+    if _espeak.find_library() is None:
+        pytest.skip("libespeak-ng not installed")
+    said = "Well, hello there my friend. How are you today?"
+    spans = [(0, 4), (6, 11), (12, 17), (18, 20), (21, 27), (29, 32), (33, 36), (37, 40), (41, 46)]
+    x, sr = sf.read(str(synthesize(said, spans, cache_dir=tmp_path / "syn").audio_path))
+    sf.write(str(tmp_path / "said.wav"), np.concatenate([np.zeros(sr // 4), x, np.zeros(sr // 4)]), sr)
+    script = tmp_path / "said.sgt"
+    script.write_text("@audio said.wav\nbot: Well, hello there my dear friend. How are you today?\n", encoding="utf-8")
+    init = tmp_path / "init.lua"
+    init.write_text(INIT_ALIGN, encoding="utf-8")
+    out = tmp_path / "result.json"
+    env = {**os.environ, "SGT_TEST_OUT": str(out), "SGT_LUA": str(ROOT / "editors" / "neovim" / "sgt.lua"),
+           "SGT_PYTHON": sys.executable, "SGT_SCRIPT": str(script), "XDG_CONFIG_HOME": str(tmp_path / "config"),
+           "XDG_DATA_HOME": str(tmp_path / "data"), "XDG_STATE_HOME": str(tmp_path / "state")}
+    r = subprocess.run([NVIM, "--headless", "--clean", "-u", str(init)], check=False, cwd=tmp_path, env=env, capture_output=True,
+                       text=True, timeout=180, stdin=subprocess.DEVNULL)
+    assert out.exists(), r.stdout[-2000:] + r.stderr[-2000:]
+    result = json.loads(out.read_text())
+    assert result["before"] == ["SGT407"], result
+    assert any("aligner" in t for t in result["titles"]), result["titles"]
+    assert result["line"] == "@audio said.wav timings=said.timings.json" and result["after"] == [], result
+    assert json.loads((tmp_path / "said.timings.json").read_text())[4]["word"] == "dear"
