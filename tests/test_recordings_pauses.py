@@ -32,6 +32,12 @@ SUBSET = [2, 5, 14, 17, 22, 33]
 WRONG = [7, 46]
 #: A human recording (the LibriVox reader) whose changed word only the phones' fit catches.
 POOR_FIT = 9
+#: A recording (Festival's ked voice) whose transcript, with "door" left out, only the search
+#: for words the transcript lacks catches.
+DROPPED = 17
+#: A recording (an espeak-ng voice in an MP3) whose correct transcript loses "brother" in the
+#: decode that may leave words out, twice: only the cost of aligning without it keeps it.
+NEEDED = 16
 #: How far (s) a sentence's first word may start from its known onset: the issue's recording,
 #: and the others (a soft "th" or a vowel onset at 8 kHz starts a little late: about one
 #: motion frame at 15 fps).
@@ -42,7 +48,7 @@ ONSET_TOLERANCE, ONSET_TOLERANCE_SOFT = 0.05, 0.08
 def corpus(tmp_path_factory):
     """The recordings the tests use, made once per session: {index: Recording}."""
     folder = tmp_path_factory.mktemp("recordings")
-    which = sorted({0, *SUBSET, *WRONG, POOR_FIT})
+    which = sorted({0, *SUBSET, *WRONG, POOR_FIT, DROPPED, NEEDED})
     return dict(zip(which, R.corpus(folder, which)))
 
 
@@ -141,3 +147,37 @@ def test_a_breath_or_a_click_is_not_speech_and_a_vowel_is():
     for (a, _b), (want, _) in zip(runs, vowels):
         assert abs(a - want) < 0.02, runs
     assert mask.sum() > speech.sum()  # the breath and the click were voice to the energy detector
+
+
+def test_a_word_left_out_of_the_transcript_is_heard_and_named(corpus, tmp_path, monkeypatch):
+    """The transcript lacks "door" ("Hold the for the next person"): the aligner stretches
+    "for" over it and every other check passes, but the recognizer hears "door" there, and
+    putting it into the transcript makes the stretch fit far better while "door" itself fits
+    as correct words do (align.extra_words): rejected, naming the word and where it is. The
+    correct transcript passes the same check."""
+    rec = corpus[DROPPED]
+    kind, text, at = R.wrong_transcripts(rec, DROPPED)[1]
+    assert kind == "dropped" and rec.words[at] == "door"
+    with pytest.raises(SpeechError) as ei:
+        _load(rec, text, tmp_path / "a")
+    e = ei.value
+    assert e.kind == "mismatch" and abs(e.word_index - at) <= 1, e.message
+    assert "the recording says 'door'" in e.message and "between 'the' and 'for'" in e.message, e.message
+    _load(rec, rec.text, tmp_path / "a")
+    monkeypatch.setattr(align, "EXTRA_WORD_GAIN", float("inf"))  # without the search, the word is not missed
+    assert len(_load(rec, text, tmp_path / "b").words) == len(R.words_of(text))
+
+
+def test_a_word_the_decode_leaves_out_is_kept_when_the_audio_needs_it(corpus, tmp_path, monkeypatch):
+    """The decode in which every word may be left out drops "brother" from a correct
+    transcript (the acoustic model hears the MP3's synthetic voice poorly), and so does the
+    second look among its neighbours; but the stretch aligned without "brother" fits the
+    audio far worse (align.ABSENT_COST): the word is there, and the transcript passes."""
+    rec = corpus[NEEDED]
+    assert "brother" in rec.words and rec.spec["format"] == "mp3"
+    speech = _load(rec, rec.text, tmp_path / "a")
+    assert [w.word for w in speech.words] == rec.words
+    monkeypatch.setattr(align, "ABSENT_COST", float("inf"))  # without the third look, it is rejected
+    with pytest.raises(SpeechError) as ei:
+        _load(rec, rec.text, tmp_path / "b")
+    assert "('brother') is not in the recording" in ei.value.message, ei.value.message

@@ -20,8 +20,13 @@ Words are trimmed to that speech and grown over speech next to them that the ali
 no word (:func:`trim_to_voice`: the first word after a pause, often started 0.1-0.2 s into
 its voice). The transcript is then checked (:func:`first_mismatch`): a word is missing when a
 decode in which every word may be left out leaves it out, stretch of speech by stretch
-(:func:`stretches`) and again among its neighbours only; speech is extra when 50 ms or more
-of periodic speech lies outside every word; and a word of three phones or more is not what
+(:func:`stretches`) and again among its neighbours only, and the stretch aligned without it
+fits the audio about as well (:meth:`_Aligner._needed`); speech is extra when 50 ms or more
+of periodic speech lies outside every word, or when the recognizer hears a word where the
+alignment has none of that name and putting it into the transcript there makes the stretch
+fit far better, the word itself fitting as correct words do (:meth:`_Aligner.extra_words`:
+a word left out of the transcript, whose audio the aligner had stretched a neighbour over);
+and a word of three phones or more is not what
 the recording says there when its phones fit the audio far worse than the same phones fit
 in correct transcripts (:func:`poor_fits`: pocketsphinx's second, phone-level pass over the
 alignment gives each phone's acoustic score, relative to the best state of each frame; the
@@ -74,6 +79,12 @@ STRETCH_PAUSE, STRETCH_WORDS, STRETCH_MARGIN = 0.25, 12, 0.3
 #: left out if every look leaves it out). (1, 2) saved one correct transcript of the corpus
 #: and let 39 more wrong ones of 216 through.
 NEARBY = (2,)
+#: A word the decode leaves out (twice) is still said when its stretch, aligned without it,
+#: fits the audio worse by this many frames of the recording's usual fit (the median word's
+#: score per frame) or more (:meth:`_Aligner._needed`). On the corpus of
+#: ``benchmarks/bench_timing.py --corpus`` the correct words left out cost 41-79 (one
+#: espeak-ng MP3), the words wrongly added or changed -7 to +446, gaining from it.
+ABSENT_COST = 30.0
 #: Speech, for the aligner (:func:`speech_frames`): voice that holds frames more periodic than
 #: :data:`PERIODIC` at most :data:`SPEECH_RANGE` dB under the recording's speech; voice less
 #: than :data:`SPEECH_JOIN` s apart is one stretch; :data:`SPEECH_MARGIN` s around it is kept.
@@ -88,10 +99,21 @@ POOR_FIT_Z = 3.0
 #: rests on a few frames shared with its neighbours. Set after the first run of the whole
 #: corpus, where two correct LibriVox transcripts were rejected at 'a' and 'he' (z 3.1, 3.0).
 POOR_FIT_PHONES = 3
+#: A word the recognizer hears where the transcript has none is in the recording
+#: (:meth:`_Aligner.extra_words`) when putting it into the transcript there makes the stretch
+#: fit the audio better by this many frames of the recording's usual fit (the median word's
+#: score per frame) ... Chosen on the even-numbered half of the corpus of
+#: ``benchmarks/bench_timing.py --corpus`` (its correct transcripts' best gain: 23; the odd
+#: half's: 7): at 20 one correct transcript of 36 there was rejected.
+EXTRA_WORD_GAIN = 30.0
+#: ... and the word's own phones fit no more than this many spreads worse than they do in
+#: correct transcripts (:func:`poor_fits`; a word that fits only where another word's
+#: stretched phones fitted worse, as two of the corpus's card readings, is not heard there).
+EXTRA_WORD_FIT = 2.0
 #: Per phone, how well correct transcripts' phones fit (``scripts/fit_phone_scores.py`` makes it).
 PHONE_FIT_FILE = Path(__file__).with_name("phone_fit.json")
 #: Part of the cache key of an alignment: bumped when the words' times or the verdict change.
-VERSION = 4
+VERSION = 5
 
 _LETTERS = {
     "a": "AE", "b": "B", "c": "K", "d": "D", "e": "EH", "f": "F", "g": "G", "h": "HH", "i": "IH",
@@ -145,12 +167,18 @@ def normalise_for_dict(word: str) -> str:
 
 class _Aligner:
     def __init__(self) -> None:
-        self._free = None  # the free (language model) decoder of :meth:`heard`, made when needed
+        self._free = None  # the recognizer of :meth:`_recognize` (language model, no transcript), made when needed
         try:
             pocketsphinx = import_optional("pocketsphinx")
         except ImportError as e:  # pragma: no cover - dependency is declared
             raise SpeechError(f"pocketsphinx is not installed ({e}); supply a TextGrid or JSON timings file") from None
         self.ps = pocketsphinx
+
+    def fresh(self) -> None:
+        """Forget the recognizer of :meth:`_recognize`: a decoder carries its cepstral mean
+        from one utterance to the next, so what it hears in one recording would depend on the
+        recordings checked before it in the same process."""
+        self._free = None
 
     def pronunciations(self, decoder, word: str) -> list[str]:
         w = normalise_for_dict(word)
@@ -207,13 +235,10 @@ class _Aligner:
             tokens.append(name)
         return tokens
 
-    def align(self, pcm: bytes, words: list[str]):
-        """((start, end) seconds for each word in ``pcm`` (16 kHz, see :func:`aligner_pcm`): the
-        forced alignment, in 10 ms frames; the phones of each word, :meth:`phones`); raises
-        SpeechError when alignment fails."""
-        tokens: list[str | None] = []
-        segs: list = []
-        decoder = None
+    def _decode(self, pcm: bytes, words: list[str]):
+        """The forced alignment of ``words`` to ``pcm``: (decoder, tokens, word segments as
+        (token, first frame, last frame)), with pocketsphinx's default beams and, if that
+        fails, wide ones; None when both fail. Raises SpeechError when no word can be aligned."""
         for beams in ({}, {"beam": 1e-80, "wbeam": 1e-60, "pbeam": 1e-80}):  # default first; wide if it fails
             decoder = self.ps.Decoder(lm=None, loglevel="FATAL", **beams)
             tokens = self._tokens(decoder, words)
@@ -230,11 +255,19 @@ class _Aligner:
                 segs = []
             segs = [s for s in segs if not (s[0].startswith("<") or s[0].startswith("[") or s[0] == "(NULL)")]
             if len(segs) == len(usable):
-                break
-        else:
+                return decoder, tokens, segs
+        return None
+
+    def align(self, pcm: bytes, words: list[str]):
+        """((start, end) seconds for each word in ``pcm`` (16 kHz, see :func:`aligner_pcm`): the
+        forced alignment, in 10 ms frames; the phones of each word, :meth:`phones`); raises
+        SpeechError when alignment fails."""
+        found = self._decode(pcm, words)
+        if found is None:
             raise SpeechError("automatic alignment with pocketsphinx failed (the audio did not match the "
                               "transcript well enough); supply a TextGrid (e.g. from Montreal Forced "
                               "Aligner) or a JSON timings file")
+        decoder, tokens, segs = found
         times: list[tuple[float, float] | None] = []
         it = iter(segs)
         for t in tokens:
@@ -245,27 +278,53 @@ class _Aligner:
                 times.append((max(0.0, a / FRAME_RATE), max(0.0, (b + 1) / FRAME_RATE)))
         return _fill_gaps(times, words), self.phones(decoder, pcm, tokens)
 
-    def phones(self, decoder, pcm: bytes, tokens: list[str | None]) -> list[list[tuple[str, int, int]] | None] | None:
-        """Each word's phones as (phone, frames, acoustic score) from pocketsphinx's second,
-        phone-level pass over the word alignment ``decoder`` just made (None for a word without
-        a pronunciation; None altogether when the pass fails). The scores are log
-        likelihoods relative to the best-scoring state of each frame (pocketsphinx normalises
-        them so), so a phone the audio fits well scores near 0."""
+    def _phone_pass(self, decoder, pcm: bytes) -> list[tuple[str, int, list[tuple[str, int, int]]]] | None:
+        """pocketsphinx's second, phone-level pass over the word alignment ``decoder`` just
+        made: every entry, silences too, as (name, first frame, [(phone, frames, acoustic
+        score)]); None when the pass fails. The scores are log likelihoods relative to the
+        best-scoring state of each frame (pocketsphinx normalises them so), so a phone the
+        audio fits well scores near 0."""
         try:
             decoder.set_alignment()
             decoder.start_utt()
             decoder.process_raw(_padded(pcm), full_utt=True)
             decoder.end_utt()
-            found = [[(ph.name, int(ph.duration), int(ph.score)) for ph in w] for w in decoder.get_alignment()
-                     if not (w.name.startswith("<") or w.name.startswith("["))]
+            return [(w.name, int(w.start) - PAD_FRAMES, [(ph.name, int(ph.duration), int(ph.score)) for ph in w])
+                    for w in decoder.get_alignment()]
         except (RuntimeError, TypeError):
             return None
+
+    def phones(self, decoder, pcm: bytes, tokens: list[str | None]) -> list[list[tuple[str, int, int]] | None] | None:
+        """Each word's phones as (phone, frames, acoustic score) from :meth:`_phone_pass`
+        (None for a word without a pronunciation; None altogether when the pass fails)."""
+        entries = self._phone_pass(decoder, pcm)
+        if entries is None:
+            return None
+        found = [ph for name, _, ph in entries if not name.startswith(("<", "["))]
         if len(found) != sum(t is not None for t in tokens):
             return None
         it = iter(found)
         return [None if t is None else next(it) for t in tokens]
 
-    def absent_words(self, pcm: bytes, words: list[str], times: list[tuple[float, float]]) -> list[int]:
+    def score(self, pcm: bytes, words: list[str]):
+        """How well ``words`` (all of them, in order) fit ``pcm``: (the alignment's total
+        acoustic score, silences included, and each word as (first frame, [(phone, frames,
+        score)]), None for a word without a pronunciation), or None when the alignment or its
+        phone pass fails. Two scores of the same audio compare: the higher fits it better."""
+        found = self._decode(pcm, words)
+        if found is None:
+            return None
+        decoder, tokens, _ = found
+        entries = self._phone_pass(decoder, pcm)
+        if entries is None:
+            return None
+        placed = [(start, ph) for name, start, ph in entries if not name.startswith(("<", "["))]
+        if len(placed) != sum(t is not None for t in tokens):
+            return None
+        it = iter(placed)
+        return sum(s for _, _, ph in entries for _, _, s in ph), [None if t is None else next(it) for t in tokens]
+
+    def absent_words(self, pcm: bytes, words: list[str], times: list[tuple[float, float]], phones=None) -> list[int]:
         """Indices of the words the recording does not say. The recording is cut into stretches
         of speech (:func:`stretches`: at pauses, and long ones between words), and each stretch
         is decoded with a JSGF grammar of its own words, each optional and rewarded by
@@ -280,7 +339,21 @@ class _Aligner:
             said = self._said(x[int(a * ALIGN_SR): int(b * ALIGN_SR)].tobytes(), words, first, last)
             if said is not None:
                 absent += [k for k in range(first, last) if k not in said]
-        return [k for k in absent if not self._heard_nearby(x, words, times, k)]
+        usual = _median_rate(phones)
+        return [k for k in absent if not self._heard_nearby(x, words, times, k) and not self._needed(x, words, times, k, usual)]
+
+    def _needed(self, x: np.ndarray, words: list[str], times, k: int, usual: float | None) -> bool:
+        """A third look at a word left out: its stretch fits the audio worse without it, by
+        :data:`ABSENT_COST` frames of the recording's ``usual`` fit or more (a word the
+        recording says: its audio has nowhere else to go). False when that cannot be told."""
+        if usual is None:
+            return False
+        first, last, a, b = next(s for s in stretches(times, len(x) / ALIGN_SR) if s[0] <= k < s[1])
+        if last - first < 2:
+            return False
+        seg = x[int(a * ALIGN_SR): int(b * ALIGN_SR)].tobytes()
+        with_it, without = self.score(seg, words[first:last]), self.score(seg, words[first:k] + words[k + 1:last])
+        return with_it is not None and without is not None and (with_it[0] - without[0]) / -usual >= ABSENT_COST
 
     def _heard_nearby(self, x: np.ndarray, words: list[str], times, k: int) -> bool:
         """A second look at a word left out: the same decode on the word and its neighbours
@@ -334,20 +407,63 @@ class _Aligner:
             return None
         return said | kept
 
-    def heard(self, pcm: bytes, a: float, b: float) -> str:
-        """What the recognizer (the bundled en-us language model, no transcript) hears between
-        ``a`` and ``b`` seconds, lower case; "" for nothing."""
-        if self._free is None:
-            self._free = self.ps.Decoder(loglevel="FATAL")
-        x = np.frombuffer(pcm, "<i2")[max(0, int(a * ALIGN_SR)): max(0, int(b * ALIGN_SR))]
+    def extra_words(self, pcm: bytes, words: list[str], times, phones) -> list[tuple[int, str, float, float]]:
+        """Words the recording says that the transcript lacks (a word left out of it), as (the
+        index of the word it comes before (``len(words)``: after the last), the word, start s,
+        end s). Each stretch of speech (:func:`stretches`) is heard by the recognizer (the
+        bundled language model, no transcript); a word it hears where the alignment has no word
+        of that name is put into the transcript there and the stretch aligned again: the word
+        is in the recording when that fits the audio better by :data:`EXTRA_WORD_GAIN` frames
+        of the recording's usual fit or more and the word itself fits as well as correct
+        words do (its phones no more than :data:`EXTRA_WORD_FIT` spreads worse than usual,
+        see :func:`poor_fits`). Nothing is found without ``phones`` (no yardstick)."""
+        usual = _median_rate(phones)
+        if usual is None:
+            return []
+        x = np.frombuffer(pcm, "<i2")
+        found = []
+        for first, last, a, b in stretches(times, len(x) / ALIGN_SR):
+            seg = x[int(a * ALIGN_SR): int(b * ALIGN_SR)].tobytes()
+            base = None
+            for heard, f0, f1 in self._recognize(seg):
+                t0, t1 = a + f0 / FRAME_RATE, a + (f1 + 1) / FRAME_RATE
+                j = max(range(first, last), key=lambda j: min(t1, times[j][1]) - max(t0, times[j][0]))
+                if min(t1, times[j][1]) > max(t0, times[j][0]) and normalise_for_dict(words[j]) == heard:
+                    continue  # the transcript's own word
+                g = j if (t0 + t1) / 2 < (times[j][0] + times[j][1]) / 2 else j + 1
+                base = base or self.score(seg, words[first:last])
+                if base is None:
+                    break
+                tried = self.score(seg, words[first:g] + [heard] + words[g:last])
+                if tried is None or tried[1][g - first] is None:
+                    continue
+                start, ph = tried[1][g - first]
+                gain = (tried[0] - base[0]) / -usual
+                if gain >= EXTRA_WORD_GAIN and _fit_z(ph, usual) <= EXTRA_WORD_FIT:
+                    frames = sum(d for _, d, _ in ph)
+                    found.append((g, heard, a + start / FRAME_RATE, a + (start + frames) / FRAME_RATE))
+        return sorted(found, key=lambda f: f[2])
+
+    def _recognize(self, pcm: bytes) -> list[tuple[str, int, int]]:
+        """What the recognizer (the bundled en-us language model, no transcript) hears in
+        ``pcm``: (word, first frame, last frame), lower case, fillers left out."""
+        if self._free is None:  # a single forward pass, bounded: ~0.15 s per second of audio; see fresh()
+            self._free = self.ps.Decoder(loglevel="FATAL", fwdflat=False, maxhmmpf=3000)
         try:
             self._free.start_utt()
-            self._free.process_raw(x.tobytes(), full_utt=True)
+            self._free.process_raw(pcm, full_utt=True)
             self._free.end_utt()
-            said = [s.word.split("(")[0] for s in (self._free.seg() or [])]
+            segs = self._free.seg() or []
         except RuntimeError:
-            return ""
-        return " ".join(w for w in said if not (w.startswith("<") or w.startswith("[") or w == "(NULL)"))
+            return []
+        return [(s.word.split("(")[0], s.start_frame, s.end_frame) for s in segs
+                if not (s.word.startswith("<") or s.word.startswith("[") or s.word == "(NULL)")]
+
+    def heard(self, pcm: bytes, a: float, b: float) -> str:
+        """What the recognizer (:meth:`_recognize`) hears between ``a`` and ``b`` seconds,
+        lower case; "" for nothing."""
+        x = np.frombuffer(pcm, "<i2")[max(0, int(a * ALIGN_SR)): max(0, int(b * ALIGN_SR))]
+        return " ".join(w for w, _, _ in self._recognize(x.tobytes()))
 
 
 @lru_cache(maxsize=1)
@@ -357,13 +473,29 @@ def phone_fit() -> dict[str, tuple[float, float]]:
     return {k: (float(v["median"]), float(v["spread"])) for k, v in table["phones"].items()}
 
 
+def _median_rate(phones) -> float | None:
+    """The recording's usual fit: the median word's acoustic score per frame (negative), or
+    None without phones."""
+    rates = [sum(s for _, _, s in w) / max(1, sum(d for _, d, _ in w)) for w in phones or [] if w]
+    median = float(np.median(rates)) if rates else 0.0
+    return median if median < 0 else None
+
+
+def _fit_z(word, usual: float) -> float:
+    """How many spreads worse than in correct transcripts a word's phones ((phone, frames,
+    score)) fit, on average, relative to the recording's ``usual`` fit (:func:`_median_rate`)."""
+    table = phone_fit()
+    other = (float(np.median([m for m, _ in table.values()])), float(np.median([d for _, d in table.values()])))
+    fits = [table.get(name, other) for name, _, _ in word]  # (a phone the table lacks: the median phone's)
+    return float(np.mean([(s / max(1, d) / usual - m) / spread for (_, d, s), (m, spread) in zip(word, fits)]))
+
+
 def relative_scores(phones) -> list[list[tuple[str, float]] | None]:
     """Per word, (phone, its acoustic score per frame / the median word's score per frame) for
     each phone: 1 is the recording's usual fit, larger is worse (the scores are negative).
     ``phones``: :meth:`_Aligner.phones`."""
-    rates = [sum(s for _, _, s in w) / max(1, sum(d for _, d, _ in w)) for w in phones if w]
-    median = float(np.median(rates)) if rates else 0.0
-    if median >= 0:
+    median = _median_rate(phones)
+    if median is None:
         return [None] * len(phones)
     return [None if not w else [(name, s / max(1, d) / median) for name, d, s in w] for w in phones]
 
@@ -372,15 +504,13 @@ def poor_fits(phones) -> list[tuple[int, float]]:
     """(word index, z) of the words whose phones fit the recording worse than correct
     transcripts' phones do by more than :data:`POOR_FIT_Z` spreads on average (a word the
     recording does not say there: another word, or one squeezed in where there is none)."""
-    if not phones:
+    usual = _median_rate(phones)
+    if usual is None:
         return []
-    table = phone_fit()
-    usual = (float(np.median([m for m, _ in table.values()])), float(np.median([d for _, d in table.values()])))
     out = []
-    for k, word in enumerate(relative_scores(phones)):
+    for k, word in enumerate(phones):
         if word and len(word) >= POOR_FIT_PHONES:
-            fits = [table.get(name, usual) for name, _ in word]  # (a phone the table lacks: the median phone's)
-            z = float(np.mean([(r - m) / spread for (_, r), (m, spread) in zip(word, fits)]))
+            z = _fit_z(word, usual)
             if z > POOR_FIT_Z:
                 out.append((k, z))
     return out
@@ -460,6 +590,7 @@ def align_words(samples: np.ndarray, sample_rate: int, words: list[str]):
     global _aligner
     if _aligner is None:
         _aligner = _Aligner()
+    _aligner.fresh()
     x16 = np.asarray(samples, dtype=np.float64)
     if sample_rate != ALIGN_SR:
         x16 = resample_poly(x16, ALIGN_SR, int(sample_rate))
@@ -472,10 +603,11 @@ def align_words(samples: np.ndarray, sample_rate: int, words: list[str]):
         pcm = aligner_pcm(x16, np.ones(len(mask), dtype=bool), hop / sample_rate)
         times, phones = _aligner.align(pcm, words)
     poor = poor_fits(phones)
+    extra = _aligner.extra_words(pcm, words, times, phones)
     times = trim_to_voice(times, speech, hop, sample_rate)
-    absent = _aligner.absent_words(pcm, words, times)
+    absent = _aligner.absent_words(pcm, words, times, phones)
     found = first_mismatch(words, times, absent, speech & periodic_frames(x16, len(mask), hop / sample_rate),
-                           hop, sample_rate, poor)
+                           hop, sample_rate, poor, extra)
     if found is None:
         return times, None
     k, t, reason, (a, b) = found
@@ -634,10 +766,12 @@ def trim_to_voice(times, mask: np.ndarray, hop: int, sample_rate: int) -> list[t
     return out
 
 
-def first_mismatch(words, times, absent, mask, hop, sample_rate, poor=()):
+def first_mismatch(words, times, absent, mask, hop, sample_rate, poor=(), extra=()):
     """The earliest of: a word the recording does not say (``absent``), a word whose sounds fit
-    the recording poorly (``poor``: (index, z) of :func:`poor_fits`), and :data:`EXTRA_VOICE`
-    or more of voiced speech (``mask``) between two words (speech the transcript lacks).
+    the recording poorly (``poor``: (index, z) of :func:`poor_fits`), a word the recording says
+    that the transcript lacks (``extra``: :meth:`_Aligner.extra_words`), and
+    :data:`EXTRA_VOICE` or more of voiced speech (``mask``) between two words (speech the
+    transcript lacks).
     (word index, seconds, reason, (start, end) seconds of the stretch to listen to) or None;
     the stretch runs from the word before to the word after the place."""
     found = []
@@ -656,6 +790,13 @@ def first_mismatch(words, times, absent, mask, hop, sample_rate, poor=()):
         found.append((times[k][0], k, f"word {k + 1} ({words[k]!r}) does not sound like the recording at "
                                       f"{times[k][0]:.2f} s: its sounds fit the audio {z:.1f} spreads worse than "
                                       "the same sounds do in correct transcripts", listen(k)))
+    if extra:
+        g, heard, t0, t1 = extra[0]
+        where = (f"between {words[g - 1]!r} and {words[g]!r}" if 0 < g < n
+                 else f"before {words[0]!r}" if g == 0 else f"after {words[-1]!r}")
+        found.append((t0, min(g, n - 1), f"the recording says {heard!r} at {t0:.2f} s {where}, which the transcript "
+                                          "does not have", (times[g - 1][0] if g else max(0.0, t0 - STRETCH_MARGIN),
+                                                             times[g][1] if g < n else t1 + STRETCH_MARGIN)))
     n_frames = len(mask)
     bounds = [0] + [f for a, b in times for f in (int(a * sample_rate) // hop, -(-int(round(b * sample_rate)) // hop))]
     bounds.append(n_frames)
