@@ -51,19 +51,25 @@ vim.cmd("qa!")
 """
 
 
-def test_neovim_sees_a_diagnostic_a_completion_and_a_definition(tmp_path):
-    script = tmp_path / "lobby.sgt"
-    script.write_text("guide: hi [pose:wave] there [pose:point_rigth] now.\nguide: look [pose:poi\n", encoding="utf-8")
+def _run_nvim(tmp_path, script, init_text: str, timeout: int) -> dict:
+    """Run ``nvim --headless`` on ``script`` with the shipped set-up and ``init_text`` (which
+    writes its findings as JSON to $SGT_TEST_OUT, then quits); the findings."""
     init = tmp_path / "init.lua"
-    init.write_text(INIT, encoding="utf-8")
+    init.write_text(init_text, encoding="utf-8")
     out = tmp_path / "result.json"
     env = {**os.environ, "SGT_TEST_OUT": str(out), "SGT_LUA": str(ROOT / "editors" / "neovim" / "sgt.lua"),
            "SGT_PYTHON": sys.executable, "SGT_SCRIPT": str(script), "XDG_CONFIG_HOME": str(tmp_path / "config"),
            "XDG_DATA_HOME": str(tmp_path / "data"), "XDG_STATE_HOME": str(tmp_path / "state")}
     r = subprocess.run([NVIM, "--headless", "--clean", "-u", str(init)], check=False, cwd=tmp_path, env=env, capture_output=True,
-                       text=True, timeout=120, stdin=subprocess.DEVNULL)
+                       text=True, timeout=timeout, stdin=subprocess.DEVNULL)
     assert out.exists(), r.stdout[-2000:] + r.stderr[-2000:]
-    result = json.loads(out.read_text())
+    return json.loads(out.read_text())
+
+
+def test_neovim_sees_a_diagnostic_a_completion_and_a_definition(tmp_path):
+    script = tmp_path / "lobby.sgt"
+    script.write_text("guide: hi [pose:wave] there [pose:point_rigth] now.\nguide: look [pose:poi\n", encoding="utf-8")
+    result = _run_nvim(tmp_path, script, INIT, timeout=120)
     assert result["filetype"] == "sgt"
     codes = {(d["code"], d["lnum"], d["col"]) for d in result["diagnostics"]}
     assert ("SGT201", 0, 34) in codes, result["diagnostics"]  # point_rigth, 0-based line and column
@@ -121,16 +127,7 @@ def test_neovim_times_a_rejected_recording_by_the_aligners_times(tmp_path):
     sf.write(str(tmp_path / "said.wav"), np.concatenate([np.zeros(sr // 4), x, np.zeros(sr // 4)]), sr)
     script = tmp_path / "said.sgt"
     script.write_text("@audio said.wav\nbot: Well, hello there my dear friend. How are you today?\n", encoding="utf-8")
-    init = tmp_path / "init.lua"
-    init.write_text(INIT_ALIGN, encoding="utf-8")
-    out = tmp_path / "result.json"
-    env = {**os.environ, "SGT_TEST_OUT": str(out), "SGT_LUA": str(ROOT / "editors" / "neovim" / "sgt.lua"),
-           "SGT_PYTHON": sys.executable, "SGT_SCRIPT": str(script), "XDG_CONFIG_HOME": str(tmp_path / "config"),
-           "XDG_DATA_HOME": str(tmp_path / "data"), "XDG_STATE_HOME": str(tmp_path / "state")}
-    r = subprocess.run([NVIM, "--headless", "--clean", "-u", str(init)], check=False, cwd=tmp_path, env=env, capture_output=True,
-                       text=True, timeout=180, stdin=subprocess.DEVNULL)
-    assert out.exists(), r.stdout[-2000:] + r.stderr[-2000:]
-    result = json.loads(out.read_text())
+    result = _run_nvim(tmp_path, script, INIT_ALIGN, timeout=180)
     assert result["before"] == ["SGT407"], result
     assert any("aligner" in t for t in result["titles"]), result["titles"]
     assert result["line"] == "@audio said.wav timings=said.timings.json" and result["after"] == [], result
