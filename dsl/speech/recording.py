@@ -423,6 +423,13 @@ def _alignment(audio_path: Path, text: str, spans, samples, sr, cdir: Path):
 TIMINGS_SUFFIX = {"json": ".timings.json", "textgrid": ".TextGrid"}
 
 
+def timings_path(audio_path, fmt: str = "json", folder: Path | None = None) -> Path:
+    """Where ``sgt align`` writes a recording's timings in ``fmt``: the recording's stem and
+    :data:`TIMINGS_SUFFIX`, in ``folder`` (default: the recording's own)."""
+    audio_path = Path(audio_path)
+    return (audio_path.parent if folder is None else Path(folder)) / (audio_path.stem + TIMINGS_SUFFIX[fmt])
+
+
 def aligner_timings(audio_path: Path, text: str, word_spans, fmt: str = "json", cache_dir: Path | None = None):
     """The automatic alignment of a recording whatever its verdict, as ``sgt align`` writes it
     (cached as :func:`load_recording` caches it): (the timings file's text in ``fmt``

@@ -37,13 +37,12 @@ def register(sub) -> None:
 
 def run(args) -> int:
     import sys
-    from pathlib import Path
 
     from core.fileio import atomic_write_text
     from dsl.compiler import load_script
     from dsl.speech import SpeechError
     from dsl.resources import shown_from
-    from dsl.speech.recording import TIMINGS_SUFFIX, aligner_timings
+    from dsl.speech.recording import aligner_timings, timings_path
     from sgt_tui.commands.common import (
         check_utterances,
         existing_file,
@@ -75,22 +74,20 @@ def run(args) -> int:
                              "without timings=: nothing to align")
         print(f"{shown(path)} has no recording without timings= to align (@audio FILE before an utterance)", file=sys.stderr)
         return 0
-    suffix = TIMINGS_SUFFIX[args.format]
-    targets = []
+    targets = {}  # timings file -> the utterance that writes it
     inputs = inputs_of(path)
     for u in todo:
-        folder = out_dir if out_dir is not None else Path(u.audio.path).parent
-        target = folder / (Path(u.audio.path).stem + suffix)
-        if target in [t for _, t in targets]:
-            raise UsageError(f"utterances {targets[[t for _, t in targets].index(target)][0].index} and {u.index} "
-                             f"would both write {target}: give them recordings of other names, or use --utterance")
+        target = timings_path(u.audio.path, args.format, out_dir)
+        if target in targets:
+            raise UsageError(f"utterances {targets[target].index} and {u.index} would both write {target}: "
+                             "give them recordings of other names, or use --utterance")
         if target.exists() and not args.force:
             raise UsageError(f"{target} exists (a timings file you may have corrected): add --force to replace it, "
                              "or write elsewhere with -o DIR")
         output_file(str(target), "--out-dir", inputs=inputs)
-        targets.append((u, target))
+        targets[target] = u
     failed = 0
-    for u, target in targets:
+    for target, u in targets.items():
         try:
             text, times, rejection = aligner_timings(u.audio.path, u.text, u.word_spans, args.format)
         except SpeechError as exc:

@@ -20,7 +20,7 @@ from core import rules
 from core.diagnostics import ERROR, WARNING, Diagnostic
 from dsl.compiler import compile_text
 from dsl.fmt import format_source
-from dsl.speech.recording import TIMINGS_SUFFIX
+from dsl.speech.recording import timings_path
 from sgt_tui.editor.tokens import line_tokens
 from sgt_tui.lsp import knowledge
 from sgt_tui.lsp.documents import Document, uri_of
@@ -112,9 +112,8 @@ def aligner_times(doc: Document, line: int):
     written = doc.line(row - 1)[w.col - 1: w.col - 1 + w.length]
     quote = written[0] if written[:1] in ("\"", "'") else ""
     name = Path(written.strip("\"'"))
-    suffix = TIMINGS_SUFFIX["json"]
-    named = str(name.with_name(name.stem + suffix))
-    target = Path(u.audio.path).with_name(Path(u.audio.path).stem + suffix)
+    named = str(timings_path(name))  # beside the recording, as the script names it
+    target = timings_path(u.audio.path)
     return u, target, lsp.TextEdit(doc.span(row, w.col + w.length, 0), f" timings={quote}{named}{quote}")
 
 
