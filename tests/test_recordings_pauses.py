@@ -12,6 +12,7 @@ session); the whole corpus is measured by ``python benchmarks/bench_timing.py --
 from __future__ import annotations
 
 import json
+import re
 import shutil
 
 import numpy as np
@@ -38,6 +39,11 @@ DROPPED = 17
 #: A recording (an espeak-ng voice in an MP3) whose correct transcript loses "brother" in the
 #: decode that may leave words out, twice: only the cost of aligning without it keeps it.
 NEEDED = 16
+#: A Festival voice whose transcript, with "pocket" for "in" ("a book was not in ..."),
+#: only the squeezed-word rule catches; an espeak-ng voice whose changed 6-phone word fits
+#: under 3 spreads per phone; a Festival voice in an MP3 whose changed transcript the
+#: phone-level pass over the whole recording cannot score (only stretch by stretch).
+SQUEEZED, LONG_WORD, BY_STRETCH = 30, 68, 15
 #: How far (s) a sentence's first word may start from its known onset: the issue's recording,
 #: and the others (a soft "th" or a vowel onset at 8 kHz starts a little late: about one
 #: motion frame at 15 fps).
@@ -48,7 +54,7 @@ ONSET_TOLERANCE, ONSET_TOLERANCE_SOFT = 0.05, 0.08
 def corpus(tmp_path_factory):
     """The recordings the tests use, made once per session: {index: Recording}."""
     folder = tmp_path_factory.mktemp("recordings")
-    which = sorted({0, *SUBSET, *WRONG, POOR_FIT, DROPPED, NEEDED})
+    which = sorted({0, *SUBSET, *WRONG, POOR_FIT, DROPPED, NEEDED, SQUEEZED, LONG_WORD, BY_STRETCH})
     return dict(zip(which, R.corpus(folder, which)))
 
 
@@ -126,7 +132,8 @@ def test_a_changed_word_that_the_decode_keeps_is_caught_by_its_phones_fit(corpus
     e = ei.value
     assert e.kind == "mismatch" and abs(e.word_index - at) <= 1 and "does not sound like the recording" in e.message
     _load(rec, rec.text, tmp_path / "a")
-    monkeypatch.setattr(align, "POOR_FIT_Z", float("inf"))  # without the fit check, the word passes
+    monkeypatch.setattr(align, "POOR_FIT_Z", float("inf"))  # without the fit check (both of its rules),
+    monkeypatch.setattr(align, "SQUEEZED_SHARE", float("inf"))  # the word passes
     assert len(_load(rec, text, tmp_path / "b").words) == len(R.words_of(text))
 
 
@@ -181,3 +188,44 @@ def test_a_word_the_decode_leaves_out_is_kept_when_the_audio_needs_it(corpus, tm
     with pytest.raises(SpeechError) as ei:
         _load(rec, rec.text, tmp_path / "b")
     assert "('brother') is not in the recording" in ei.value.message, ei.value.message
+
+
+def _changed(corpus, index, cache):
+    """The recording ``index`` and the SpeechError its transcript with a word changed raises."""
+    rec = corpus[index]
+    kind, text, at = R.wrong_transcripts(rec, index)[2]
+    assert kind == "changed"
+    with pytest.raises(SpeechError) as ei:
+        _load(rec, text, cache)
+    e = ei.value
+    assert e.kind == "mismatch" and abs(e.word_index - at) <= 1 and "does not sound like the recording" in e.message, e.message
+    return rec, text, e
+
+
+def test_a_word_squeezed_in_where_the_recording_has_no_room_is_rejected(corpus, tmp_path, monkeypatch):
+    """"pocket" for "in": the aligner gives most of its phones the shortest time it can (3
+    frames) and they fit somewhat worse than usual, under the fit check's bar; a word squeezed
+    in so is not in the recording. The correct transcript passes."""
+    rec, text, e = _changed(corpus, SQUEEZED, tmp_path / "a")
+    assert "('pocket')" in e.message and "squeezed into" in e.message, e.message
+    _load(rec, rec.text, tmp_path / "a")
+    monkeypatch.setattr(align, "SQUEEZED_SHARE", float("inf"))  # without the rule, it passes
+    assert len(_load(rec, text, tmp_path / "b").words) == len(R.words_of(text))
+
+
+def test_a_long_word_is_judged_by_the_mean_of_its_phones(corpus, tmp_path):
+    """A changed word of 6 phones whose phones fit, on average, under 3 spreads worse than
+    usual (the bar for a single phone, and the check's bar before): the mean of 6 phones
+    wanders far less than one phone, so that is far outside what correct words do."""
+    _, _, e = _changed(corpus, LONG_WORD, tmp_path)
+    z = float(re.search(r"fit the audio (\d+\.\d) spreads worse", e.message).group(1))
+    assert z < 3.0, e.message
+
+
+def test_a_recording_the_phone_pass_cannot_score_whole_is_scored_stretch_by_stretch(corpus, tmp_path, monkeypatch):
+    """pocketsphinx's phone-level pass fails over the whole of this recording with its changed
+    transcript, which left the fit check nothing to judge and the transcript passed; stretch by
+    stretch it scores, and the changed word fits far worse than usual."""
+    rec, text, _ = _changed(corpus, BY_STRETCH, tmp_path / "a")
+    monkeypatch.setattr(align._Aligner, "_phones_by_stretch", lambda self, pcm, words, times: None)
+    assert len(_load(rec, text, tmp_path / "b").words) == len(R.words_of(text))

@@ -265,8 +265,10 @@ def test_a_transcript_that_does_not_match_the_recording_is_rejected(tmp_path, tr
 def test_poor_fits_flags_a_word_whose_phones_fit_far_worse_than_usual():
     """dsl.speech.align.poor_fits: each phone's score per frame, relative to the recording's
     median word, against the table of how that phone fits in correct transcripts; a word of
-    at least POOR_FIT_PHONES phones whose phones sit more than POOR_FIT_Z spreads above it on
-    average is flagged, shorter words never (their fit rests on a few frames)."""
+    at least POOR_FIT_PHONES phones is flagged when the mean of its phones' z, times the square
+    root of their number, is above POOR_FIT_Z, or when most of its phones last the aligner's
+    shortest (squeezed in) and their mean z is above SQUEEZED_Z; shorter words never (their
+    fit rests on a few frames)."""
     from dsl.speech import align
 
     table = align.phone_fit()
@@ -278,10 +280,17 @@ def test_poor_fits_flags_a_word_whose_phones_fit_far_worse_than_usual():
     usual = [word(["HH", "AH", "L", "OW"]), word(["DH", "EH", "R"]), word(["M", "AY"]), word(["F", "R", "EH", "N", "D"]),
              word(["T", "AH", "D", "EY"])]
     assert align.poor_fits(usual) == []
-    bad = usual[:3] + [word(["P", "AA", "K", "AH", "T"], spreads=4.0)] + usual[4:]
-    found = align.poor_fits(bad)
-    assert [k for k, _ in found] == [3] and found[0][1] > align.POOR_FIT_Z
-    assert align.poor_fits(usual[:3] + [word(["P", "AA", "K", "AH", "T"], spreads=2.0)] + usual[4:]) == []
+    pocket, bask = ["P", "AA", "K", "AH", "T"], ["B", "AE", "S", "K"]
+
+    def flagged(phones, spreads, frames=10):
+        return [(k, squeezed) for k, _, squeezed in align.poor_fits(usual[:3] + [word(phones, spreads, frames)] + usual[4:])]
+
+    assert flagged(pocket, 2.5) == [(3, False)]  # its mean z: 2.9, times sqrt(5): 6.4
+    assert flagged(pocket, 1.5) == []  # 1.8 * sqrt(5) = 3.9
+    assert flagged(["K", "AE", "T"], 2.3) == []  # 2.6 * sqrt(3) = 4.6: a short word's mean wanders more
+    assert flagged(bask, 2.0, frames=align.SHORTEST_PHONE) == [(3, True)]  # squeezed in, 2.3 spreads worse
+    assert flagged(bask, 2.0, frames=align.SHORTEST_PHONE + 1) == []  # room for it: 2.3 * sqrt(4) = 4.6
+    assert flagged(bask, 1.5, frames=align.SHORTEST_PHONE) == []  # squeezed but fitting as usual words do (1.8)
     short = usual[:2] + [word(["AH", "T"], spreads=6.0)] + usual[3:]  # two phones: never judged
     assert align.poor_fits(short) == []
     assert align.poor_fits(None) == [] and align.poor_fits([None, None]) == []
