@@ -1065,7 +1065,7 @@ Without a timings file, a recording (`@audio FILE`) is aligned to its utterance'
 with pocketsphinx, and the alignment is checked: a word the recording does not say (the
 aligner finds no audio for it when every word may be left out, and the words around it fit
 the audio as well without it), a word whose sounds fit the audio far worse than they do in
-correct transcripts, a word the recording says that the utterance lacks (the recognizer
+correct transcripts (or are squeezed into less time than the word takes), a word the recording says that the utterance lacks (the recognizer
 hears it there, and it fits there as a correct word does), or speech outside every word (50
 ms or more of voiced speech; breaths, clicks and room noise in the pauses are not speech) is
 an error at the first place they disagree, with its time in the recording and what the
