@@ -44,6 +44,9 @@ NEEDED = 16
 #: under 3 spreads per phone; a Festival voice in an MP3 whose changed transcript the
 #: phone-level pass over the whole recording cannot score (only stretch by stretch).
 SQUEEZED, LONG_WORD, BY_STRETCH = 30, 68, 15
+#: The same Festival voice, its transcript without the "He" that starts a sentence right after
+#: 1.6 s of silence: only the second look at a heard word, scored against every state, catches it.
+DROPPED_AFTER_PAUSE = 30
 #: How far (s) a sentence's first word may start from its known onset: the issue's recording,
 #: and the others (a soft "th" or a vowel onset at 8 kHz starts a little late: about one
 #: motion frame at 15 fps).
@@ -54,7 +57,8 @@ ONSET_TOLERANCE, ONSET_TOLERANCE_SOFT = 0.05, 0.08
 def corpus(tmp_path_factory):
     """The recordings the tests use, made once per session: {index: Recording}."""
     folder = tmp_path_factory.mktemp("recordings")
-    which = sorted({0, *SUBSET, *WRONG, POOR_FIT, DROPPED, NEEDED, SQUEEZED, LONG_WORD, BY_STRETCH})
+    which = sorted({0, *SUBSET, *WRONG, POOR_FIT, DROPPED, NEEDED, SQUEEZED, LONG_WORD, BY_STRETCH,
+                    DROPPED_AFTER_PAUSE})
     return dict(zip(which, R.corpus(folder, which)))
 
 
@@ -156,22 +160,42 @@ def test_a_breath_or_a_click_is_not_speech_and_a_vowel_is():
     assert mask.sum() > speech.sum()  # the breath and the click were voice to the energy detector
 
 
+def _dropped_word_is_named(corpus, index, word, where, cache):
+    """The recording ``index`` and its transcript without ``word``, which is rejected naming the
+    word and ``where`` it is; the correct transcript passes the same check."""
+    rec = corpus[index]
+    kind, text, at = R.wrong_transcripts(rec, index)[1]
+    assert kind == "dropped" and rec.words[at] == word
+    with pytest.raises(SpeechError) as ei:
+        _load(rec, text, cache)
+    e = ei.value
+    assert e.kind == "mismatch" and abs(e.word_index - at) <= 1, e.message
+    assert f"the recording says '{word.lower()}'" in e.message and where in e.message, e.message
+    _load(rec, rec.text, cache)
+    return rec, text
+
+
 def test_a_word_left_out_of_the_transcript_is_heard_and_named(corpus, tmp_path, monkeypatch):
     """The transcript lacks "door" ("Hold the for the next person"): the aligner stretches
     "for" over it and every other check passes, but the recognizer hears "door" there, and
     putting it into the transcript makes the stretch fit far better while "door" itself fits
     as correct words do (align.extra_words): rejected, naming the word and where it is. The
     correct transcript passes the same check."""
-    rec = corpus[DROPPED]
-    kind, text, at = R.wrong_transcripts(rec, DROPPED)[1]
-    assert kind == "dropped" and rec.words[at] == "door"
-    with pytest.raises(SpeechError) as ei:
-        _load(rec, text, tmp_path / "a")
-    e = ei.value
-    assert e.kind == "mismatch" and abs(e.word_index - at) <= 1, e.message
-    assert "the recording says 'door'" in e.message and "between 'the' and 'for'" in e.message, e.message
-    _load(rec, rec.text, tmp_path / "a")
+    rec, text = _dropped_word_is_named(corpus, DROPPED, "door", "between 'the' and 'for'", tmp_path / "a")
     monkeypatch.setattr(align, "EXTRA_WORD_GAIN", float("inf"))  # without the search, the word is not missed
+    monkeypatch.setattr(align, "EXTRA_WORD_ALL_GAIN", float("inf"))
+    assert len(_load(rec, text, tmp_path / "b").words) == len(R.words_of(text))
+
+
+def test_a_word_dropped_right_after_a_pause_is_heard_against_every_state(corpus, tmp_path, monkeypatch):
+    """The transcript lacks the "He" that starts a sentence after a pause ("... a book. was
+    not in the house"): the aligner gives its audio to the silence before "was", the start
+    of "was" is grown back over it as a late onset, and inserting "he" where the recognizer
+    hears it gains nothing in scores relative to the best active state (silence alone is
+    active there). Against every state of the model it gains far more than correct
+    transcripts' heard words do: rejected, naming it. The correct transcript passes."""
+    rec, text = _dropped_word_is_named(corpus, DROPPED_AFTER_PAUSE, "He", "between 'book' and 'was'", tmp_path / "a")
+    monkeypatch.setattr(align, "EXTRA_WORD_ALL_GAIN", float("inf"))  # without the second look, it passes
     assert len(_load(rec, text, tmp_path / "b").words) == len(R.words_of(text))
 
 

@@ -266,7 +266,7 @@ def test_poor_fits_flags_a_word_whose_phones_fit_far_worse_than_usual():
     """dsl.speech.align.poor_fits: each phone's score per frame, relative to the recording's
     median word, against the table of how that phone fits in correct transcripts; a word of
     at least POOR_FIT_PHONES phones is flagged when the mean of its phones' z, times the square
-    root of their number, is above POOR_FIT_Z, or when most of its phones last the aligner's
+    root of their number (at most POOR_FIT_MAX_PHONES), is above POOR_FIT_Z, or when most of its phones last the aligner's
     shortest (squeezed in) and their mean z is above SQUEEZED_Z; shorter words never (their
     fit rests on a few frames)."""
     from dsl.speech import align
@@ -291,6 +291,9 @@ def test_poor_fits_flags_a_word_whose_phones_fit_far_worse_than_usual():
     assert flagged(bask, 2.0, frames=align.SHORTEST_PHONE) == [(3, True)]  # squeezed in, 2.3 spreads worse
     assert flagged(bask, 2.0, frames=align.SHORTEST_PHONE + 1) == []  # room for it: 2.3 * sqrt(4) = 4.6
     assert flagged(bask, 1.5, frames=align.SHORTEST_PHONE) == []  # squeezed but fitting as usual words do (1.8)
+    prudently = ["P", "R", "UW", "D", "AH", "N", "T", "L", "IY"]  # 9 phones, scaled as 6: a whole word a little off
+    assert flagged(prudently, 1.5) == []  # 1.76 * sqrt(6) = 4.3 (sqrt(9): 5.3)
+    assert flagged(prudently, 2.0) == [(3, False)]  # 2.3 * sqrt(6) = 5.7
     short = usual[:2] + [word(["AH", "T"], spreads=6.0)] + usual[3:]  # two phones: never judged
     assert align.poor_fits(short) == []
     assert align.poor_fits(None) == [] and align.poor_fits([None, None]) == []
