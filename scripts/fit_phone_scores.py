@@ -64,18 +64,11 @@ def _scores(args) -> list[tuple[str, float]]:
     """(phone, relative score) of every phone of recording ``i``'s correct transcript."""
     i, folder = args
     from dsl.speech import align as A
-    from dsl.speech import audio
-    from dsl.speech.audio import resample_poly
     from dsl.speech.recording import read_audio
 
     rec = R.make_recording(i, Path(folder), R.Sources(Path(folder) / "sources", FIT_SENTENCES), _spec(i))
     samples, sr = read_audio(rec.path)
-    x16 = np.asarray(samples, np.float64)
-    if sr != A.ALIGN_SR:
-        x16 = resample_poly(x16, A.ALIGN_SR, int(sr))
-    mask, hop = audio.voice_activity(samples, sr)
-    pcm = A.aligner_pcm(x16, A.speech_frames(x16, mask, hop / sr), hop / sr)
-    _, phones = A._Aligner().align(pcm, R.words_of(rec.text))
+    _, phones = A._Aligner().align(A.aligner_input(samples, sr).pcm, R.words_of(rec.text))
     out = []
     for word in A.relative_scores(phones or []):
         out += word or []

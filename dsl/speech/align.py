@@ -42,6 +42,7 @@ import json
 import re
 from functools import lru_cache
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -667,12 +668,7 @@ def align_words(samples: np.ndarray, sample_rate: int, words: list[str]):
     if _aligner is None:
         _aligner = _Aligner()
     _aligner.fresh()
-    x16 = np.asarray(samples, dtype=np.float64)
-    if sample_rate != ALIGN_SR:
-        x16 = resample_poly(x16, ALIGN_SR, int(sample_rate))
-    mask, hop = audio.voice_activity(samples, sample_rate)
-    speech = speech_frames(x16, mask, hop / sample_rate)
-    pcm = aligner_pcm(x16, speech, hop / sample_rate)
+    x16, mask, hop, speech, pcm = aligner_input(samples, sample_rate)
     try:
         times, phones = _aligner.align(pcm, words)
     except SpeechError:  # the recording as it is, breaths and all
@@ -690,6 +686,28 @@ def align_words(samples: np.ndarray, sample_rate: int, words: list[str]):
     said = _aligner.heard(pcm, a, b)
     reason += f"; from {a:.2f} to {b:.2f} s it hears " + (f"'{said}'" if said else "no words")
     return times, (k, t, reason)
+
+
+class AlignerInput(NamedTuple):
+    """A recording as the aligner hears it (:func:`aligner_input`)."""
+
+    x16: np.ndarray  #: the samples at :data:`ALIGN_SR`
+    mask: np.ndarray  #: voice, per frame of ``hop`` samples (:func:`audio.voice_activity`)
+    hop: int  #: samples (at the recording's rate) per frame of ``mask``
+    speech: np.ndarray  #: the voice frames that are speech (:func:`speech_frames`)
+    pcm: bytes  #: what the aligner decodes (:func:`aligner_pcm`)
+
+
+def aligner_input(samples: np.ndarray, sample_rate: int) -> AlignerInput:
+    """The recording ``samples`` at ``sample_rate`` prepared for the aligner: resampled to
+    :data:`ALIGN_SR`, its voice and speech found, and everything outside the speech turned
+    down to the room's noise (:func:`aligner_pcm`)."""
+    x16 = np.asarray(samples, dtype=np.float64)
+    if sample_rate != ALIGN_SR:
+        x16 = resample_poly(x16, ALIGN_SR, int(sample_rate))
+    mask, hop = audio.voice_activity(samples, sample_rate)
+    speech = speech_frames(x16, mask, hop / sample_rate)
+    return AlignerInput(x16, mask, hop, speech, aligner_pcm(x16, speech, hop / sample_rate))
 
 
 def aligner_pcm(x16: np.ndarray, speech: np.ndarray, frame_s: float) -> bytes:
