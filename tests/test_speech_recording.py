@@ -266,9 +266,9 @@ def test_poor_fits_flags_a_word_whose_phones_fit_far_worse_than_usual():
     """dsl.speech.align.poor_fits: each phone's score per frame, relative to the recording's
     median word, against the table of how that phone fits in correct transcripts; a word of
     at least POOR_FIT_PHONES phones is flagged when the mean of its phones' z, times the square
-    root of their number (at most POOR_FIT_MAX_PHONES), is above POOR_FIT_Z, or when most of its phones last the aligner's
-    shortest (squeezed in) and their mean z is above SQUEEZED_Z; shorter words never (their
-    fit rests on a few frames)."""
+    root of their number (at most POOR_FIT_MAX_PHONES), is above POOR_FIT_Z, or when most of
+    its phones last the aligner's shortest (squeezed in) and their mean z is above SQUEEZED_Z;
+    shorter words never (their fit rests on a few frames)."""
     from dsl.speech import align
 
     table = align.phone_fit()

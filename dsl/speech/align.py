@@ -97,8 +97,8 @@ PERIODIC, SPEECH_RANGE, SPEECH_JOIN, SPEECH_MARGIN = 0.6, 20.0, 0.08, 0.1
 #: A word fits the recording poorly (:func:`poor_fits`) when its phones score, on average, far
 #: worse than the same phones do in correct transcripts (:data:`PHONE_FIT_FILE`): this many
 #: spreads of that average (the mean of n phones' z, times sqrt(n): a long word's average wanders
-#: less than a short one's; the corpus's correct words reach 4.3 at every length from 2 to 7
-#: phones). Was 3 spreads of one phone at any length, which let a changed 6-phone word at 2.9
+#: less than a short one's; the corpus's correct words reach at most 4.3 at 3 phones and 3.7
+#: at 4 to 7). Was 3 spreads of one phone at any length, which let a changed 6-phone word at 2.9
 #: through (a 3-phone word: now 2.9, a 6-phone word 2.0). The corpus of
 #: ``benchmarks/bench_timing.py --corpus``: no correct transcript rejected either way, 4 more
 #: wrong ones of 216 (at 4.5: one correct one in the even-numbered half).
@@ -881,8 +881,9 @@ def first_mismatch(words, times, absent, mask, hop, sample_rate, poor=(), extra=
                                       f"finds no audio for it (it would be at {times[k][0]:.2f} s)", listen(k)))
     if poor:
         k, z, squeezed = poor[0]
-        how = (f"its sounds are squeezed into {times[k][1] - times[k][0]:.2f} s and fit the audio {z:.1f} spreads "
-               "worse than" if squeezed else f"its sounds fit the audio {z:.1f} spreads worse than")
+        how = f"its sounds fit the audio {z:.1f} spreads worse than"
+        if squeezed:
+            how = f"its sounds are squeezed into {times[k][1] - times[k][0]:.2f} s and fit the audio {z:.1f} spreads worse than"
         found.append((times[k][0], k, f"word {k + 1} ({words[k]!r}) does not sound like the recording at "
                                       f"{times[k][0]:.2f} s: {how} the same sounds do in correct transcripts",
                       listen(k)))
