@@ -1069,7 +1069,9 @@ correct transcripts (or are squeezed into less time than the word takes), a word
 hears it there, and it fits there as a correct word does), or speech outside every word (50
 ms or more of voiced speech; breaths, clicks and room noise in the pauses are not speech) is
 an error at the first place they disagree, with its time in the recording and what the
-aligner hears there. Left alone,
+aligner hears there. In a recording sampled under 16 kHz (telephone audio), whose consonants
+the bundled 16 kHz model hears poorly, a word the aligner finds room for is missing only when
+the audio fits clearly better without it. Left alone,
 such a word would take the time of its neighbours and move every control placed on them.
 
 `sgt check` runs the same alignment (cached, as `sgt compile` caches it), so both give the
