@@ -23,7 +23,7 @@ decode in which every word may be left out leaves it out, stretch of speech by s
 (:func:`stretches`) and again among its neighbours only, and the stretch aligned without it
 fits the audio about as well (:meth:`_Aligner._needed`; in a recording sampled under 16 kHz,
 whose consonants the model hears poorly, a word the aligner found room for is missing only
-when the audio fits clearly better without it: :meth:`_Aligner._roomy_but_absent`); speech is extra when 50 ms or more
+when the audio fits clearly better without it); speech is extra when 50 ms or more
 of periodic speech lies outside every word, or when the recognizer hears a word where the
 alignment has none of that name and putting it into the transcript there makes the stretch
 fit far better (also scored against every state of the model, where audio given to silence
@@ -92,7 +92,7 @@ NEARBY = (2,)
 #: ``benchmarks/bench_timing.py --corpus`` the correct words left out cost 41-79 (one
 #: espeak-ng MP3), the words wrongly added or changed -7 to +446, gaining from it. In a
 #: band-limited recording a word that is not :func:`squeezed` is missing only when it costs
-#: this much or more the other way (:meth:`_Aligner._roomy_but_absent`).
+#: this much or more the other way.
 ABSENT_COST = 30.0
 #: Speech, for the aligner (:func:`speech_frames`): voice that holds frames more periodic than
 #: :data:`PERIODIC` at most :data:`SPEECH_RANGE` dB under the recording's speech; voice less
@@ -394,9 +394,9 @@ class _Aligner:
         out. Decoding each stretch on its own keeps the search small (the whole of a 20 s
         recording took two minutes) and starts every stretch with a little of the silence
         before it, so a word right after a pause is looked for where it is. Words without a
-        pronunciation are never reported. In a ``band_limited`` recording (sampled under
-        :data:`ALIGN_SR`) a word the aligner gave room is left out only when the audio clearly
-        fits better without it (:meth:`_roomy_but_absent`)."""
+        pronunciation are never reported. In a ``band_limited`` recording (:func:`narrowband`)
+        a word the aligner gave room is left out only when the audio clearly fits better
+        without it (:meth:`_needed`)."""
         x = np.frombuffer(pcm, "<i2")
         absent: list[int] = []
         for first, last, a, b in stretches(times, len(x) / ALIGN_SR):
@@ -404,48 +404,35 @@ class _Aligner:
             if said is not None:
                 absent += [k for k in range(first, last) if k not in said]
         usual = _median_rate(phones)
-        absent = [k for k in absent if not self._heard_nearby(x, words, times, k) and not self._needed(x, words, times, k, usual)]
-        if band_limited and phones:
-            absent = [k for k in absent if not phones[k] or squeezed(phones[k]) or self._roomy_but_absent(x, words, times, k, usual)]
-        return absent
+        return [k for k in absent if not self._heard_nearby(x, words, times, k)
+                and not self._needed(x, words, times, k, usual, band_limited and bool(phones) and roomy(phones[k]))]
 
-    def _cost(self, x: np.ndarray, words: list[str], times, k: int, usual: float | None, whole: bool = False) -> float | None:
-        """How much worse the stretch of word ``k`` fits the audio without it, in frames of the
-        recording's ``usual`` fit (negative: it fits better without); with ``whole``, the whole
-        recording where the stretch cannot be scored. None when it cannot be told."""
+    def _needed(self, x: np.ndarray, words: list[str], times, k: int, usual: float | None, room: bool = False) -> bool:
+        """A third look at a word left out: its stretch fits the audio worse without it, by
+        :data:`ABSENT_COST` frames of the recording's ``usual`` fit or more (a word the
+        recording says: its audio has nowhere else to go). False when that cannot be told.
+
+        ``room``: a word of a band-limited recording that the aligner gave room (:func:`roomy`).
+        The model hears such a recording's consonants poorly (their sound above half its rate
+        is missing), so there the word is needed unless the audio fits better without it by
+        :data:`ABSENT_COST` or more; where the stretch cannot be scored, the whole recording
+        is. The 8 kHz espeak-ng 'left' and 'church' of the corpus of
+        ``benchmarks/bench_timing.py --corpus`` fit 9 and 13 frames better left out; the words
+        wrongly added or changed at 8 kHz that the aligner gives room, 69 frames or more, but
+        for one changed 'elephant' (21 frames, which passes)."""
         if usual is None:
-            return None
+            return False
         first, last, a, b = next(s for s in stretches(times, len(x) / ALIGN_SR) if s[0] <= k < s[1])
         with_it = without = None
         if last - first >= 2:
             seg = x[int(a * ALIGN_SR): int(b * ALIGN_SR)].tobytes()
             with_it, without = self.score(seg, words[first:last]), self.score(seg, words[first:k] + words[k + 1:last])
-        if (with_it is None or without is None) and whole and len(words) >= 2:
+        if (with_it is None or without is None) and room and len(words) >= 2:
             with_it, without = self.score(x.tobytes(), words), self.score(x.tobytes(), words[:k] + words[k + 1:])
         if with_it is None or without is None:
-            return None
-        return (with_it[0] - without[0]) / -usual
-
-    def _needed(self, x: np.ndarray, words: list[str], times, k: int, usual: float | None) -> bool:
-        """A third look at a word left out: its stretch fits the audio worse without it, by
-        :data:`ABSENT_COST` frames of the recording's ``usual`` fit or more (a word the
-        recording says: its audio has nowhere else to go). False when that cannot be told."""
-        cost = self._cost(x, words, times, k, usual)
-        return cost is not None and cost >= ABSENT_COST
-
-    def _roomy_but_absent(self, x: np.ndarray, words: list[str], times, k: int, usual: float | None) -> bool:
-        """Whether word ``k`` of a band-limited recording, left out by the decode but not
-        :func:`squeezed` (the aligner found room for its phones), is still not in the
-        recording: its stretch (the whole recording where the stretch cannot be scored) fits
-        the audio better without it by :data:`ABSENT_COST` frames or more, or that cannot be
-        told. The model hears a band-limited recording's consonants poorly (their sound above
-        half its rate is missing), so there a word that only fits a little better left out
-        is kept: the 8 kHz espeak-ng 'left' and 'church' of the corpus of
-        ``benchmarks/bench_timing.py --corpus`` fit 9 and 13 frames better left out; the
-        words wrongly added or changed at 8 kHz that are not squeezed, 69 frames or more, but
-        for one changed 'elephant' (21 frames, which now passes)."""
-        cost = self._cost(x, words, times, k, usual, whole=True)
-        return cost is None or cost <= -ABSENT_COST
+            return False
+        cost = (with_it[0] - without[0]) / -usual
+        return cost > -ABSENT_COST if room else cost >= ABSENT_COST
 
     def _heard_nearby(self, x: np.ndarray, words: list[str], times, k: int) -> bool:
         """A second look at a word left out: the same decode on the word and its neighbours
@@ -634,6 +621,17 @@ def squeezed(word) -> bool:
     return sum(d <= SHORTEST_PHONE for _, d, _ in word) >= SQUEEZED_SHARE * len(word)
 
 
+def roomy(word) -> bool:
+    """Whether the aligner found room for a word's phones (it has phones and is not :func:`squeezed`)."""
+    return bool(word) and not squeezed(word)
+
+
+def narrowband(sample_rate: int) -> bool:
+    """Whether a recording at ``sample_rate`` lacks sound the aligner's 16 kHz model listens
+    to: sampled under :data:`ALIGN_SR`, it has nothing above half its rate (a consonant's hiss)."""
+    return sample_rate < ALIGN_SR
+
+
 def stretches(times: list[tuple[float, float]], duration: float) -> list[tuple[int, int, float, float]]:
     """The stretches of speech the words are checked in, as (first word, end word, start s,
     end s): split where :data:`STRETCH_PAUSE` or more lies between two words, and stretches of
@@ -718,7 +716,7 @@ def align_words(samples: np.ndarray, sample_rate: int, words: list[str]):
     poor = poor_fits(phones)
     extra = _aligner.extra_words(pcm, words, times, phones)
     times = trim_to_voice(times, speech, hop, sample_rate)
-    absent = _aligner.absent_words(pcm, words, times, phones, band_limited=sample_rate < ALIGN_SR)
+    absent = _aligner.absent_words(pcm, words, times, phones, band_limited=narrowband(sample_rate))
     found = first_mismatch(words, times, absent, speech & periodic_frames(x16, len(mask), hop / sample_rate),
                            hop, sample_rate, poor, extra)
     if found is None:
@@ -926,9 +924,9 @@ def first_mismatch(words, times, absent, mask, hop, sample_rate, poor=(), extra=
         found.append((times[k][0], k, f"word {k + 1} ({words[k]!r}) is not in the recording: the aligner "
                                       f"finds no audio for it (it would be at {times[k][0]:.2f} s)", listen(k)))
     if poor:
-        k, z, squeezed = poor[0]
+        k, z, tight = poor[0]
         how = f"its sounds fit the audio {z:.1f} spreads worse than"
-        if squeezed:
+        if tight:
             how = f"its sounds are squeezed into {times[k][1] - times[k][0]:.2f} s and fit the audio {z:.1f} spreads worse than"
         found.append((times[k][0], k, f"word {k + 1} ({words[k]!r}) does not sound like the recording at "
                                       f"{times[k][0]:.2f} s: {how} the same sounds do in correct transcripts",
