@@ -12,9 +12,12 @@ the face's parts frame by frame; without one the face rests (eyes open and ahead
 Views (:data:`VIEWS`): the camera circles the character (who faces +z) and the lights move
 with it, so every view is lit alike:
 
-- ``three-quarter`` (the default): from the front-right (the character's right hand is on the
-  left of the picture) and from above, so that depth shows as height: a hand pointing at the
-  listener drops down the picture, one pointing to the character's left stays level;
+- ``three-quarter`` (the default): from the front-left, 25 degrees round, and a little above
+  (10 degrees; the character's right hand is still on the left of the picture). The library's
+  one-handed gestures use the right hand, and from this side a reach towards the listener (a
+  point, a handshake, an offer) stands out from the body against the background, level, instead
+  of crossing in front of the torso; a camera higher up made such reaches read as pointing at the
+  floor (docs/library.md compares the candidates);
 - ``front``: facing the character at eye height (its right hand on your left; depth is lost);
 - ``side``: its right side, the character facing the right of the picture (depth is left-right);
 - ``top``: from straight above, its front down the picture (its right hand on your left, as from
@@ -58,14 +61,14 @@ YFOV = 30.0
 @dataclass(frozen=True)
 class View:
     """A camera position: ``azimuth`` degrees round from the character's front towards its
-    right (-x), ``elevation`` degrees above the horizontal."""
+    right (-x; negative: towards its left), ``elevation`` degrees above the horizontal."""
 
     azimuth: float
     elevation: float
 
 
 VIEWS = {
-    "three-quarter": View(32.0, 24.0),
+    "three-quarter": View(-25.0, 10.0),
     "front": View(0.0, 6.0),
     "side": View(90.0, 6.0),
     "top": View(0.0, 90.0),
@@ -89,6 +92,10 @@ _LIMBS = (
     ("r_upper", "right_shoulder", "right_elbow", 0.045),
     ("r_fore", "right_elbow", "right_wrist", 0.037),
 )
+#: How far the torso reaches from its middle across (x) and in depth (z), metres: a capsule of
+#: radius _TORSO_RADIUS widened to these (what a camera sees of its width).
+TORSO_HALF_WIDTH = (0.155, 0.095)
+_TORSO_RADIUS = 0.1
 _BALLS = (("left_shoulder", 0.058), ("right_shoulder", 0.058), ("left_elbow", 0.047),
           ("right_elbow", 0.047))
 #: Finger capsule radius (metres) per digit; the palm's half thickness.
@@ -218,9 +225,9 @@ class Mannequin:
 
         # Torso: a capsule widened across the shoulders, built along +y, about 0.42 m tall.
         z_to_y = transform(np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]), [0, 0, 0])
-        torso = trimesh.creation.capsule(height=0.30, radius=0.1, count=[16, 16])
+        torso = trimesh.creation.capsule(height=0.30, radius=_TORSO_RADIUS, count=[16, 16])
         torso.apply_transform(z_to_y)
-        torso.apply_scale([1.55, 1.0, 0.95])
+        torso.apply_scale([TORSO_HALF_WIDTH[0] / _TORSO_RADIUS, 1.0, TORSO_HALF_WIDTH[1] / _TORSO_RADIUS])
         add("torso", torso, "body")
         hips = trimesh.creation.capsule(height=0.06, radius=0.1, count=[16, 16])
         hips.apply_transform(z_to_y)

@@ -139,3 +139,23 @@ def test_cross_arms_closes_both_hands(lib):
     end = lib.get("cross_arms").clip()
     assert [nearest_shape(f) for f in end.hands.fingers[-1]] == ["relaxed", "relaxed"]  # and open again
 
+
+def test_reaches_to_the_listener_stand_clear_of_the_body_in_the_default_view(lib):
+    """From the default camera (renders.mannequin.DEFAULT_VIEW), the right hand of a point, a
+    handshake, an offer or a thumbs up at the listener is drawn beside the torso, not over it,
+    at least 1.5 torso half-widths from its middle (from the camera above the front-right they
+    were 1.0, 0.0 and 0.2: the handshake, the offer and the thumbs up were drawn in front of
+    the belly, and the forearm dropped down the picture)."""
+    from renders.mannequin import DEFAULT_VIEW, TORSO_HALF_WIDTH, VIEWS, project
+
+    a = np.radians(VIEWS[DEFAULT_VIEW].azimuth)
+    across = np.array([np.cos(a), 0.0, np.sin(a)])  # the picture's right, in the world
+    # the torso's half-width as the camera sees it (an ellipse TORSO_HALF_WIDTH across)
+    half = np.hypot(TORSO_HALF_WIDTH[0] * np.cos(a), TORSO_HALF_WIDTH[1] * np.sin(a))
+    for name in ("point_front", "handshake", "offer", "thumbs_up"):
+        s = Stroke(lib, name)
+        hand = s.hands[SIDES.index("right")].mean(axis=0)
+        middle = np.array([0.0, hand[1], 0.0])
+        x_hand, x_mid, x_edge = (project(p, 400, 400, DEFAULT_VIEW)[0] for p in (hand, middle, middle + half * across))
+        clear = abs(x_hand - x_mid) / abs(x_edge - x_mid)
+        assert clear > 1.5, (name, clear)

@@ -19,8 +19,8 @@ a timeline of the controls (pose in green, style in red), a playhead and the tim
 --sheet-at strokes (the default) a picture at every pose control's stroke, captioned with
 the gesture, the word it marks and the frame; with --sheet-at even, 8 evenly spaced frames
 with the word spoken then. Speakers are told apart by a label and the colour of the body.
---view chooses the camera: three-quarter (default: from the front-right and above, so a
-point at the listener drops down the picture), front, side (the character's right side:
+--view chooses the camera: three-quarter (default: from the front-left and a little above,
+so a reach towards the listener stands out from the body), front, side (the character's right side:
 depth shows left-right) or top. --compare renders a second take beside the first,
 labelled (one speaker).
 
