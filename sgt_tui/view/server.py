@@ -11,8 +11,10 @@
 
 With a token (``--token``, required for a non-loopback ``--host``, as ``sgt serve`` has it),
 ``/api/`` answers 401 unless the request sends ``Authorization: Bearer TOKEN``; the page takes
-the token from its address (``#token=...``, never sent to the server) or asks for it. A take
-or speaker number out of range (a negative one too) is a 404.
+the token from its address (``#token=...``, never sent to the server) or asks for it. Every
+path, the page's too, answers only requests that name this server as their Host and come from
+no other origin (:class:`sgt_tui.serve.origin.SameOrigin`: 421, 403). A take or speaker number
+out of range (a negative one too) is a 404.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from fastapi.responses import HTMLResponse, JSONResponse, Response
 
 from sgt_tui.serve.app import authorized, error
 from sgt_tui.serve.config import ServeConfig
+from sgt_tui.serve.origin import SameOrigin
 from sgt_tui.view.assets import asset, index_html
 from sgt_tui.view.takes import Viewer, ViewError
 
@@ -54,6 +57,7 @@ class TokenGuard:
 def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
     app = FastAPI(title="sgt view", docs_url=None, redoc_url=None, openapi_url=None)
     app.add_middleware(TokenGuard, config=config)
+    app.add_middleware(SameOrigin, config=config)  # added last: the outermost, before the token
 
     def missing(take: int) -> JSONResponse | None:
         """A 404 for a take number out of range (never Python's indexing from the end)."""
