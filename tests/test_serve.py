@@ -31,6 +31,11 @@ def client(**settings) -> TestClient:
     return TestClient(create_app(checked(ServeConfig(**settings))), raise_server_exceptions=False)
 
 
+def upload(c: TestClient, data: dict, files: dict):
+    """POST /v1/generate/upload as a program does: with a header no HTML form can send (docs/serve.md)."""
+    return c.post("/v1/generate/upload", data=data, files=files, headers={"X-Requested-With": "sgt"})
+
+
 @pytest.fixture(scope="module")
 def api():
     with client() as c:
@@ -112,17 +117,17 @@ def test_uploaded_recording_with_word_timings(api):
         w.writeframes((np.sin(np.arange(24000) / 9.0) * 8000).astype("<i2").tobytes())
     request = {"text": "hello there", "words": [{"word": "hello", "start": 0.2, "end": 0.6},
                                                 {"word": "there", "start": 0.7, "end": 1.2}], "seed": 1}
-    r = api.post("/v1/generate/upload", data={"request": json.dumps(request)}, files={"audio": ("take.wav", buf.getvalue())})
+    r = upload(api, {"request": json.dumps(request)}, {"audio": ("take.wav", buf.getvalue())})
     assert r.status_code == 200, r.json()
     u = r.json()["motion"]["utterances"][0]
     assert [w["word"] for w in u["words"]] == ["hello", "there"]
     assert r.json()["timing"] == "json"  # from the word timings sent
     request["words"][1]["word"] = "where"  # timings that do not match the transcript: the compiler's diagnostic
-    bad = api.post("/v1/generate/upload", data={"request": json.dumps(request)}, files={"audio": ("take.wav", buf.getvalue())})
+    bad = upload(api, {"request": json.dumps(request)}, {"audio": ("take.wav", buf.getvalue())})
     assert bad.status_code == 422 and bad.json()["diagnostics"][0]["code"] == "SGT404"
-    wrong_kind = api.post("/v1/generate/upload", data={"request": json.dumps(request)}, files={"audio": ("take.exe", b"MZ")})
+    wrong_kind = upload(api, {"request": json.dumps(request)}, {"audio": ("take.exe", b"MZ")})
     assert wrong_kind.status_code == 415
-    no_text = api.post("/v1/generate/upload", data={"request": json.dumps({"script": "a: b"})}, files={"audio": ("a.wav", b"")})
+    no_text = upload(api, {"request": json.dumps({"script": "a: b"})}, {"audio": ("a.wav", b"")})
     assert no_text.status_code == 422
 
 

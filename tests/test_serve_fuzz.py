@@ -78,4 +78,4 @@ def test_random_uploads(api, request, name, data, timings):
     files = {"audio": (name or "a.wav", data)}
     if timings is not None:
         files["timings"] = timings
-    answered_well(api.post("/v1/generate/upload", data={"request": request}, files=files))
+    answered_well(api.post("/v1/generate/upload", headers={"X-Requested-With": "sgt"}, data={"request": request}, files=files))

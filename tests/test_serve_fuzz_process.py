@@ -101,7 +101,10 @@ def request_body(rng: random.Random) -> tuple[str, bytes, str]:
 
 
 def post(url: str, body: bytes, content_type: str) -> tuple[int, bytes]:
-    req = urllib.request.Request(url, data=body, headers={"Content-Type": content_type} if content_type else {})
+    headers = {"Content-Type": content_type} if content_type else {}
+    if url.endswith("/upload"):
+        headers["X-Requested-With"] = "sgt"  # as a program sends an upload (a form cannot)
+    req = urllib.request.Request(url, data=body, headers=headers)
     try:
         with urllib.request.urlopen(req, timeout=60) as r:
             return r.status, r.read()

@@ -16,16 +16,21 @@ threads behind a bounded queue (503 with Retry-After when it is full).
 Secure by default: it listens on 127.0.0.1 only. --host exposes it, and then a token
 is required (--token, or the SGT_SERVE_TOKEN environment variable); clients send
 'Authorization: Bearer TOKEN'. Scripts in requests may not name server files with
-@audio or @library unless they lie in a folder given with --allow."""
+@audio or @library unless they lie in a folder given with --allow. Web pages cannot use
+it: a request must name it as its Host (a loopback name or --host, with its port, or a
+name given with --allow-host; else 421), one with an Origin must come from it (else
+403), and form bodies are refused (an upload needs 'X-Requested-With: sgt' or the token)."""
 
 
 def register(sub) -> None:
     from sgt_tui.commands.common import add_database_option, non_negative_int, positive_float, positive_int
+    from sgt_tui.commands.view import add_allow_host_option
 
     p = sub.add_parser("serve", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=non_negative_int, default=8765, help="port (default 8765; 0 picks a free one)")
     p.add_argument("--token", help="require 'Authorization: Bearer TOKEN' (default: $SGT_SERVE_TOKEN; required with --host)")
+    add_allow_host_option(p)
     p.add_argument("--allow", action="append", default=[], metavar="FOLDER",
                    help="a folder that @audio/@library paths in requests may name (repeatable; relative paths resolve in the first)")
     p.add_argument("--workers", type=positive_int, default=2, help="generation threads (default 2)")
@@ -38,6 +43,10 @@ def register(sub) -> None:
     p.add_argument("--header-timeout", type=positive_float, default=10.0, metavar="SECONDS",
                    help="a client must send a request's headers within this time of connecting or of its "
                         "previous answer, or it is disconnected (default 10)")
+    p.add_argument("--max-streams", type=positive_int, default=32, metavar="N",
+                   help="WebSocket streams open at once; one more is refused with 503 (default 32)")
+    p.add_argument("--max-client-streams", type=positive_int, default=8, metavar="N",
+                   help="streams open at once from one client address (default 8)")
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
     add_database_option(p)
     p.set_defaults(run=run)
@@ -59,7 +68,8 @@ def run(args) -> int:
         config = checked(ServeConfig(host=args.host, port=args.port, token=args.token, allow=tuple(Path(a) for a in args.allow),
                                      workers=args.workers, queue=args.queue, max_body=args.max_body, max_text=args.max_text,
                                      timeout=args.timeout, header_timeout=args.header_timeout, weights=weights,
-                                     database=database))
+                                     database=database, allow_hosts=tuple(args.allow_host), max_streams=args.max_streams,
+                                     max_client_streams=args.max_client_streams))
     except ConfigError as exc:
         raise UsageError(str(exc)) from None
     try:
@@ -69,7 +79,7 @@ def run(args) -> int:
     import uvicorn
 
     from sgt_tui.serve.app import create_app
-    from sgt_tui.serve.listen import KEEP_ALIVE, ListenError, bind, protocol
+    from sgt_tui.serve.listen import BACKLOG, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
 
     try:
         sock = bind(config.host, config.port)
@@ -81,7 +91,8 @@ def run(args) -> int:
           f"{'token required' if config.token else 'no token: this machine only'})", file=sys.stderr)
     server = uvicorn.Server(uvicorn.Config(
         create_app(config), log_level="warning", ws_max_size=1 << 20, timeout_graceful_shutdown=5,
-        http=protocol(config.header_timeout), timeout_keep_alive=KEEP_ALIVE))
+        http=protocol(config.header_timeout, connection_limit()), timeout_keep_alive=KEEP_ALIVE, backlog=BACKLOG,
+        loop="asyncio"))  # asyncio: its accept loop calls the Listener's accept (sgt_tui/serve/listen.py)
     try:
         server.run(sockets=[sock])
     except KeyboardInterrupt:  # uvicorn re-raises the ctrl+c it shut down on: a clean stop, as uvicorn.run has it

@@ -21,7 +21,9 @@ The page needs nothing from the internet (three.js is shipped with sgt). It list
 the port over SSH (ssh -L 8700:127.0.0.1:8700 HOST, then sgt view FILE --port 8700 on
 HOST and open http://127.0.0.1:8700/ here). --host exposes it, and then a token is
 required (--token or SGT_SERVE_TOKEN, as sgt serve): open http://HOST:PORT/#token=TOKEN
-(the page keeps the token; the part after # never leaves the browser)."""
+(the page keeps the token; the part after # never leaves the browser). Other web pages
+cannot use it: a request must name it as its Host (a loopback name or --host, with its
+port, or a name given with --allow-host; else 421) and come from no other origin (403)."""
 
 
 def register(sub) -> None:
@@ -32,10 +34,19 @@ def register(sub) -> None:
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=non_negative_int, default=0, help="port (default 0: a free one, printed)")
     p.add_argument("--token", help="require this token (default: $SGT_SERVE_TOKEN; required with --host)")
+    add_allow_host_option(p)
     from sgt_tui.commands.render import add_script_options
 
     add_script_options(p)
     p.set_defaults(run=run)
+
+
+def add_allow_host_option(p) -> None:
+    """``--allow-host``, for ``sgt view`` and ``sgt serve`` (sgt_tui/serve/origin.py)."""
+    p.add_argument("--allow-host", action="append", default=[], metavar="NAME[:PORT]",
+                   help="another name requests may give as their Host and Origin, e.g. a reverse proxy's "
+                        "(repeatable; any port without :PORT; http and https origins). Without it only "
+                        "loopback names and --host, with the port served, are answered (others: 421)")
 
 
 def run(args) -> int:
@@ -47,7 +58,7 @@ def run(args) -> int:
     from sgt_tui.serve.config import ConfigError, ServeConfig, checked
 
     try:
-        config = checked(ServeConfig(host=args.host, port=args.port, token=args.token))
+        config = checked(ServeConfig(host=args.host, port=args.port, token=args.token, allow_hosts=tuple(args.allow_host)))
     except ConfigError as exc:
         raise UsageError(str(exc)) from None
     path = Path(args.input)
@@ -73,7 +84,7 @@ def run(args) -> int:
 
     import uvicorn
 
-    from sgt_tui.serve.listen import KEEP_ALIVE, ListenError, bind, protocol
+    from sgt_tui.serve.listen import BACKLOG, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
     from sgt_tui.view.server import create_view_app
 
     try:
@@ -89,7 +100,8 @@ def run(args) -> int:
           f" Over SSH: ssh -L {port}:127.0.0.1:{port} THIS_HOST, then open the address on your machine.", file=sys.stderr)
     sys.stderr.flush()
     server = uvicorn.Server(uvicorn.Config(create_view_app(viewer, config), log_level="warning", timeout_graceful_shutdown=1,
-                                           http=protocol(config.header_timeout), timeout_keep_alive=KEEP_ALIVE))
+                                           http=protocol(config.header_timeout, connection_limit()),
+                                           timeout_keep_alive=KEEP_ALIVE, backlog=BACKLOG, loop="asyncio"))
     viewer.start()
     try:
         server.run(sockets=[sock])

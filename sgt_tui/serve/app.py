@@ -24,14 +24,18 @@ from library import load_library
 from model.runtime import load_runner
 from sgt_tui.serve.config import ServeConfig
 from sgt_tui.serve.jobs import Encoded, check, generate_request
+from sgt_tui.serve.origin import SameOrigin, refuse
 from sgt_tui.serve.pool import Busy, Pool
 from sgt_tui.serve.requests import AUDIO_SUFFIXES, CheckRequest, GenerateRequest, RequestError
-from sgt_tui.serve.stream import StreamSession
+from sgt_tui.serve.stream import StreamSession, StreamSlots
 from sgt_tui.view.service import add_view, is_page
 
 log = logging.getLogger("sgt.serve")
 OPEN_PATHS = ("/healthz",)  # answered without the token: says only that the service is up
 TIMINGS_SUFFIXES = (".json", ".textgrid")
+UPLOAD = "/v1/generate/upload"  # the route that takes multipart bodies (sgt_tui.serve.origin)
+#: Seconds a client refused a stream (all of them open) is told to wait.
+STREAM_RETRY_S = 5
 
 
 def error(status: int, message: str, diagnostics=(), headers=None) -> JSONResponse:
@@ -49,8 +53,9 @@ def authorized(config: ServeConfig, header: str | None) -> bool:
 
 
 class Guard:
-    """ASGI middleware before everything: the token (401), then the body, read whole up to
-    ``max_body`` bytes (413) within ``timeout`` seconds (408), so no endpoint sees more."""
+    """ASGI middleware after :class:`sgt_tui.serve.origin.SameOrigin`: the token (401), then the
+    body, read whole up to ``max_body`` bytes (413) within ``timeout`` seconds (408), so no
+    endpoint sees more."""
 
     def __init__(self, app, config: ServeConfig) -> None:
         self.app = app
@@ -61,11 +66,8 @@ class Guard:
             return await self.app(scope, receive, send)
         headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in scope.get("headers", ())}
         if scope["path"] not in OPEN_PATHS and not is_page(scope["path"]) and not authorized(self.config, headers.get("authorization")):
-            if scope["type"] == "websocket":
-                await send({"type": "websocket.close", "code": 1008, "reason": "a valid token is required"})
-                return
-            return await error(401, "a valid token is required: send 'Authorization: Bearer TOKEN'",
-                               headers={"WWW-Authenticate": "Bearer"})(scope, receive, send)
+            return await refuse(scope, receive, send, 401, "a valid token is required: send 'Authorization: Bearer TOKEN'",
+                                headers={"WWW-Authenticate": "Bearer"})
         if scope["type"] == "websocket":
             return await self.app(scope, receive, send)
         limit = self.config.max_body
@@ -122,6 +124,8 @@ def create_app(config: ServeConfig) -> FastAPI:
     app = FastAPI(title="sgt", summary="Co-speech gesture generation for running agents (docs/serve.md)",
                   version="1", lifespan=lifespan)
     app.add_middleware(Guard, config=config)
+    app.add_middleware(SameOrigin, config=config, uploads=(UPLOAD,))  # added last: the outermost, before the token
+    streams = StreamSlots(config.max_streams, config.max_client_streams)
 
     @app.exception_handler(RequestValidationError)
     async def invalid(_request, exc: RequestValidationError):
@@ -161,7 +165,7 @@ def create_app(config: ServeConfig) -> FastAPI:
 
     @app.get("/healthz", summary="Is the service up")
     async def healthz():
-        return {"status": "ok", "runtime": state["runner"].kind, "pool": state["pool"].stats()}
+        return {"status": "ok", "runtime": state["runner"].kind, "pool": state["pool"].stats(), "streams": streams.stats()}
 
     @app.get("/v1/library", summary="The gestures a script can name")
     async def library():
@@ -177,7 +181,7 @@ def create_app(config: ServeConfig) -> FastAPI:
     async def generate(body: GenerateRequest):
         return too_long(body.script or body.text) or await work(generate_request, config, body, state["library"])
 
-    @app.post("/v1/generate/upload", summary="Motion for a recording and its transcript (multipart)")
+    @app.post(UPLOAD, summary="Motion for a recording and its transcript (multipart)")
     async def generate_upload(request: str = Form(..., description="GenerateRequest as JSON, with 'text' = the transcript"),
                               audio: UploadFile = File(..., description="the recording: WAV, FLAC or MP3"),
                               timings: UploadFile | None = File(None, description="word timings: JSON or TextGrid")):
@@ -196,6 +200,17 @@ def create_app(config: ServeConfig) -> FastAPI:
 
     @app.websocket("/v1/stream")
     async def stream(socket: WebSocket):
+        client = socket.client.host if socket.client else ""
+        refusal = streams.take(client)
+        if refusal is not None:
+            return await refuse(socket.scope, socket.receive, socket.send, 503, refusal,
+                                headers={"Retry-After": str(STREAM_RETRY_S)})
+        try:
+            await run_stream(socket)
+        finally:
+            streams.give_back(client)
+
+    async def run_stream(socket: WebSocket):
         await socket.accept()
         session = StreamSession(state["runner"], state["library"], config.database)
         pool: Pool = state["pool"]

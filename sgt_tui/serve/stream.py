@@ -241,3 +241,30 @@ def _last_break(text: str) -> int:
     for m in re.finditer(r"\s+", text):
         pass
     return m.end() if m else 0
+
+
+class StreamSlots:
+    """The streams open now: at most ``total`` at once, at most ``per_client`` of them from one
+    client address (``sgt serve --max-streams``, ``--max-client-streams``)."""
+
+    def __init__(self, total: int, per_client: int) -> None:
+        self.total = total
+        self.per_client = per_client
+        self.open: dict[str, int] = {}
+
+    def take(self, client: str) -> str | None:
+        """Count a stream of ``client`` as open; or the reason it may not open (counted as nothing)."""
+        if sum(self.open.values()) >= self.total:
+            return f"this service has {self.total} streams open, its most (--max-streams): retry later"
+        if self.open.get(client, 0) >= self.per_client:
+            return f"this client has {self.per_client} streams open, the most one client may (--max-client-streams): close one"
+        self.open[client] = self.open.get(client, 0) + 1
+        return None
+
+    def give_back(self, client: str) -> None:
+        self.open[client] -= 1
+        if not self.open[client]:
+            del self.open[client]
+
+    def stats(self) -> dict:
+        return {"open": sum(self.open.values()), "max": self.total, "max_per_client": self.per_client}

@@ -11,7 +11,10 @@
 
 With a token (``--token``, required for a non-loopback ``--host``, as ``sgt serve`` has it),
 ``/api/`` answers 401 unless the request sends ``Authorization: Bearer TOKEN``; the page takes
-the token from its address (``#token=...``, never sent to the server) or asks for it.
+the token from its address (``#token=...``, never sent to the server) or asks for it. Every
+path, the page's too, answers only requests that name this server as their Host and come from
+no other origin (:class:`sgt_tui.serve.origin.SameOrigin`: 421, 403). A take or speaker number
+out of range (a negative one too) is a 404.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from fastapi.responses import HTMLResponse, JSONResponse, Response
 
 from sgt_tui.serve.app import authorized, error
 from sgt_tui.serve.config import ServeConfig
+from sgt_tui.serve.origin import SameOrigin
 from sgt_tui.view.assets import asset, index_html
 from sgt_tui.view.takes import Viewer, ViewError
 
@@ -53,6 +57,14 @@ class TokenGuard:
 def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
     app = FastAPI(title="sgt view", docs_url=None, redoc_url=None, openapi_url=None)
     app.add_middleware(TokenGuard, config=config)
+    app.add_middleware(SameOrigin, config=config)  # added last: the outermost, before the token
+
+    def missing(take: int) -> JSONResponse | None:
+        """A 404 for a take number out of range (never Python's indexing from the end)."""
+        if 0 <= take < len(viewer.slots):
+            return None
+        return error(404, f"no take {take}: there {'is 1' if len(viewer.slots) == 1 else f'are {len(viewer.slots)}'}, "
+                          f"numbered from 0")
 
     @app.get("/", response_class=HTMLResponse)
     async def page():
@@ -70,14 +82,18 @@ def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
         return viewer.status()
 
     @app.get("/api/wait")
-    async def wait(version: int):
+    async def wait(request: Request, version: int):
         deadline = asyncio.get_running_loop().time() + WAIT_S
         while viewer.version == version and asyncio.get_running_loop().time() < deadline:
+            if await request.is_disconnected():  # the page went: nobody to answer
+                return Response(status_code=204)
             await asyncio.sleep(0.05)
         return viewer.status()
 
     @app.get("/api/take")
     def take(request: Request, take: int = 0):  # a thread: loading a take generates a script
+        if (refused := missing(take)) is not None:
+            return refused
         try:
             loaded, number = viewer.take(take)
         except IndexError:
@@ -95,6 +111,8 @@ def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
 
     @app.get("/api/audio.wav")
     def audio(take: int = 0):
+        if (refused := missing(take)) is not None:
+            return refused
         try:
             loaded, _ = viewer.take(take)
         except (IndexError, ViewError) as exc:
@@ -105,6 +123,8 @@ def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
 
     @app.get("/api/vrma")
     def vrma(take: int = 0, speaker: int = 0):
+        if (refused := missing(take)) is not None:
+            return refused
         try:
             loaded, _ = viewer.take(take)
         except (IndexError, ViewError) as exc:
