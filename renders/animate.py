@@ -7,7 +7,10 @@ decorated (:mod:`renders.overlay`), mapped to one shared palette and streamed in
 Every output is written with :func:`core.fileio.atomic_write`.
 
 Each clip's face (``clip.face``, :class:`core.face.FaceTrack`) moves the mannequin's face (lip sync,
-blinks, gaze); a clip without one shows a resting face.
+blinks, gaze); a clip without one shows a resting face. ``face_inset`` (``auto``, ``on``, ``off``;
+:mod:`renders.face_closeup`) draws a close-up of the head in each picture's top right corner,
+framed in the body's colour: by default wherever the head is drawn too small for its face to read
+(at 320 px, the default size, it is about 50 pixels tall).
 
 Panels side by side are told apart by a label each (the speaker's name, or A/B for a
 comparison) and, given ``tints``, by the colour of the mannequin's body; the label's box is
@@ -27,6 +30,7 @@ from core.hands import hand_positions
 from core.motion import MotionClip
 from core.skeleton import FPS, seconds_to_frame
 from renders import overlay
+from renders.face_closeup import FaceInset, inset_side
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
 from renders.mannequin import BODY, DEFAULT_VIEW, FaceFrames, Mannequin
 from renders.video import write_mp4
@@ -64,15 +68,17 @@ def draw_label(image, label: str, color) -> None:
 
 
 class _Panel:
-    """One clip drawn into a width x height panel, from one view, in one tint, with its overlays."""
+    """One clip drawn into a width x height panel, from one view, in one tint, with its overlays
+    and, given an ``inset`` (:class:`renders.face_closeup.FaceInset`), a close-up of its face."""
 
     def __init__(self, mannequin, clip: MotionClip, label: str | None, *, view: str = DEFAULT_VIEW,
-                 tint=BODY) -> None:
+                 tint=BODY, inset: FaceInset | None = None) -> None:
         self.m = mannequin
         self.clip = clip
         self.label = label
         self.view = view
         self.tint = tuple(tint)
+        self.inset = inset
         self.hands = hand_positions(clip.positions, clip.hands)
         self.face = FaceFrames(clip.face) if clip.face is not None else None
 
@@ -84,6 +90,8 @@ class _Panel:
         img = Image.fromarray(self.m.render(self.clip.positions[f], self.hands[f], view=self.view, tint=self.tint,
                                             face=face))
         overlay.decorate(img, f, self.clip, **kw)
+        if self.inset is not None:
+            self.inset.draw(img, self.m, self.clip.positions[f], self.hands[f], face, self.tint, label_color(self.tint))
         if self.label:
             draw_label(img, self.label, label_color(self.tint))
         return img
@@ -104,30 +112,38 @@ def _compose(panels, frame: int):
     return out
 
 
-def _panels(m, clip, compare, others, labels, view, tints) -> list[_Panel]:
+def _inset(mode: str, view: str, width: int, height: int) -> FaceInset | None:
+    """The face close-up for pictures of ``width`` x ``height`` from ``view`` (None: none)."""
+    side = inset_side(mode, view, width, height)
+    return FaceInset(side, width, height) if side else None
+
+
+def _panels(m, clip, compare, others, labels, view, tints, inset=None) -> list[_Panel]:
     clips = [clip] + ([compare] if compare is not None else []) + list(others)
     if labels is None and len(clips) > 1:
         labels = tuple("ABCDEFGHIJ"[i % 10] for i in range(len(clips)))
     tints = list(tints) if tints is not None else [BODY] * len(clips)
     if len(tints) != len(clips):
         raise ValueError(f"{len(tints)} tints for {len(clips)} panels")
-    return [_Panel(m, c, labels[i] if labels else None, view=view, tint=tints[i]) for i, c in enumerate(clips)]
+    return [_Panel(m, c, labels[i] if labels else None, view=view, tint=tints[i], inset=inset) for i, c in enumerate(clips)]
 
 
 def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip | None = None,
                labels: tuple[str, ...] | None = None, progress=None, mannequin=None, others=(),
-               view: str = DEFAULT_VIEW, tints=None) -> dict:
+               view: str = DEFAULT_VIEW, tints=None, face_inset: str = "auto") -> dict:
     """Render ``clip`` (and, side by side, ``compare`` and ``others``, each with its label and,
     with ``tints``, its body colour) to a looping 15 fps GIF at ``path``, seen from ``view``
-    (:data:`renders.mannequin.VIEWS`).
+    (:data:`renders.mannequin.VIEWS`), with the face's close-up as ``face_inset`` says
+    (:data:`renders.face_closeup.INSET_MODES`).
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform.
     """
     width, height = size
     own = mannequin is None
+    inset = _inset(face_inset, view, width, height)
     m = mannequin or Mannequin(width, height)
     try:
-        panels = _panels(m, clip, compare, others, labels, view, tints)
+        panels = _panels(m, clip, compare, others, labels, view, tints, inset)
         n = max(p.clip.n_frames for p in panels)
         samples = {f: _compose(panels, f) for f in _sample_frames(n, PALETTE_SAMPLES)}  # kept: a few frames
         palette, pimg = build_palette(samples.values(), overlay.FIXED_COLORS)
@@ -150,18 +166,19 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
 
 def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, audio=None,
                sample_rate: int | None = None, size=DEFAULT_SIZE, progress=None, mannequin=None,
-               view: str = DEFAULT_VIEW, tints=None) -> dict:
+               view: str = DEFAULT_VIEW, tints=None, face_inset: str = "auto") -> dict:
     """Render ``clips`` side by side (each with its label and tint) to a 15 fps H.264 MP4 at
-    ``path``, seen from ``view``, with ``audio`` (mono, sample 0 with frame 0;
-    :mod:`renders.audio_mix`) as its AAC track.
+    ``path``, seen from ``view``, with the face's close-up as ``face_inset`` says and
+    ``audio`` (mono, sample 0 with frame 0; :mod:`renders.audio_mix`) as its AAC track.
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform, audio_s.
     """
     width, height = size
     own = mannequin is None
+    inset = _inset(face_inset, view, width, height)
     m = mannequin or Mannequin(width, height)
     try:
-        panels = _panels(m, clips[0], None, clips[1:], labels, view, tints)
+        panels = _panels(m, clips[0], None, clips[1:], labels, view, tints, inset)
         n = max(p.clip.n_frames for p in panels)
         info = write_mp4(path, (np.asarray(_compose(panels, f)) for f in range(n)), audio=audio, sample_rate=sample_rate,
                          n_frames=n, progress=progress)
@@ -290,13 +307,14 @@ def _fit(draw, text: str, font, width: float) -> str:
 
 def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, size=DEFAULT_SIZE,
                  at: str = "strokes", view: str = DEFAULT_VIEW, tints=None, columns: int = SHEET_COLUMNS,
-                 n_samples: int = SHEET_FRAMES, title: str | None = None, mannequin=None) -> dict:
+                 n_samples: int = SHEET_FRAMES, title: str | None = None, mannequin=None, face_inset: str = "auto") -> dict:
     """A PNG contact sheet of ``clips`` (one row per clip: a speaker's track, or a take of a
     comparison), each row under a band with its label and tint, wrapped at ``columns``
     pictures a line. ``at="strokes"``: a picture at every pose control's stroke frame,
     captioned with the gesture, the word it marks and the frame; a row without pose controls
     falls back to ``n_samples`` evenly spaced frames, as ``at="even"`` does for every row
-    (captioned with the word spoken then and the gesture playing).
+    (captioned with the word spoken then and the gesture playing). Each picture has the face's
+    close-up as ``face_inset`` says.
 
     Returns frames (every picture's, row by row), panels (:class:`SheetPanel`), width,
     height and platform.
@@ -312,6 +330,7 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
     rows = [_sheet_items(c, at, n_samples) for c in clips]
     lay = sheet_layout(width, height, [len(items) for items, _ in rows], columns)
     own = mannequin is None
+    inset = _inset(face_inset, view, width, height)
     m = mannequin or Mannequin(width, height)
     try:
         sheet = Image.new("RGB", lay["size"], overlay.WHITE)
@@ -337,7 +356,7 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
             x = chip[2] + 2 * pad
             d.text((x, top + bh / 2), _fit(d, note, overlay.font(small), lay["size"][0] - x - pad),
                    font=overlay.font(small), fill=overlay.SOFT_INK, anchor="lm")
-            panel = _Panel(m, clip, None, view=view, tint=tints[r])
+            panel = _Panel(m, clip, None, view=view, tint=tints[r], inset=inset)
             for k, (f, gesture, word, caption) in enumerate(items):
                 line, c = divmod(k, lay["cols"])
                 x = c * width

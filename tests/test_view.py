@@ -65,7 +65,8 @@ def test_the_page_gets_every_speaker_on_the_performance_clock(take):
     assert point["stroke"] == pytest.approx(point["stroke_frame"] / FPS)
     style = next(c for c in doc["controls"] if c["kind"] == "style")
     assert style["speaker"] == "visitor" and style["label"] == "speed:+1"
-    assert doc["scene"]["views"] == {k: {"azimuth": v.azimuth, "elevation": v.elevation} for k, v in VIEWS.items()}
+    assert doc["scene"]["views"] == {k: {"azimuth": v.azimuth, "elevation": v.elevation, "distance": v.distance,
+                                         "on_head": v.on_head} for k, v in VIEWS.items()}
 
 
 def test_the_page_gets_each_speakers_face_as_the_mannequin_draws_it(take):

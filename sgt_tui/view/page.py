@@ -111,7 +111,9 @@ def page_take(motion: MotionFile, name: str) -> dict:
 
 
 def scene() -> dict:
-    """sgt's cameras, lights and colours (renders.mannequin), for the page to see what sgt renders.
+    """sgt's cameras, lights and colours (renders.mannequin), for the page to see what sgt renders:
+    each view's angles, its distance and whether it looks at the head (``on_head``: the face's
+    close-up, which follows the head; the others look at ``target``).
 
     Each light is given in the camera's own frame (x right, y up, looking along -z): the
     direction towards the light and its radiance (linear RGB); the lights move with the camera,
@@ -120,7 +122,8 @@ def scene() -> dict:
     lights = [{"towards": [round(float(x), 6) for x in cam.T @ -shine], "radiance": [round(float(x), 6) for x in radiance]}
               for shine, radiance in _lights(VIEWS["front"])]
     return {"target": [float(x) for x in TARGET], "distance": DISTANCE, "fov": YFOV,
-            "views": {name: {"azimuth": v.azimuth, "elevation": v.elevation} for name, v in VIEWS.items()},
+            "views": {name: {"azimuth": v.azimuth, "elevation": v.elevation, "distance": v.distance, "on_head": v.on_head}
+                      for name, v in VIEWS.items()},
             "lights": lights, "ambient": list(AMBIENT), "background": list(BACKGROUND)}
 
 

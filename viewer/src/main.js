@@ -20,7 +20,7 @@ import { Character, parseVRM, parseVRMA } from './vrm.js';
 const $ = (id) => document.getElementById(id);
 const MODE = document.body.dataset.mode === 'service' ? 'service' : 'file';
 const SPEEDS = [0.25, 0.5, 0.75, 1, 1.5, 2];
-const VIEW_KEYS = { 1: 'front', 2: 'side', 3: 'top', 4: 'three-quarter' };
+const VIEW_KEYS = { 1: 'front', 2: 'side', 3: 'top', 4: 'three-quarter', 5: 'face' };
 const SPACING = 1.1; // metres between speakers, side by side
 const DEFAULT_VIEW = 'three-quarter';
 
@@ -83,7 +83,7 @@ const timeline = new Timeline($('timeline'), (t) => seek(t));
 const state = {
   take: null, takeIndex: 0, takeId: null, loading: false, ready: false,
   figures: [], characters: [], rig: 'mannequin', vrmBuffer: null, vrmName: '',
-  view: DEFAULT_VIEW, viewed: false, dirty: true, drawnTime: 0, drawnAt: 0, drawnFrame: 0, lastTime: -1,
+  view: DEFAULT_VIEW, faceOf: 0, viewed: false, dirty: true, drawnTime: 0, drawnAt: 0, drawnFrame: 0, lastTime: -1,
   audioUrl: null, status: null, lights: null, failedId: null,
 };
 
@@ -164,8 +164,15 @@ function fitDistance() {
   return Math.max(s.distance, halfWidth / (Math.tan((s.fov * Math.PI) / 360) * camera.aspect));
 }
 
+// The centre of speaker `i`'s head as drawn (the face's close-up looks at it).
+function headOf(i) {
+  const f = state.figures[Math.min(i, state.figures.length - 1)];
+  return new THREE.Vector3().setFromMatrixPosition(f.mannequin.parts.head.matrix).add(f.mannequin.group.position);
+}
+
 // sgt's cameras (renders/mannequin.py VIEWS): from `azimuth` degrees round towards the
-// character's right and `elevation` degrees up, at sgt's distance from its target.
+// character's right and `elevation` degrees up, at sgt's distance from its target; a view
+// `on_head` (face) at its own distance from the head of speaker state.faceOf, following it.
 function setView(name) {
   const s = state.take && state.take.scene;
   if (!s || !s.views[name]) return;
@@ -174,9 +181,10 @@ function setView(name) {
   const az = (v.azimuth * Math.PI) / 180;
   const el = (Math.min(v.elevation, 89.9) * Math.PI) / 180; // straight down: the orbit needs a hair of slant
   const back = new THREE.Vector3(-Math.sin(az) * Math.cos(el), Math.sin(el), Math.cos(az) * Math.cos(el));
-  const target = new THREE.Vector3(...s.target);
+  state.faceOf = Math.min(state.faceOf, Math.max(0, state.figures.length - 1));
+  const target = v.on_head ? headOf(state.faceOf) : new THREE.Vector3(...s.target);
   camera.up.set(0, 1, 0);
-  camera.position.copy(target).addScaledVector(back, fitDistance());
+  camera.position.copy(target).addScaledVector(back, v.on_head ? v.distance : fitDistance());
   controls.target.copy(target);
   camera.lookAt(target);
   controls.update();
@@ -199,8 +207,19 @@ new ResizeObserver(resize).observe($('stage'));
 
 // -- the loop ----------------------------------------------------------------------------------
 
+// A view on the head follows it: the camera moves with the head, keeping where the user orbited to.
+function follow() {
+  const v = state.take.scene.views[state.view];
+  if (!v || !v.on_head || !state.figures.length) return;
+  const head = headOf(state.faceOf);
+  camera.position.add(head.clone().sub(controls.target));
+  controls.target.copy(head);
+  controls.update();
+}
+
 function draw(t) {
   state.drawnFrame = pose(t);
+  follow();
   renderer.render(scene, camera);
   state.drawnTime = t;
   state.drawnAt = performance.now();
@@ -445,7 +464,12 @@ $('speed').addEventListener('change', () => setSpeed(parseFloat($('speed').value
 $('loop').addEventListener('change', () => { clock.loop = $('loop').checked; });
 $('rig').addEventListener('change', () => setRig($('rig').value));
 $('take').addEventListener('change', () => loadTake(parseInt($('take').value, 10), false));
-document.querySelectorAll('#views button').forEach((b) => b.addEventListener('click', () => setView(b.dataset.view)));
+// the face button again: the next speaker's face
+function chooseView(name) {
+  if (name === 'face' && state.view === 'face' && state.figures.length > 1) state.faceOf = (state.faceOf + 1) % state.figures.length;
+  setView(name);
+}
+document.querySelectorAll('#views button').forEach((b) => b.addEventListener('click', () => chooseView(b.dataset.view)));
 
 function strokes() {
   return state.take.controls.filter((c) => c.kind === 'pose' && c.stroke !== null).map((c) => c.stroke).sort((a, b) => a - b);
@@ -463,7 +487,7 @@ document.addEventListener('keydown', (e) => {
   else if (e.key === 'ArrowRight') seek(Math.round((t + step) * fps) / fps);
   else if (e.key === 'Home') seek(0);
   else if (e.key === 'End') seek(state.take.duration);
-  else if (VIEW_KEYS[e.key]) setView(VIEW_KEYS[e.key]);
+  else if (VIEW_KEYS[e.key]) chooseView(VIEW_KEYS[e.key]);
   else if (e.key === '[' || e.key === ']') {
     const i = SPEEDS.indexOf(clock.speed);
     setSpeed(SPEEDS[Math.max(0, Math.min(SPEEDS.length - 1, (i < 0 ? 3 : i) + (e.key === ']' ? 1 : -1)))]);
@@ -518,6 +542,7 @@ window.sgtView = {
       ready: state.ready, time: state.drawnTime, frame: state.drawnFrame, playing: clock.playing, speed: clock.speed,
       sinceDrawn: (performance.now() - state.drawnAt) / 1000, // seconds since that frame was drawn
       duration: state.take ? state.take.duration : 0, take: state.takeIndex, takeId: state.takeId, view: state.view,
+      faceOf: state.faceOf,
       rig: state.rig, characters: state.characters.length, hasAudio: clock.hasAudio,
       audioTime: audio.currentTime, audioPaused: audio.paused, audioRate: audio.playbackRate,
       words: state.take ? state.take.words.length : 0, problem: $('banner').hidden ? '' : $('problem').textContent,
