@@ -127,6 +127,23 @@ def test_build_never_writes_through_a_planted_link(tmp_path, victim, planted, st
     assert (out / planted).is_symlink()
 
 
+def test_build_reads_a_hostile_manifest_in_bounded_memory(built, tmp_path):
+    """A manifest nested 1.5 million deep (3 MB) gave a RecursionError traceback; now it is no
+    manifest (everything is checked again), exit 0, and the build's peak memory stays small
+    (measured by a fresh parent process, over the build and its workers)."""
+    (built / "manifest.json").write_text("[" * 1_500_000 + "]" * 1_500_000)
+    measure = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:]); "
+               "print('peak', resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr); sys.exit(r.returncode)")
+    r = subprocess.run([sys.executable, "-c", measure, sys.executable, "-m", "sgt_tui.cli", "build", "game", "-o", "out",
+                        "-j", "1", "-q", "--engine", "keyframe"], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=300, check=False)
+    no_traceback(r)
+    *said, peak = lines(r.stderr)
+    assert r.returncode == 0 and said == [], r.stderr
+    assert json.loads((built / "manifest.json").read_text())["format"] == "sgt-build"
+    assert int(peak.split()[1]) < 1024 * 1024, peak  # KiB: under 1 GiB
+
+
 # -- sgt view of a build folder, sgt render of a motion file ---------------------------------------
 
 class View:
