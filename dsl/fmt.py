@@ -45,10 +45,13 @@ from dsl.parser import analyse
 from dsl.scan import scan_items
 
 #: The diagnostics that make a script unreadable for the formatter: where the grammar fails
-#: (a tag it cannot read, a stray bracket, a trailing backslash), a line indented with
-#: nothing to continue, a directive without a name, a tag without its name.
+#: (a tag it cannot read, a stray bracket, an unknown escape, a trailing backslash, a closing
+#: tag that closes nothing or the wrong span), a line indented with nothing to continue, a
+#: directive without a name, a tag without its name. A script with any of them is left as it
+#: is: formatting text the parser did not read as the author meant would only hide the error.
 SYNTAX_CODES = frozenset(r.code for r in (rules.INDENT, rules.SYNTAX, rules.STRAY_CLOSER, rules.UNCLOSED, rules.BAD_TAG,
-                                          rules.TRAILING_BACKSLASH, rules.DIRECTIVE_NAME, rules.MISSING_NAME))
+                                          rules.BAD_ESCAPE, rules.TRAILING_BACKSLASH, rules.UNMATCHED_CLOSE,
+                                          rules.MISMATCHED_CLOSE, rules.DIRECTIVE_NAME, rules.MISSING_NAME))
 #: Continuation lines start with this.
 INDENT = "    "
 #: Spaces at least between code and the comment after it.

@@ -26,7 +26,7 @@ from typing import Sequence
 
 import numpy as np
 
-from core.fileio import atomic_write, json_text
+from core.fileio import Inside, atomic_write, json_text
 from core.reading import InputFileError, loads_json, read_bytes
 from core.words import TimedWord
 
@@ -428,6 +428,29 @@ def timings_path(audio_path, fmt: str = "json", folder: Path | None = None) -> P
     :data:`TIMINGS_SUFFIX`, in ``folder`` (default: the recording's own)."""
     audio_path = Path(audio_path)
     return (audio_path.parent if folder is None else Path(folder)) / (audio_path.stem + TIMINGS_SUFFIX[fmt])
+
+
+def write_timings_file(target: Path, text: str, *, replace: bool = False) -> None:
+    """Write the timings file ``target`` that ``sgt align`` (or the language server) derived from
+    a recording: in ``target``'s folder by :class:`core.fileio.Inside`'s rule, so a symbolic link
+    at ``target`` (dangling or not) is refused (:class:`core.fileio.LinkRefused`), with or without
+    ``replace``, never written through; without ``replace`` the file is created only where
+    nothing is, atomically (:class:`core.fileio.OutputExists` otherwise, even if it appeared a
+    moment ago); with it, a regular file there is replaced atomically."""
+    target = Path(target)
+    with Inside(target.parent, create=True) as d:
+        d.write(target.name, text.encode("utf-8"), exclusive=not replace)
+
+
+def check_timings_target(target: Path) -> None:
+    """Raise :class:`core.fileio.LinkRefused` (or another :class:`core.fileio.OutputError`) when
+    :func:`write_timings_file` would refuse ``target`` whatever is in it: a link there or on the way,
+    a folder or a device; writes nothing (a folder that is not there yet is fine)."""
+    target = Path(target)
+    if not target.parent.is_dir():
+        return
+    with Inside(target.parent) as d:
+        d.check(target.name)
 
 
 def aligner_timings(audio_path: Path, text: str, word_spans, fmt: str = "json", cache_dir: Path | None = None):

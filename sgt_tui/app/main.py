@@ -247,6 +247,8 @@ class EditorApp(App):
         name = display_name(self.script.path)
         if len(name) > 32:  # keep room for the rest of the line
             name = "…/" + self.script.path.name
+            if len(name) > 40:  # a very long file name: its start and its end
+                name = name[:20] + "…" + name[-19:]
         parts = [name + (" [+]" if self.doc.modified else "") + (" (new)" if self.script.is_new else "")]
         if a is None and not self.analyses.inline_first:
             parts.append(f"analysing… {self.analyses.progress:.0%}")
@@ -258,6 +260,8 @@ class EditorApp(App):
                                                   else " (no weights)"))
         if self.disk_warned:
             parts.append("CHANGED ON DISK")
+        if self.recovery.told:
+            parts.append("NO CRASH RECOVERY")
         self._w(StatusLine).update(" │ ".join(parts))
 
     @on(TextArea.SelectionChanged)

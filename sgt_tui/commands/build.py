@@ -103,6 +103,8 @@ def run(args) -> int:
         for rel, why in report.repaired:
             print(f"sgt build: warning: {out / rel} did not match the manifest ({why} since the last build): "
                   f"made again", file=sys.stderr)
+    for line in report.warnings:
+        print(f"sgt build: warning: {line}", file=sys.stderr)
     for line in report.errors:
         print(f"sgt build: error: {line}", file=sys.stderr)
     if not args.quiet or report.failed:

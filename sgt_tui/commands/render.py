@@ -195,9 +195,10 @@ def _panel_clips(take, speaker: str | None, name: str):
     return [concat_clips(chosen)], None, [tint]
 
 
-def _audio(take, name: str):
+def _audio(take, name: str, within=None):
     """The performance's speech mixed on the clock of what is rendered: (samples, rate), or
-    (None, None) for a take without audio offsets (a version 1 motion file)."""
+    (None, None) for a take without audio offsets (a version 1 motion file). ``within``: the
+    folder the take's script must be in (see :func:`script_of`)."""
     from core.skeleton import FPS
     from renders.audio_mix import mix
 
@@ -205,7 +206,7 @@ def _audio(take, name: str):
         print(f"note: {name} is a motion file from before the performance clock: the video has no sound "
               "(generate it again for sound)", file=sys.stderr)
         return None, None
-    paths = _speech_files(take, name)
+    paths = _speech_files(take, name, within)
     if take.tracks:
         parts = [(paths[c.index], c.start + c.audio_offset) for c in take.clips]
         frames = take.tracks[0].n_frames
@@ -218,23 +219,47 @@ def _audio(take, name: str):
     return mix(parts, frames)
 
 
-def _speech_files(take, name: str) -> dict:
-    """Utterance number -> its speech audio, from the script the take was generated from
-    (compiled again; its speech is cached), checked against the take."""
+def script_of(take, name: str, within=None):
+    """The script a motion file names as the one it was generated from (its ``"source"``), as
+    a path to compile for its speech: a ``.sgt`` file (links resolved), inside the folder
+    ``within`` when given (a build folder ``sgt view`` shows); an InputError (one line, the
+    take then has no speech) for anything else, which is never read."""
+    import os
     from pathlib import Path
 
-    from dsl.compiler import compile_file
-    from sgt_tui.commands.common import print_diagnostics
+    from core.fileio import LinkRefused, resolved_inside
     from sgt_tui.errors import InputError
-    from sgt_tui.progress import ProgressBar
 
     if not take.source:
         raise InputError(f"{name} does not name the script it was generated from, so its speech is unknown; "
                          "render the script, or a GIF")
     source = Path(take.source)
-    if not source.is_file():
+    if within is not None:
+        try:
+            real = Path(resolved_inside(within, source))
+        except LinkRefused:
+            raise InputError(f"{name} names {source} as its script, outside {within}: not read, so the take has no "
+                             "speech; view the script itself, or build with --wav") from None
+    else:
+        real = Path(os.path.realpath(source))
+    if real.suffix.lower() != ".sgt":
+        raise InputError(f"{name} names {source} as its script, which is not a .sgt script: not read, so the take "
+                         "has no speech; render a GIF, or generate the take again")
+    if not real.is_file():
         raise InputError(f"{name} was generated from {source}, which is not there any more; render a GIF, "
                          "or generate the take again")
+    return real
+
+
+def _speech_files(take, name: str, within=None) -> dict:
+    """Utterance number -> its speech audio, from the script the take was generated from
+    (:func:`script_of`, compiled again; its speech is cached), checked against the take."""
+    from dsl.compiler import compile_file
+    from sgt_tui.commands.common import print_diagnostics
+    from sgt_tui.errors import InputError
+    from sgt_tui.progress import ProgressBar
+
+    source = script_of(take, name, within)
     result = compile_file(source, timing="speech", utterances=[c.index for c in take.clips], progress=ProgressBar("speech"))
     if result.plan is None:
         print_diagnostics(result.diagnostics, {str(source): result.script.source})

@@ -11,16 +11,17 @@ worker process (:mod:`sgt_tui.lsp.preview`).
 from __future__ import annotations
 
 import asyncio
+import os
 
 from lsprotocol import types as lsp
 from pygls.exceptions import JsonRpcException
 from pygls.lsp.server import LanguageServer
 from pygls.uris import to_fs_path
 
+from core.fileio import LinkRefused, OutputError, OutputExists, resolved_inside
 from dsl.fmt import FormatError
-from core.fileio import atomic_write_text
 from dsl.speech import SpeechError
-from dsl.speech.recording import aligner_timings
+from dsl.speech.recording import aligner_timings, check_timings_target, write_timings_file
 from sgt_tui import cli
 from sgt_tui.lsp import actions, features, outline
 from sgt_tui.lsp.documents import Document, Documents
@@ -234,8 +235,9 @@ def preview(ls: SgtServer, *args) -> dict:
 async def write_timings(ls: SgtServer, *args) -> dict:
     """``sgt.writeTimings``: arguments ``[uri, line]`` (1-based line of an utterance spoken from
     a recording without ``timings=``). Writes the times the aligner finds (``sgt align``'s file,
-    never over one that exists), then asks the client to name the file on the ``@audio``
-    directive; answers ``{"path", "rejection"}`` (the check's reason, or None)."""
+    created only where nothing is, never through a link, and only inside a workspace folder or
+    the script's folder), then asks the client to name the file on the ``@audio`` directive;
+    answers ``{"path", "rejection"}`` (the check's reason, or None)."""
     if len(args) != 2 or not isinstance(args[0], str) or not isinstance(args[1], int):
         raise _failed("sgt.writeTimings takes a document URI and a 1-based line")
     doc = ls.doc(args[0])
@@ -243,10 +245,21 @@ async def write_timings(ls: SgtServer, *args) -> dict:
     if found is None:
         raise _failed(f"line {args[1]} is not an utterance spoken from a recording without timings=")
     u, target, edit = found
-    if target.exists():
+    script = to_fs_path(doc.uri) if doc.uri.startswith("file:") else None
+    folders = [str(r) for r in ls.index.roots] + ([os.path.dirname(script)] if script else [])
+    if not any(_inside(folder, target.parent) for folder in folders):
+        raise _failed(f"{target} is outside the workspace and the script's folder: not written "
+                      f"(sgt align -o DIR writes it where you choose)")
+    try:
+        check_timings_target(target)
+    except OutputError as exc:
+        raise _failed(str(exc)) from None
+    if os.path.lexists(target):
         raise _failed(f"{target} exists: name it with timings= (it is not replaced)")
     try:
         rejection = await asyncio.to_thread(_write_aligner_times, u, target)
+    except OutputExists:
+        raise _failed(f"{target} exists: name it with timings= (it is not replaced)") from None
     except (SpeechError, OSError) as exc:
         raise _failed(f"{target}: {getattr(exc, 'message', None) or exc}") from None
     await ls.workspace_apply_edit_async(lsp.ApplyWorkspaceEditParams(
@@ -254,10 +267,19 @@ async def write_timings(ls: SgtServer, *args) -> dict:
     return {"path": str(target), "rejection": rejection}
 
 
+def _inside(folder: str, path) -> bool:
+    try:
+        resolved_inside(folder, path)
+    except LinkRefused:
+        return False
+    return True
+
+
 def _write_aligner_times(u, target) -> str | None:
-    """Align ``u``'s recording and write its words' times to ``target`` (as ``sgt align``)."""
+    """Align ``u``'s recording and write its words' times to ``target`` (as ``sgt align``,
+    never over a file: :class:`core.fileio.OutputExists`)."""
     text, _, rejection = aligner_timings(u.audio.path, u.text, u.word_spans)
-    atomic_write_text(target, text)
+    write_timings_file(target, text)
     return rejection
 
 

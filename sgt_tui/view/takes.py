@@ -4,8 +4,12 @@ the page asks for them and loaded again when their files change.
 A script is generated (:func:`model.generate.generate`, the path every command takes) and its
 speech mixed on the performance clock; a motion file is read, and its speech taken from the
 script it names (compiled again, as ``sgt render -o x.mp4`` does) when that script is still
-there; a build folder (``sgt build -o OUT``) offers every motion file its manifest lists, with
-the speech of ``--wav`` builds. :class:`Viewer` polls the files each take was made from (a
+there and is a ``.sgt`` script (:func:`sgt_tui.commands.render.script_of`); a build folder
+(``sgt build -o OUT``) offers every motion file its manifest lists, with the speech of
+``--wav`` builds. Everything a build folder's files name must be inside the folder once links
+are resolved (:func:`core.fileio.resolved_inside`): a manifest path that leads out (``..``, an
+absolute path, a link) is a take that shows that error, and a motion file's script or WAV
+outside the folder is not read (the take shows without speech, and says why). :class:`Viewer` polls the files each take was made from (a
 script, the recordings it names; a motion file; the manifest) and loads a take again, in its
 own thread, once its files have changed and then stood still for a moment (an editor's save
 may take several writes). A take that fails to load again keeps what it showed, with the error.
@@ -22,8 +26,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from core.diagnostics import format_text, summary
+from core.fileio import LinkRefused, resolved_inside
 from core.motion import MotionFile, MotionFileError, load_motion_file
-from core.reading import InputFileError, read_bytes
+from core.reading import InputFileError, loads_json, read_bytes
 from model.generate import GenerateError, generate
 from renders.audio_mix import mix
 from sgt_tui.commands.common import inputs_of
@@ -101,9 +106,12 @@ class ScriptSource(Source):
 
 
 class MotionSource(Source):
-    def __init__(self, path: Path, name: str | None = None) -> None:
+    """A motion file; ``folder``: the build folder it is in, which everything it names must be in."""
+
+    def __init__(self, path: Path, name: str | None = None, folder: Path | None = None) -> None:
         self.path = Path(path)
         self.name = name or self.path.name
+        self.folder = folder
 
     def watched(self) -> list[Path]:
         return [self.path]
@@ -125,33 +133,68 @@ class MotionSource(Source):
         if any(c.audio_offset is None for c in clips):
             return None, "a motion file from before the performance clock has no speech (generate it again)"
         wavs = {c.index: self.path.with_name(f"{self.path.stem}_{c.index:03d}.wav") for c in clips if c.index is not None}
+        if self.folder is not None:
+            wavs = {i: p for i, p in wavs.items() if _inside(self.folder, p)}
         if motion.tracks and len(wavs) == len(clips) and all(p.is_file() for p in wavs.values()):
             samples, rate = mix([(wavs[c.index], c.start + c.audio_offset) for c in clips], motion.tracks[0].n_frames)
             return wav_of(samples, rate), ""
         if not motion.source:
             return None, "the take does not name its script, so its speech is unknown"
         try:
-            samples, rate = _audio(motion, str(self.path))  # as sgt render -o x.mp4: the script compiled again
+            samples, rate = _audio(motion, str(self.path), within=self.folder)  # as sgt render -o x.mp4: the script compiled again
         except InputError as exc:
             return None, str(exc)
         return wav_of(samples, rate), ""
 
 
+class RefusedSource(Source):
+    """A take a build manifest lists at a path that leads out of the folder: its error, shown on the page."""
+
+    def __init__(self, name: str, reason: str) -> None:
+        self.name, self.reason = name, reason
+
+    def watched(self) -> list[Path]:
+        return []
+
+    def load(self) -> Loaded:
+        raise ViewError(self.reason)
+
+
 def build_sources(folder: Path) -> list[Source]:
     """The motion files of a build folder, as its manifest lists them (every motion file under
-    it, without a manifest)."""
+    it, without a manifest); a listed path outside the folder is a :class:`RefusedSource`."""
     manifest = folder / MANIFEST
-    paths: list[Path] = []
+    listed: list[str] = []
     if manifest.is_file():
         try:
-            doc = json.loads(read_bytes(manifest, "configuration"))
+            doc = loads_json(read_bytes(manifest, "configuration"))
             for script in doc.get("scripts", []):
-                paths += [folder / o["path"] for o in script.get("outputs", []) if str(o.get("path", "")).endswith(".json")]
+                listed += [o["path"] for o in script.get("outputs", []) if str(o.get("path", "")).endswith(".json")]
         except (OSError, ValueError, TypeError, AttributeError, KeyError) as exc:
             raise ViewError(f"{manifest}: not a build manifest ({exc})") from None
     else:
-        paths = sorted(p for p in folder.rglob("*.json") if not p.name.endswith(".timeline.json") and p.name != MANIFEST)
-    return [MotionSource(p, p.relative_to(folder).as_posix()) for p in paths if p.is_file()]
+        listed = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.json")
+                        if not p.name.endswith(".timeline.json") and p.name != MANIFEST)
+    sources: list[Source] = []
+    for rel in listed:
+        rel = str(rel)
+        try:
+            resolved_inside(folder, rel)
+        except LinkRefused as exc:
+            sources.append(RefusedSource(rel, f"{manifest if manifest.is_file() else folder}: {exc}"))
+            continue
+        path = folder / rel
+        if path.is_file():
+            sources.append(MotionSource(path, rel, folder))
+    return sorted(sources, key=lambda s: isinstance(s, RefusedSource))  # a take to show first, if there is one
+
+
+def _inside(folder: Path, path: Path) -> bool:
+    try:
+        resolved_inside(folder, path)
+    except LinkRefused:
+        return False
+    return True
 
 
 def sources_of(path: Path, engine: str | None = None, seed: int | None = None) -> list[Source]:
