@@ -294,6 +294,8 @@ def test_every_request_gets_an_answer_without_a_traceback(client, tmp_path):
     _error(c.request("", raw={"jsonrpc": "2.0", "id": 78, "method": 5}), INVALID_REQUEST)
     c.send(b"{not json")
     _error(c.answer(None), PARSE_ERROR)
+    c.proc.stdin.write(b"X-Junk: " + b"x" * 1_000_000 + b"\r\n\r\n")  # a header line of a megabyte: skipped
+    c.proc.stdin.flush()
     # a command with wrong arguments
     _error(c.request("workspace/executeCommand", {"command": "sgt.preview", "arguments": [1, 2, 3]}), REQUEST_FAILED)
     # nothing broke: a real request is answered
@@ -306,6 +308,45 @@ def test_every_request_gets_an_answer_without_a_traceback(client, tmp_path):
     assert c.proc.wait(10) == 0
     shown = [n for n in c.notifications if n["method"] in ("window/showMessage", "window/logMessage")]
     assert all("Traceback" not in json.dumps(n) and "\n" not in n["params"]["message"] for n in shown), shown
+
+
+def test_a_failure_of_the_server_is_answered_in_one_line_and_its_traceback_only_logged(caplog):
+    """The server's own bug, in any handler: the answer is one line with no traceback (pygls
+    sends the traceback as the error's data), the traceback goes to the server's log."""
+    from sgt_tui.lsp.server import SgtServer  # the server's protocol, with a handler that fails
+
+    server = SgtServer()
+
+    @server.feature("textDocument/hover")
+    def hover(ls, params):
+        raise ValueError("a bug\non two lines")
+
+    @server.feature("textDocument/didSave")
+    def saved(ls, params):
+        raise ValueError("a bug\non two lines")
+
+    written: list[bytes] = []
+
+    class Writer:
+        def write(self, data: bytes) -> None:
+            written.append(data)
+
+    server.protocol.set_writer(Writer())
+    frame = {"processId": None, "rootUri": None, "capabilities": {}}
+    server.protocol.handle_body(json.dumps({"jsonrpc": "2.0", "id": 1, "method": "initialize", "params": frame}).encode())
+    server.protocol.handle_body(json.dumps({"jsonrpc": "2.0", "id": 2, "method": "textDocument/hover", "params": {
+        "textDocument": {"uri": "file:///x.sgt"}, "position": {"line": 0, "character": 0}}}).encode())
+    answer = json.loads(written[-1].split(b"\r\n\r\n", 1)[1])
+    assert answer["id"] == 2 and answer["error"]["code"] == -32603
+    assert answer["error"]["message"] == "internal error: ValueError: a bug on two lines (the server's log has the details)"
+    assert "data" not in answer["error"] or not answer["error"]["data"]
+    assert any(r.exc_info and "a bug" in str(r.exc_info[1]) for r in caplog.records)
+    # in a notification's handler: the user is told, in one line
+    server.protocol.handle_body(json.dumps({"jsonrpc": "2.0", "method": "textDocument/didSave", "params": {
+        "textDocument": {"uri": "file:///x.sgt"}}}).encode())
+    shown = json.loads(written[-1].split(b"\r\n\r\n", 1)[1])
+    assert shown["method"] == "window/showMessage" and "a bug on two lines" in shown["params"]["message"]
+    assert "\n" not in shown["params"]["message"]
 
 
 # -- a long recording ---------------------------------------------------------------------------

@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import stat
 import subprocess
 import sys
 import threading
@@ -36,6 +37,9 @@ from dsl.speech.recording import check_recording
 TIMEOUT = 1800
 #: Seconds between looks at whether the recording being aligned is still needed.
 POLL = 0.2
+#: Seconds a recording must stay wanted before its child starts (while the utterance's words
+#: are being typed, each keystroke wants another alignment).
+SETTLE = 0.5
 #: The verdicts the analysis reproduces at once: a mismatch is cached with the alignment, an
 #: unreadable recording fails before aligning.
 _QUICK_KINDS = ("mismatch", "audio")
@@ -59,7 +63,7 @@ class Recording:
 
 def recordings(text: str, path: Path) -> list[Recording]:
     """The recordings of ``text`` (a script at ``path``) that the analysis aligns: those without
-    ``timings=`` whose file exists."""
+    ``timings=`` whose file is a regular file."""
     if "@audio" not in text:
         return []
     script = analyse(text, str(path), gesture_names=None, base_dir=path.parent)
@@ -72,6 +76,8 @@ def recordings(text: str, path: Path) -> list[Recording]:
             st = os.stat(a.path)
         except (OSError, ValueError):
             continue  # the analysis says it is missing, without aligning
+        if not stat.S_ISREG(st.st_mode):
+            continue  # (the analysis refuses it unread)
         spans = tuple(u.word_spans)
         words = tuple(u.text[s:e] for s, e in spans)
         out.append(Recording(a.where.line, a.where.col, a.where.length, str(a.path), u.text, spans,
@@ -130,9 +136,13 @@ class Aligner:
                     return rec
         return None
 
+    def _wanted_now(self, key: tuple) -> bool:
+        """(Under the lock.) Whether an open script waits for ``key``."""
+        return any(key in recs for recs in self._wanted.values())
+
     def _needed(self, key: tuple) -> bool:
         with self._cond:
-            return not self._closed and any(key in recs for recs in self._wanted.values())
+            return not self._closed and self._wanted_now(key)
 
     def _run(self) -> None:
         """(The aligner's thread.) Align what is wanted, one recording at a time."""
@@ -140,8 +150,12 @@ class Aligner:
             with self._cond:
                 while not self._closed and (rec := self._next()) is None:
                     self._cond.wait()
+                # a recording wanted only while the words are typed is not worth a child
+                self._cond.wait_for(lambda: self._closed or not self._wanted_now(rec.key), SETTLE)
                 if self._closed:
                     return
+                if not self._wanted_now(rec.key):
+                    continue
             outcome = self._align(rec)
             if outcome is _STALE:
                 continue
