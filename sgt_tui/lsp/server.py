@@ -81,8 +81,6 @@ def one_line(text: str) -> str:
 class _Answered:
     """What a message that was answered while it was read becomes (nothing more to do)."""
 
-    method = None
-
 
 class SgtProtocol(LanguageServerProtocol):
     """pygls' protocol, answering every request (see the module's docstring)."""
@@ -115,11 +113,12 @@ class SgtProtocol(LanguageServerProtocol):
     def handle_body(self, body: bytes) -> None:
         """One message from the client: parse it and handle it (a ParseError answered)."""
         try:
-            message = json.loads(body, object_hook=self.structure_message)
+            data = json.loads(body)
         except (ValueError, RecursionError) as exc:  # not JSON (UnicodeDecodeError is a ValueError)
             log.warning("a message is not JSON: %s", one_line(exc))
             self._send_response(None, error=JsonRpcParseError("the message is not JSON").to_response_error())
             return
+        message = self.structure_message(data)  # (the message itself only: what it holds is its params)
         if isinstance(message, _Answered):
             return
         if not hasattr(message, "jsonrpc"):  # JSON, but no JSON-RPC message
