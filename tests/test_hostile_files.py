@@ -241,9 +241,9 @@ def test_a_checkpoint_that_would_run_code_is_refused_and_nothing_runs(tmp_path):
     run, marker = tmp_path / "run", tmp_path / "ran"
     run.mkdir()
     torch.save({"model": Payload(marker), "epoch": 1}, run / "checkpoint.pt")
-    refused(sgt("train", "--data", str(data), "-o", str(run), "--epochs", "1", *TRAIN, cwd=tmp_path),
-            "checkpoint.pt", "nothing in it ran", "--fresh")
+    answer = sgt("train", "--data", str(data), "-o", str(run), "--epochs", "1", *TRAIN, cwd=tmp_path)
     assert not marker.exists()
+    refused(answer, "checkpoint.pt", "nothing in it ran", "--fresh")
 
 
 def test_a_truncated_checkpoint_is_refused_in_one_line(tmp_path):
