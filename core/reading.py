@@ -36,9 +36,10 @@ LIMITS = {
     "gesture spec": 1 * MiB,
     "configuration": 1 * MiB,
     "motion file": 1024 * MiB,
-    "motion capture": 512 * MiB,  # a BVH take: 10 minutes at 120 fps with 75 joints is about 60 MiB
+    "motion capture": 512 * MiB,  # a BVH take: 10 minutes at 120 fps with 75 joints is about 150 MiB
     "audio": 1024 * MiB,  # a training take's recording: an hour of 48 kHz 16-bit stereo is 660 MiB
     "checkpoint": 4096 * MiB,  # sgt train's checkpoint.pt: about 3 times the weights (Adam's two moments)
+    "weights": 1024 * MiB,  # a network's weights (the shipped generator.pt is 3.9 MB)
     "matching database": 1024 * MiB,
     "corpus shard": 1024 * MiB,
     "corpus manifest": 256 * MiB,

@@ -384,3 +384,14 @@ def test_a_corpus_shard_bomb_is_refused_before_it_inflates(tmp_path):
     (corpus / "shard_0000.npz").write_bytes(zip_of([*stored, bomb("audio")]))
     refused(sgt("train", "--corpus", str(corpus), "-o", str(tmp_path / "run"), "--epochs", "1", *TRAIN, cwd=tmp_path),
             "shard_0000.npz", "zip bomb")
+
+
+def test_an_fgd_extractor_that_is_a_fifo_is_refused_unread(tmp_path):
+    """``sgt eval --extractor PATH`` reads it last, after a whole evaluation: its reader, in a
+    process of its own (torch.load opened a FIFO and waited for a writer forever)."""
+    os.mkfifo(tmp_path / "extractor.pt")
+    code = ("from model.training.fgd import ExtractorError, load\ntry:\n    load('extractor.pt')\n"
+            "except ExtractorError as exc:\n    print(exc)\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60, check=False,
+                       env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert r.returncode == 0 and "extractor.pt: it is a FIFO (named pipe), not a file" in r.stdout, r.stdout + r.stderr
