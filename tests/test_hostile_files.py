@@ -197,14 +197,22 @@ def wav(path: Path, rate: int, samples: int) -> None:
         w.writeframes(np.zeros(samples, "<i2").tobytes())
 
 
-def test_a_takes_audio_at_1_hz_or_a_fifo_is_refused(tmp_path):
+def test_a_takes_audio_at_1_hz_nan_or_a_fifo_is_refused(tmp_path):
     """A WAV saying 1 sample a second would be resampled into 16,000 times its samples (a
-    400 KB file: 51 GB); a FIFO named as a take's audio is refused, not skipped as no audio."""
+    400 KB file: 51 GB); a float WAV with a NaN sample made NaN speech features (a database of
+    garbage); a FIFO named as a take's audio is refused, not skipped as no audio."""
     data = takes(tmp_path / "data")
     (data / "Audio").mkdir()
     wav(data / "Audio" / "take0.wav", 1, 200_000)
     refused(sgt("train", "--data", str(data), "-o", str(tmp_path / "run"), "--epochs", "1", *TRAIN, cwd=tmp_path),
             "take0.wav", "sample rate of 1 Hz")
+    import soundfile as sf
+
+    samples = np.zeros(16_000, np.float32)
+    samples[8_000] = np.nan  # a float WAV holds what it is given
+    sf.write(data / "Audio" / "take0.wav", samples, 16_000, subtype="FLOAT")
+    refused(sgt("train", "--engine", "matching", "--data", str(data), "-o", str(tmp_path / "db"), cwd=tmp_path),
+            "take0.wav: at 0.500 s a sample is nan")
     (data / "Audio" / "take0.wav").unlink()
     os.mkfifo(data / "Audio" / "take0.wav")
     refused(sgt("train", "--data", str(data), "-o", str(tmp_path / "run"), "--epochs", "1", *TRAIN, cwd=tmp_path),

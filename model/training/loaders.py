@@ -37,7 +37,7 @@ from core.skeleton import BONE_NAMES, FPS, JOINTS, pose_from_positions
 from core.words import TimedWord
 from dsl.speech.recording import read_timings
 from dsl.speech.types import SpeechError
-from model.features import audio_features, load_audio, word_features
+from model.features import SAMPLE_RATE, audio_features, load_audio, word_features
 
 
 class LoaderError(Exception):
@@ -606,6 +606,10 @@ def load_take(take: Take, *, features: bool = True, **bvh_kwargs) -> dict:
                 audio = load_audio(take.audio_path)
             except (OSError, RuntimeError, ValueError, EOFError) as exc:  # soundfile's errors are RuntimeErrors
                 raise LoaderError(f"cannot read the audio {str(take.audio_path)!r}: {exc}") from None
+            bad = np.flatnonzero(~np.isfinite(audio))
+            if len(bad):  # (a float WAV can hold nan or inf: its features, and the network, would be nan)
+                raise LoaderError(f"{take.audio_path}: at {bad[0] / SAMPLE_RATE:.3f} s a sample is {audio[bad[0]]}, "
+                                  "not a finite number")
             clip["audio"] = audio_features(audio, n)
     return clip
 
