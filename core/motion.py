@@ -49,7 +49,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -61,6 +60,7 @@ from core.fileio import atomic_write
 from core.frames_text import frame_lines_of_many, json_with_lines
 from core.face import ARKIT_NAMES, EYES, FaceTrack
 from core.hands import DIGITS, SIDES, HandTrack
+from core.npz import load_npz
 from core.reading import InputFileError, loads_json, read_bytes
 from core.skeleton import BONE_NAMES, BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
@@ -463,23 +463,23 @@ def load_motion_file(path) -> MotionFile:
             ]
             return _finish(doc, clips, tracks, path)
         try:
-            with np.load(io.BytesIO(data), allow_pickle=False) as z:
-                if "meta" not in z.files:
-                    raise MotionFileError(f"{path}: no 'meta' entry; not an sgt motion file")
-                doc = json.loads(str(z["meta"]))
-                _check_header(doc, path)
-                names = _face_names(doc)
-                clips = []
-                for i, u in enumerate(doc["utterances"]):
-                    poses, pos, hands, face = _npz_part(z, "", i, path)
-                    clips.append(_clip(u, poses, pos, path, i, hands, face, names))
-                n = _frames(doc, clips, path)
-                tracks = []
-                for i, t in enumerate(doc.get("tracks") or []):
-                    poses, pos, hands, face = _npz_part(z, "track_", i, path)
-                    tracks.append(_track(t, poses, pos, path, i, n, hands, face, names))
-                return _finish(doc, clips, tracks, path)
-        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+            z = load_npz(data, "motion file")  # sizes checked before anything is inflated (zip bombs)
+            if "meta" not in z:
+                raise MotionFileError(f"{path}: no 'meta' entry; not an sgt motion file")
+            doc = loads_json(str(z["meta"]))
+            _check_header(doc, path)
+            names = _face_names(doc)
+            clips = []
+            for i, u in enumerate(doc["utterances"]):
+                poses, pos, hands, face = _npz_part(z, "", i, path)
+                clips.append(_clip(u, poses, pos, path, i, hands, face, names))
+            n = _frames(doc, clips, path)
+            tracks = []
+            for i, t in enumerate(doc.get("tracks") or []):
+                poses, pos, hands, face = _npz_part(z, "track_", i, path)
+                tracks.append(_track(t, poses, pos, path, i, n, hands, face, names))
+            return _finish(doc, clips, tracks, path)
+        except (ValueError, KeyError) as exc:  # NpzError, JSON, a missing key
             raise MotionFileError(f"{path}: cannot read as npz: {exc or 'the file is empty'}") from None
     except FileNotFoundError:
         raise MotionFileError(f"{path}: no such file") from None
@@ -502,8 +502,7 @@ def _npz_part(z, prefix: str, i: int, path: Path) -> tuple:
     """(poses, positions or None, hands or None, face or None) of utterance ``i`` (``prefix``
     "") or track ``i`` (``prefix`` "track_") of an NPZ motion file."""
     def get(name: str):
-        key = f"{prefix}{name}_{i}"
-        return z[key] if key in z.files else None
+        return z.get(f"{prefix}{name}_{i}")
 
     poses = get("poses")
     if poses is None:

@@ -32,9 +32,7 @@ numpy only: no torch import on this engine's path.
 from __future__ import annotations
 
 import dataclasses
-import json
-import zipfile
-import zlib
+import stat
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -42,6 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from core.controls import STYLE_NAMES
+from core.npz import load_npz
+from core.reading import InputFileError, loads_json
 from core.skeleton import FPS, JOINT_INDEX, POSE_DIM, normalize_pose, positions_from_pose
 from model import postprocess, take_posture
 from model.features import AUDIO_DIM, level_db, speech_inputs, word_id
@@ -241,7 +241,7 @@ def load(path=None) -> Database:
         st = p.stat()
     except OSError:
         st = None
-    if st is None or not p.is_file():
+    if st is None or stat.S_ISDIR(st.st_mode):  # (a FIFO or a device: refused by name in _load, unread)
         raise DatabaseError(f"no matching database at {p}: build it with {_rebuild(p)}")
     return _load(str(p), st.st_mtime_ns, st.st_size)
 
@@ -258,19 +258,20 @@ def _rebuild(p: Path) -> str:
 def _load(path: str, _mtime_ns: int, _size: int) -> Database:
     p = Path(path)
     try:
-        with np.load(p, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            if not isinstance(meta, dict) or meta.get("format") != FORMAT or meta.get("version") != VERSION:
-                raise DatabaseError(f"{p} is not a version-{VERSION} {FORMAT} file: rebuild it with {_rebuild(p)}")
-            f32 = {k: z[k].astype(np.float32) for k in ("frame_style", "take_style", "audio_mean", "audio_basis",
-                                                         "feat_mean", "feat_std", "key_mean", "key_basis",
-                                                         "pose_mean", "pose_basis", "speech_keys")}
-            poses = normalize_pose(z["poses"].astype(np.float32) / 32767.0).astype(np.float32)
-            clip_starts = z["clip_starts"].astype(np.int64)
+        z = load_npz(p, "matching database")  # sizes checked before anything is inflated (zip bombs)
+        meta = loads_json(str(z["meta"]))
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT or meta.get("version") != VERSION:
+            raise DatabaseError(f"{p} is not a version-{VERSION} {FORMAT} file: rebuild it with {_rebuild(p)}")
+        f32 = {k: z[k].astype(np.float32) for k in ("frame_style", "take_style", "audio_mean", "audio_basis",
+                                                     "feat_mean", "feat_std", "key_mean", "key_basis",
+                                                     "pose_mean", "pose_basis", "speech_keys")}
+        poses = normalize_pose(z.pop("poses").astype(np.float32) / 32767.0).astype(np.float32)
+        clip_starts = z["clip_starts"].astype(np.int64)
     except DatabaseError:
         raise
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error, json.JSONDecodeError) as exc:
-        # (a truncated or damaged zip raises BadZipFile or zlib.error, neither an OSError)
+    except InputFileError as exc:
+        raise DatabaseError(f"{p}: {exc.reason}; give a matching database built with {_rebuild(p)}") from None
+    except (OSError, ValueError, KeyError, TypeError) as exc:  # NpzError (damaged, foreign, a zip bomb), JSON, a missing array
         raise DatabaseError(f"{p} is not a readable matching database ({exc}): rebuild it with {_rebuild(p)}") from None
     if poses.ndim != 2 or poses.shape[1] != POSE_DIM or meta.get("segment") != SEGMENT or meta.get("stride") != STRIDE \
             or meta.get("blend") != BLEND or f32["audio_mean"].shape != (AUDIO_DIM,):

@@ -123,11 +123,15 @@ def run(args) -> int:
     try:
         train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
               log=lambda s: print(s, file=sys.stderr))
-    except ValueError as exc:  # e.g. no clip as long as a training window
+    except ValueError as exc:  # no clip as long as a training window, a checkpoint not resumed, a loss that diverged
         print(f"sgt train: error: {exc}", file=sys.stderr)
         return 1
-    print(f"weights: {Path(args.out) / 'generator.pt'} (best validation epoch); last epoch: {Path(args.out) / 'last.pt'}",
-          file=sys.stderr)
+    weights = Path(args.out) / "generator.pt"
+    if not weights.is_file():  # (a checkpoint whose epochs were all done, resumed in a folder without its weights)
+        print(f"sgt train: error: no weights: {weights} is missing and the checkpoint in {args.out} has no epoch left "
+              "to train; train afresh with --fresh", file=sys.stderr)
+        return 1
+    print(f"weights: {weights} (best validation epoch); last epoch: {Path(args.out) / 'last.pt'}", file=sys.stderr)
     return 0
 
 
