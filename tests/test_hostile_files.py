@@ -403,3 +403,19 @@ def test_an_fgd_extractor_that_is_a_fifo_is_refused_unread(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60, check=False,
                        env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert r.returncode == 0 and "extractor.pt: it is a FIFO (named pipe), not a file" in r.stdout, r.stdout + r.stderr
+
+
+@pytest.mark.parametrize("kind", ["fifo", "zip of compressed entries"])
+def test_generator_weights_that_are_a_fifo_or_a_foreign_archive_are_refused_unread(tmp_path, kind):
+    """``sgt generate --weights PATH``: a FIFO is refused unread (torch.load waited for a writer
+    forever), an archive whose entries are compressed (not what torch.save writes: memory would
+    no longer be bounded by the file's size) is refused before torch reads it."""
+    (tmp_path / "a.sgt").write_text("guide: Hello there.\n")
+    if kind == "fifo":
+        os.mkfifo(tmp_path / "w.pt")
+    else:
+        with zipfile.ZipFile(tmp_path / "w.pt", "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("archive/data.pkl", b"\0" * 100_000)
+    run = sgt("generate", "a.sgt", "-o", "a.json", "--engine", "neural", "--weights", "w.pt", cwd=tmp_path)
+    refused(run, "w.pt", "FIFO" if kind == "fifo" else "compressed")
+    assert not (tmp_path / "a.json").exists()

@@ -229,6 +229,33 @@ def test_render_of_a_motion_file_naming_etc_passwd_reads_no_such_file(built, tmp
     assert "names /etc/passwd as its script, which is not a .sgt script: not read" in line
 
 
+# -- names sgt chooses beside a named output: export's sidecar, say's WAVs --------------------------
+
+def test_export_never_writes_its_sidecar_through_a_planted_link(built, victim, tmp_path):
+    """``-o take.bvh`` names the BVH; ``take.bvh.timeline.json`` is sgt's own name beside it: a link
+    planted there is refused before any work, and nothing is written."""
+    (tmp_path / "take.bvh.timeline.json").symlink_to(victim)
+    r = sgt("export", "out/a.json", "-o", "take.bvh", cwd=tmp_path)
+    no_traceback(r)
+    untouched(victim)
+    assert r.returncode != 0 and not (tmp_path / "take.bvh").exists()
+    (line,) = lines(r.stderr)
+    assert "take.bvh.timeline.json" in line and "link" in line
+
+
+def test_say_never_writes_its_wavs_through_a_planted_link(tmp_path, victim):
+    """``sgt say`` names its WAVs itself (STEM_000.wav in STEM_speech/): a link planted at one is
+    refused, and the file it points to keeps its bytes."""
+    (tmp_path / "a.sgt").write_text(SCRIPT)
+    (tmp_path / "a_speech").mkdir()
+    (tmp_path / "a_speech" / "a_000.wav").symlink_to(victim)
+    r = sgt("say", "a.sgt", cwd=tmp_path)
+    no_traceback(r)
+    untouched(victim)
+    assert r.returncode != 0
+    assert "a_000.wav" in r.stderr and "link" in r.stderr
+
+
 # -- sgt align and the language server's sgt.writeTimings -----------------------------------------
 
 SAID = "Well, hello there my friend. How are you today?"

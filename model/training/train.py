@@ -20,9 +20,7 @@ from __future__ import annotations
 import io
 import json
 import math
-import struct
 import time
-import zipfile
 from dataclasses import asdict
 from pathlib import Path
 
@@ -36,7 +34,7 @@ from model.training.metrics import pcs_frames
 from model.training.speed_hist import soft_speed_hellinger
 from model.training.takes import record_takes
 from model.training.train_config import WINDOW, TrainConfig  # noqa: F401  (re-exported)
-from model.weights import save_weights
+from model.weights import not_torch_archive, save_weights
 
 # -- data -------------------------------------------------------------------------------------
 
@@ -271,7 +269,7 @@ def read_checkpoint(path: Path) -> dict:
         raise CheckpointError(f"{path}: {exc.reason}; {_FRESH}") from None
     except OSError as exc:
         raise CheckpointError(f"cannot read {path}: {exc.strerror or exc}; {_FRESH}") from None
-    why = _not_torch_archive(data)
+    why = not_torch_archive(data)
     if why:
         raise CheckpointError(f"{path} is not a checkpoint of sgt train ({why}); {_FRESH}")
     try:
@@ -285,20 +283,6 @@ def read_checkpoint(path: Path) -> dict:
     if bad:
         raise CheckpointError(f"{path} is not a checkpoint of sgt train ({bad}); {_FRESH}")
     return state
-
-
-def _not_torch_archive(data: bytes) -> str | None:
-    """Why ``data`` is not the archive ``torch.save`` writes (a zip whose entries are stored
-    uncompressed, one of them ``data.pkl``), or None."""
-    try:
-        with zipfile.ZipFile(io.BytesIO(data)) as z:
-            entries = z.infolist()
-    except (zipfile.BadZipFile, ValueError, struct.error):
-        return "not a zip archive: it may be truncated" if data else "the file is empty"
-    if not any(e.filename.endswith("/data.pkl") or e.filename == "data.pkl" for e in entries):
-        return "no data.pkl in its archive"
-    squeezed = next((e.filename for e in entries if e.compress_type != zipfile.ZIP_STORED or e.file_size != e.compress_size), None)
-    return f"its entry {squeezed} is compressed; torch.save stores every entry as it is" if squeezed else None
 
 
 def _checkpoint_fault(state) -> str | None:

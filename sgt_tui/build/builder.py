@@ -164,7 +164,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
     def files(path) -> str:
         key = os.path.abspath(path)
         if key not in file_hashes:
-            file_hashes[key] = file_sha256(path)
+            file_hashes[key] = file_sha256(path, "audio")
         return file_hashes[key]
 
     def mismatched(prev: dict) -> list[str]:

@@ -75,9 +75,12 @@ class Settings:
         return out
 
 
-def file_sha256(path: Path | str) -> str:
+def file_sha256(path: Path | str, what: str = "weights") -> str:
+    """The sha256 of a regular file (a FIFO or a device is refused unread: InputFileError)."""
+    from core.reading import open_input  # lazy: keeps this module's import light
+
     h = hashlib.sha256()
-    with open(path, "rb") as f:
+    with open_input(path, what) as f:
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()

@@ -30,7 +30,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from pathlib import Path
 
-    from core.fileio import atomic_write, json_text
+    from core.fileio import Inside, atomic_write, json_text
     from dsl.compiler import compile_file
     from sgt_tui.commands.common import (
         STDOUT,
@@ -60,15 +60,17 @@ def run(args) -> int:
     if result.plan is None:
         return exit_code(result.diagnostics) or 1
     report = []
-    for u in result.plan.utterances:
-        wav = out_dir / f"{path.stem}_{u.index:03d}.wav"
-        if u.audio_path is not None and Path(u.audio_path).resolve() != wav.resolve():
-            atomic_write(wav, Path(u.audio_path).read_bytes())
-        # the plan's words are on the motion timeline (after the lead-in); the table is the audio's
-        lead = u.lead_in
-        speech_end = u.duration - u.speech.get("tail", 0.0) - lead
-        report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav), "duration": round(speech_end, 3),
-                       "start": round(u.start + lead, 6), "words": [w.shifted(-lead).to_dict() for w in u.words]})
+    with Inside(out_dir, create=True) as folder:  # the WAVs' names are sgt's: no link planted in the folder is followed
+        for u in result.plan.utterances:
+            wav = out_dir / f"{path.stem}_{u.index:03d}.wav"
+            if u.audio_path is not None and Path(u.audio_path).resolve() != wav.resolve():
+                folder.write(wav.name, Path(u.audio_path).read_bytes())
+            # the plan's words are on the motion timeline (after the lead-in); the table is the audio's
+            lead = u.lead_in
+            speech_end = u.duration - u.speech.get("tail", 0.0) - lead
+            report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav),
+                           "duration": round(speech_end, 3), "start": round(u.start + lead, 6),
+                           "words": [w.shifted(-lead).to_dict() for w in u.words]})
     if mix_out is not None:
         import sys
 

@@ -495,6 +495,7 @@ async def write_timings(ls: SgtServer, *args) -> dict:
     if len(args) != 2 or not isinstance(args[0], str) or not isinstance(args[1], int):
         raise _failed("sgt.writeTimings takes a document URI and a 1-based line")
     doc = ls.doc(args[0])
+    await _aligned(doc)  # a recording still aligning is left out of the analysis: its utterance would not be found
     found = actions.aligner_times(doc, args[1])
     if found is None:
         raise _failed(f"line {args[1]} is not an utterance spoken from a recording without timings=")
@@ -519,6 +520,21 @@ async def write_timings(ls: SgtServer, *args) -> dict:
     await ls.workspace_apply_edit_async(lsp.ApplyWorkspaceEditParams(
         lsp.WorkspaceEdit(changes={doc.uri: [edit]}), label=f"time the words by {target.name}"))
     return {"path": str(target), "rejection": rejection}
+
+
+#: The longest sgt.writeTimings waits for the document's recordings to finish aligning, seconds.
+ALIGN_WAIT_S = 600.0
+
+
+async def _aligned(doc: Document) -> None:
+    """Wait (without holding up other requests) until no recording of ``doc`` is aligning;
+    RequestFailed after :data:`ALIGN_WAIT_S`."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + ALIGN_WAIT_S
+    while (doc.analysis(), doc.aligning)[1]:
+        if loop.time() > deadline:
+            raise _failed(f"the recordings of {doc.path.name} are still being aligned after {ALIGN_WAIT_S:g} s: try again later")
+        await asyncio.sleep(0.1)
 
 
 def _inside(folder: str, path) -> bool:
