@@ -271,7 +271,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
                 secs=f"{p.late / FPS:.2f}", word=_word_text(utt, t, p.mark),
                 why=p.why,
                 how=" (with estimated timing; real speech may differ)" if estimated else "",
-                hint=realize.hint(p, t.words, poses) or None,
+                hint=realize.hint(p, t.words) or None,
                 related=(Related(f"'{p.after.mark.name}' is here", script.path, o.line, o.col, o.length),),
             ))
         stroke = {} if p.stroke is None else {"stroke_frame": p.stroke_frame, "word_frame": p.word_frame}
