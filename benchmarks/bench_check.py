@@ -21,7 +21,8 @@ Then times:
   late behind the one before (a chain as long as the line), and each late stroke's warning
   carries a hint found by trying the earlier gesture changed (:func:`dsl.realize.hint`); the
   same marks one per line of one utterance (continuation lines: the source excerpts are short),
-  and the front end alone in-process.
+  and the front end alone in-process (with ``SGT_MAX_SECONDS`` raised: 600 holds of 10 s
+  last longer than the hour a script may last by default).
 Prints the median and min of each. Figures vary with machine load: quote medians.
 """
 
@@ -142,6 +143,9 @@ def main() -> int:
             report(f"parse + analyse in-process ({gc_state})", timeit(parse, args.repeat, collect))
             report(f"front end in-process ({gc_state})", timeit(front_end, args.repeat, collect))
         report("`sgt --help` subprocess", timeit(lambda: subprocess.run(sgt + ["--help"], check=True, capture_output=True), args.repeat))
+        # 600 holds of 10 s last 100 minutes: over the hour a script may last (core/limits.py),
+        # which alone would be one error; a longer limit shows every warning, hints included
+        os.environ["SGT_MAX_SECONDS"] = str(max(3600, 20 * args.late))
         late = Path(tmp) / "late.sgt"
         late.write_text(late_strokes(args.late), encoding="utf-8")
         result = compile_file(late, timing="estimate", library=lib)

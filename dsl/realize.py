@@ -31,9 +31,11 @@ from __future__ import annotations
 import math
 from bisect import bisect_left
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 import numpy as np
 
+from core import cancel
 from core.hands import HandTrack
 from core.skeleton import FPS, N_BONES, bone_angles, frame_count, mirror_name, seconds_to_frame
 
@@ -194,6 +196,7 @@ class _Turn:
 def _take(g: Placed, last_on: dict[str, Placed]) -> None:
     """One step of :func:`resolve`: place ``g`` after the last gestures on its limbs
     (``last_on``, updated) that still play on them where it would start."""
+    cancel.check()
     before = list({id(p): p for limb in g.limbs if (p := last_on.get(limb)) is not None}.values())
     mine = _bones(g.clip())
     before = [p for p in before if g.start < p.end_on(mine)]  # still playing on g's limbs when g would start
@@ -263,14 +266,20 @@ def _pose_at(before: list[Placed], frame: int, default: np.ndarray) -> np.ndarra
 
 def _hands_at(before: list[Placed], frame: int):
     """(palm (2, 3), fingers (2, 5, 4)) the gestures ``before`` set at ``frame`` on their sides."""
-    rest = HandTrack.rest(1)
-    palm, fingers = rest.palm[0].copy(), rest.fingers[0].copy()
+    palm, fingers = (a.copy() for a in _rest_hand())
     for p in sorted(before, key=lambda p: p.start):
         clip = p.clip()
         k = min(max(frame - p.start, 0), clip.n_frames - 1)
         for s in np.flatnonzero(_sides(clip)):
             palm[s], fingers[s] = clip.hands.palm[k, s], clip.hands.fingers[k, s]
     return palm, fingers
+
+
+@lru_cache(maxsize=1)
+def _rest_hand() -> tuple[np.ndarray, np.ndarray]:
+    """(palm (2, 3), fingers (2, 5, 4)) of relaxed hands (read only: copied by the caller)."""
+    rest = HandTrack.rest(1)
+    return rest.palm[0], rest.fingers[0]
 
 
 def _bones(clip) -> np.ndarray:

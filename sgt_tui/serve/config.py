@@ -7,6 +7,8 @@ import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from core.limits import MAX_SECONDS
+
 #: Environment variable holding the token when ``--token`` is not given.
 TOKEN_ENV = "SGT_SERVE_TOKEN"
 LOOPBACK_NAMES = ("localhost",)
@@ -31,6 +33,7 @@ class ServeConfig:
     weights: str | None = None  # generator weights; None = the shipped ones
     database: str | None = None  # the matching engine's database; None = the shipped one
     stream_idle: float = 60.0  # seconds a stream may wait for its next message
+    max_seconds: float = 600.0  # the longest performance a request may make (core/limits.py); longer: 422
 
     @property
     def base_dir(self) -> Path | None:
@@ -72,4 +75,6 @@ def checked(config: ServeConfig) -> ServeConfig:
         raise ConfigError("--timeout must be more than 0 seconds")
     if not config.header_timeout > 0:
         raise ConfigError("--header-timeout must be more than 0 seconds")
+    if not 0 < config.max_seconds <= MAX_SECONDS:
+        raise ConfigError(f"--max-seconds must be more than 0 and at most {MAX_SECONDS:g} (the limit of every sgt command)")
     return replace(config, token=token, allow=tuple(allow))
