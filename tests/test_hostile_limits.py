@@ -244,6 +244,22 @@ def test_a_request_that_times_out_frees_its_worker(server):
     assert pool(server)["cancelled"] == before + 1
 
 
+def test_a_stream_message_that_times_out_frees_its_worker(server):
+    """A ``text`` message of 800 words makes the stream decide 6,000 frames (half a minute of
+    work); at the timeout the stream is closed and the work stops."""
+    from websockets.sync.client import connect
+
+    before = pool(server)["cancelled"]
+    with connect(server.url.replace("http://", "ws://") + "/v1/stream", open_timeout=10, close_timeout=2) as ws:
+        ws.send(json.dumps({"type": "start"}))
+        assert json.loads(ws.recv(timeout=30))["type"] == "ready"
+        ws.send(json.dumps({"type": "text", "text": " ".join(["mountains"] * 800)}))
+        reply = json.loads(ws.recv(timeout=30))
+        assert reply["type"] == "error" and "took longer than 8 s" in reply["message"], reply
+    assert freed_within(server, 5) is not None, pool(server)  # without cancellation: busy for half a minute
+    assert pool(server)["cancelled"] == before + 1
+
+
 @pytest.fixture(scope="module")
 def patient_server(tmp_path_factory):
     yield from serving(tmp_path_factory.mktemp("cache"), "--timeout", "300", "--workers", "1")
