@@ -32,8 +32,11 @@ from typing import Callable
 
 import numpy as np
 
+from core import cancel, limits
 from core.controls import ControlArrays
+from core.fileio import OutputError
 from core.motion import MotionClip, Track, save_motion
+from core.reading import LIMITS
 from core.seeds import SEED_MAX
 from core.words import TimedWord
 from dsl.compiler import compile_file
@@ -122,8 +125,11 @@ class Take:
         return self._tracks
 
     def save(self, path, format: str | None = None) -> None:
-        """Write the take as a motion file (utterances, tracks, the script's path)."""
+        """Write the take as a motion file (utterances, tracks, the script's path); raises
+        :class:`core.fileio.OutputError` when it would be larger than a motion file may be
+        (:func:`check_motion_size`)."""
         source = self.plan.source if self.plan.source and not self.plan.source.startswith("<") else None
+        check_motion_size(self.clips, self.tracks)
         save_motion(path, self.clips, format, tracks=self.tracks, source=source)
 
     @property
@@ -135,6 +141,17 @@ class Take:
     def timing(self) -> str | None:
         """Where the word times came from (``espeak-ng``, ``textgrid``, ``estimate``, ...)."""
         return self.plan.utterances[0].speech.get("engine") if self.plan.utterances else None
+
+
+def check_motion_size(clips, tracks) -> None:
+    """Raise :class:`core.fileio.OutputError` when a motion file of ``clips`` and ``tracks`` could
+    be larger than sgt reads one (:data:`core.reading.LIMITS`), before it is encoded."""
+    frames = sum(c.n_frames for c in clips) + sum(t.n_frames for t in tracks)
+    if not limits.motion_file_fits(frames):
+        most = LIMITS["motion file"] // limits.MAX_FRAME_BYTES
+        raise OutputError(f"the motion is {frames} frames over its utterances and speakers' tracks, more than a motion "
+                          f"file holds (at most {most} frames, {LIMITS['motion file'] >> 20} MiB): generate fewer "
+                          f"utterances at a time (--utterance) or split the script")
 
 
 def engine_function(name: str, options=None) -> Callable:
@@ -180,6 +197,7 @@ def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None =
         listening = listening_tracks(plan, base_seed)
     clips = []
     for n, u in enumerate(plan.utterances):
+        cancel.check()
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
         start_poses = listening[u.speaker][u.start_frame : u.start_frame + SEED_FRAMES] if listening else None

@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from core import cancel
 from core.controls import STYLE_NAMES
 from core.npz import load_npz
 from core.reading import InputFileError, loads_json
@@ -406,6 +407,7 @@ def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None 
         prev = entry_state(db, sp[-2] if len(sp) > 1 else sp[-1], sp[-1])
     s = 0
     for t, length, held in pieces:
+        cancel.check()
         if held:  # hold the pose the speaker paused in, with a share of the take's continuation
             anchor = out[t - 1]
             if pos is not None:

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core import cancel
 from core.controls import network_pose_controls
 from core.skeleton import POSE_DIM
 from model import postprocess, take_posture
@@ -76,6 +77,7 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
     fade = _fade_weights(overlap)
     start = 0
     while True:
+        cancel.check()
         end = min(start + WINDOW, t_count)
         pose = arrays.pose[start:end].copy()
         mask = network_pose_controls(pose, arrays.pose_mask[start:end], None if arrays.bone_mask is None

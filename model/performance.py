@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from core import cancel
 from core.controls import ControlArrays
 from core.hands import SIDES, HandTrack, slerp, steady_palms
 from core.motion import MotionClip, Track
@@ -151,8 +152,11 @@ def place_hands(track: HandTrack, hands: HandTrack, start: int) -> None:
 def listening_tracks(plan, seed: int = 0) -> dict:
     """Speaker -> poses (``plan.n_frames``, 27): its listening motion over the whole performance
     (deterministic for a plan and a seed)."""
-    return {speaker: listening(plan.n_frames, accents(plan, speaker), np.random.default_rng([seed, k]))
-            for k, speaker in enumerate(plan.speakers)}
+    tracks = {}
+    for k, speaker in enumerate(plan.speakers):
+        cancel.check()
+        tracks[speaker] = listening(plan.n_frames, accents(plan, speaker), np.random.default_rng([seed, k]))
+    return tracks
 
 
 @dataclass(frozen=True)
@@ -190,6 +194,7 @@ def perform(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None
     n = plan.n_frames
     tracks, views = [], {}
     for speaker, listen in (listening if listening is not None else listening_tracks(plan, seed)).items():
+        cancel.check()
         poses = listen.copy()
         hands = HandTrack.rest(n)
         own = [(u, c) for u, c in zip(plan.utterances, clips) if u.speaker == speaker]
@@ -208,12 +213,14 @@ def perform(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None
             requests.bone_mask[at] = u.arrays.bones()
             h, m = u.hands
             gesture_hands.palm[at], gesture_hands.fingers[at], hand_mask[at] = h.palm, h.fingers, m
+        cancel.check()
         if exact.blend and requests.pose_mask.any():
             poses = blend_pose_controls(poses, requests.pose, requests.pose_mask, exact.ramp,
                                         max_step_deg=exact.max_step_deg, bones=requests.bone_mask)
         if hand_mask.any():
             hands = limit_speed(with_gestures(hands, gesture_hands, hand_mask))
         poses = np.asarray(poses, np.float32)
+        cancel.check()
         hands = steady_palms(positions_from_pose(poses), hands)  # no hand flips about the forearm, cuts included
         track = Track(speaker, poses, hands=hands, face=speaker_face(plan, speaker, poses, seed))
         tracks.append(track)

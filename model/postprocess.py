@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from core import cancel
 from core.easing import smoothstep
 from core.skeleton import FPS, N_BONES, normalize_pose
 from model.style import load_stats, raw_style, window_mean
@@ -67,6 +68,8 @@ def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: f
         dx_prev, first = np.zeros(x.shape[1]), 1
     a_d = alpha(d_cutoff)
     for i in range(first, len(x)):
+        if not i % cancel.EVERY:
+            cancel.check()
         dx = (x[i] - prev) * fps
         dx_hat = a_d * dx + (1 - a_d) * dx_prev
         cutoff = min_cutoff + beta * np.abs(dx_hat)

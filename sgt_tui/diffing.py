@@ -3,7 +3,9 @@ text output and its before/after renders. What changed is :mod:`dsl.diff`'s."""
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
@@ -75,7 +77,7 @@ def _read(path: Path) -> str:
     try:
         data = read_bytes(path, "script")
     except OSError as exc:
-        raise DiffInputError(f"{path}: {getattr(exc, 'reason', None) or exc.strerror or exc}") from None
+        raise DiffInputError(f"{quoted(str(path))}: {getattr(exc, 'reason', None) or exc.strerror or exc}") from None
     return data.decode("utf-8-sig", "replace")
 
 
@@ -135,7 +137,7 @@ class Git:
         where = [os.path.relpath(os.path.abspath(p), self.top) for p in paths]
         r = _git(["diff", "--name-status", "-M", "-z", old, *([new] if new else []), "--", *(where or ["."])], self.top)
         if r is None or r.returncode != 0:
-            raise DiffInputError(f"git diff failed: {(r.stderr.strip() if r else 'git not found')}")
+            raise DiffInputError(f"git diff failed: {escaped(r.stderr.strip()) if r else 'git not found'}")
         fields = r.stdout.split("\0")
         out = []
         i = 0
@@ -183,13 +185,55 @@ def _git(args: list[str], cwd: Path, text: bool = True):
 
 # -- text --------------------------------------------------------------------------------------
 
+#: What is never printed as it is: C0 and C1 control characters and DEL (a terminal obeys
+#: them: ``\x1b[2J`` in a file name would clear the screen), the bidirectional and invisible
+#: formatting marks (they reorder or hide the text around them), and lone surrogates (bytes of
+#: a file name that are not UTF-8).
+_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u200b\u200e\u200f\u202a-\u202e\u2060\u2066-\u2069\ufeff\ud800-\udfff]")
+_NAMED = {"\t": "\\t", "\n": "\\n", "\r": "\\r"}
+
+
+def _escape(m: re.Match) -> str:
+    c = m.group()
+    if c in _NAMED:
+        return _NAMED[c]
+    o = ord(c)
+    if 0xDC80 <= o <= 0xDCFF:  # a byte that is not UTF-8, as Python keeps it in a name
+        return f"\\x{o - 0xDC00:02x}"
+    return f"\\x{o:02x}" if o <= 0xFF else f"\\u{o:04x}"
+
+
+def escaped(text: str) -> str:
+    """``text`` (from the files compared: words, speakers, messages) with every character of
+    :data:`_UNSAFE` written as an escape (``\\x1b``, ``\\t``, ``\\u202e``): safe to print."""
+    return _UNSAFE.sub(_escape, text)
+
+
+def quoted(name: str) -> str:
+    """A file name as git shows one: as it is, or, when it holds a character of :data:`_UNSAFE`,
+    in double quotes with those escaped (and ``\\`` and ``"`` too, so that the escapes are
+    unambiguous)."""
+    if not _UNSAFE.search(name):
+        return name
+    return '"' + escaped(name.replace("\\", "\\\\").replace('"', '\\"')) + '"'
+
+
+def json_diff(doc) -> str:
+    """``doc`` as ``sgt diff --format json`` prints it: JSON whose strings escape every character
+    of :data:`_UNSAFE` (json escapes the C0 controls itself; those left in the text are its
+    own line breaks)."""
+    text = json.dumps(doc, indent=1, ensure_ascii=False)
+    return _UNSAFE.sub(lambda m: m.group() if m.group() < "\x7f" else f"\\u{ord(m.group()):04x}", text)
+
+
 _MARK = {"changed": "~", "moved": ">", "added": "+", "removed": "-", "same": "="}
 _COLOR = {"changed": "33", "moved": "36", "added": "32", "removed": "31", "same": "2"}
 
 
 def format_diff(d, *, color: bool = False, include_same: bool = False) -> str:
     """The text of one script's diff: a header, then each utterance that changed with a line
-    per change. Marks (``~ > + -``) say the status without colour."""
+    per change. Marks (``~ > + -``) say the status without colour. Names and text from the
+    files are :func:`quoted` and :func:`escaped`: nothing in a file reaches the terminal raw."""
 
     def paint(code: str, text: str) -> str:
         return f"\x1b[{code}m{text}\x1b[0m" if color else text
@@ -197,15 +241,15 @@ def format_diff(d, *, color: bool = False, include_same: bool = False) -> str:
     shown = [u for u in d.utterances if include_same or u.status != "same"]
     c = d.counts()
     summary = ", ".join(f"{c[k]} {k}" for k in ("changed", "moved", "added", "removed") if c[k]) or "no changes"
-    lines = [paint("1", f"{d.old_name} -> {d.new_name}") + f"  ({summary}; {c['same']} unchanged)"]
-    lines += [paint("33", f"  note: {p}") for p in d.problems]
+    lines = [paint("1", f"{quoted(d.old_name)} -> {quoted(d.new_name)}") + f"  ({summary}; {c['same']} unchanged)"]
+    lines += [paint("33", f"  note: {escaped(p)}") for p in d.problems]
     for u in shown:
         side = u.new or u.old
         where = _where(u)
-        who = f"{side.speaker}: " if side.speaker else ""
-        lines.append(paint(_COLOR[u.status], f"{_MARK[u.status]} {where}  {who}\"{_short(side.text)}\""))
+        who = f"{escaped(side.speaker)}: " if side.speaker else ""
+        lines.append(paint(_COLOR[u.status], f"{_MARK[u.status]} {where}  {who}\"{escaped(_short(side.text))}\""))
         for ch in u.changes:
-            lines.append("    " + describe(ch))
+            lines.append("    " + escaped(describe(ch)))
     return "\n".join(lines) + "\n\n"
 
 
@@ -269,7 +313,7 @@ def render_changes(pairs: list[Pair], diffs, folder: Path, *, engine: str | None
                 old = generate(p.old_path, source=p.old_text, engine=engine, utterances=[u.old.index]).clips[0]
                 new = generate(p.new_path, source=p.new_text, engine=engine, utterances=[u.new.index]).clips[0]
             except GenerateError as exc:
-                raise InputError(f"{p.new_name}: cannot render line {u.new.line}: {exc}") from None
+                raise InputError(f"{quoted(p.new_name)}: cannot render line {u.new.line}: {escaped(str(exc))}") from None
             out = folder / f"{Path(p.new_path).stem}_line{u.new.line:04d}.{'mp4' if video else 'gif'}"
             labels = ("A old", "B new")
             bar = ProgressBar(f"render {k + 1}/{len(jobs)}")

@@ -26,6 +26,7 @@ from typing import Sequence
 
 import numpy as np
 
+from core import cancel, limits
 from core.fileio import Inside, atomic_write, json_text
 from core.reading import InputFileError, loads_json, read_bytes
 from core.words import TimedWord
@@ -48,19 +49,58 @@ def normalise_word(w: str) -> str:
 # -- audio ----------------------------------------------------------------------------------
 
 
+#: Frames decoded at a time (the channels are mixed down block by block).
+_BLOCK = 1 << 16
+
+
 def read_audio(path: Path) -> tuple[np.ndarray, int]:
-    """Mono float32 samples and the sample rate; SpeechError naming the file if unreadable."""
+    """Mono float32 samples and the sample rate; SpeechError naming the file if unreadable.
+
+    A recording longer than :func:`core.limits.current`'s ``recording_seconds_at`` its sample
+    rate is refused ("too-long") from its header, before it is decoded, and decoding stops at
+    the limit when the header says less than the file holds; the channels are mixed down
+    block by block, so memory holds the mono samples only."""
     import soundfile as sf
 
     try:
-        data, sr = sf.read(str(path), dtype="float32", always_2d=True)
+        with sf.SoundFile(str(path)) as f:
+            sr, channels = int(f.samplerate), int(f.channels)
+            longest = limits.current().recording_seconds_at(sr)
+            most = int(longest * sr)
+            if f.frames > most:
+                raise _too_long(path, f"it lasts {limits.duration_text(f.frames / sr)}", longest, sr)
+            blocks, total = [], 0
+            while True:
+                cancel.check()
+                block = f.read(min(_BLOCK, most + 1 - total), dtype="float32", always_2d=True)
+                if not len(block):
+                    break
+                total += len(block)
+                if total > most:
+                    raise _too_long(path, "it lasts longer than its header says", longest, sr)
+                blocks.append(block.mean(axis=1) if channels > 1 else block[:, 0])
+    except SpeechError:
+        raise
     except Exception as e:  # soundfile raises LibsndfileError/RuntimeError/OSError/TypeError
         reason = re.sub(r"^Error opening .*?: ", "", str(e)).rstrip(".")  # the file is named by the caller
         raise SpeechError(f"cannot read the audio file {str(path)!r}: {e}", kind="audio", file=path, reason=reason) from None
-    if data.shape[0] == 0:
+    if total == 0:
         raise SpeechError(f"the audio file {str(path)!r} is empty", kind="audio", file=path, reason="the file holds no samples")
-    mono = data.mean(axis=1) if data.shape[1] > 1 else data[:, 0]
-    return np.ascontiguousarray(mono, dtype=np.float32), int(sr)
+    mono = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+    return np.ascontiguousarray(mono, dtype=np.float32), sr
+
+
+def _too_long(path, lasts: str, longest: float, sr: int) -> SpeechError:
+    at = f" at {sr} Hz" if longest < limits.current().recording_seconds else ""
+    reason = f"{lasts}; sgt reads at most {limits.duration_text(longest)} of a recording{at}"
+    return SpeechError(f"the audio file {str(path)!r} is too long: {reason}", kind="too-long", file=path, reason=reason)
+
+
+def recording_length(path) -> float | None:
+    """Seconds of a recording as its header says (None when it cannot be read: that is
+    reported where it is decoded, :func:`read_audio`)."""
+    info = _info(path)
+    return info.frames / info.samplerate if info is not None and info.samplerate > 0 else None
 
 
 # -- timings files --------------------------------------------------------------------------
@@ -354,12 +394,18 @@ def load_recording(audio_path: Path, text: str, word_spans: list[tuple[int, int]
 
 
 def _channels(path: Path) -> int:
+    info = _info(path)
+    return info.channels if info is not None else 0
+
+
+def _info(path):
+    """soundfile's header of a recording, None when it cannot be read."""
     import soundfile as sf
 
     try:
-        return sf.info(str(path)).channels
-    except Exception:
-        return 0
+        return sf.info(str(path))
+    except Exception:  # soundfile raises LibsndfileError/RuntimeError/OSError/TypeError
+        return None
 
 
 def _insert_pauses(samples, sr, starts, ends, boundaries: dict[int, float]):

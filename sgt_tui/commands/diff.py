@@ -52,11 +52,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import json
     from pathlib import Path
 
     from sgt_tui.commands.common import use_color
-    from sgt_tui.diffing import DiffInputError, pairs_for
+    from sgt_tui.diffing import DiffInputError, json_diff, pairs_for
     from sgt_tui.errors import InputError, UsageError
 
     try:
@@ -69,7 +68,7 @@ def run(args) -> int:
                           new_path=p.new_path, timing=args.timing) for p in pairs]
     if args.format == "json":
         doc = {"format": DIFF_FORMAT, "version": DIFF_VERSION, "scripts": [d.to_dict(include_same=args.all) for d in diffs]}
-        sys.stdout.write(json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+        sys.stdout.write(json_diff(doc) + "\n")
     else:
         from sgt_tui.diffing import format_diff
 
