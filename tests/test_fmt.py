@@ -409,7 +409,7 @@ def _is_continuation(line: str) -> bool:
 def _script_and_edit(draw):
     """(the script's lines, the lines after the edit, the index of the line added or removed;
     None when no line could be removed)."""
-    header = draw(st.lists(st.one_of(_directive(), _comment_line), min_size=1, max_size=8))
+    header = draw(st.lists(st.one_of(_directive(), _directive(), _comment_line), min_size=1, max_size=8))
     body: list[str] = []
     for statement in draw(st.lists(_statement(), min_size=1, max_size=8)):
         if statement != [""] or (body and body[-1]):  # blank lines: single, between statements
@@ -420,7 +420,7 @@ def _script_and_edit(draw):
     if draw(st.booleans()):  # add a line
         at = draw(st.integers(0, len(lines)))
         before, following = (lines[at - 1] if at else ""), (lines[at] if at < len(lines) else "")
-        kinds = ["comment"] + (["directive"] if at <= len(header) else ["utterance"])
+        kinds = ["comment"] + (["directive"] * 3 if at <= len(header) else ["utterance"] * 2)
         if at > len(header) and _is_code(before) and not before.startswith("@"):
             kinds.append("continuation")  # after a line of an utterance
         if before and following and not _is_continuation(following):
