@@ -39,36 +39,41 @@ class Pair:
     new_path: Path
 
 
-def pairs_for(args: list[str]) -> list[Pair]:
-    """The script versions ``sgt diff ARGS`` compares (see its --help)."""
-    if "--" in args:
-        at = args.index("--")
-        head, paths = args[:at], args[at + 1 :]
-    else:
-        head, paths = args, []
-    if len(head) == 7 and not paths and _looks_like_git_external(head):
-        return [_external(head)]
-    if len(head) == 2 and not paths and all(os.path.exists(a) for a in head):
-        a, b = map(Path, head)
-        if a.is_dir() and b.is_dir():
-            return _folders(a, b)
-        if a.is_dir() or b.is_dir():
-            raise DiffInputError(f"compare two files or two folders, not a file and a folder ({head[0]}, {head[1]})", usage=True)
-        return [Pair(_read(a), _read(b), str(a), str(b), a, b)]
+def pairs_for(head: list[str], paths: list[str] | None = None) -> list[Pair]:
+    """The script versions ``sgt diff HEAD... -- PATHS...`` compares (see its --help): ``head``
+    the arguments before ``--``, ``paths`` those after it (None: there was no ``--``). As in
+    ``git diff``, everything after ``--`` is a path; one that exists in neither version is an
+    error, which says that options go before ``--``."""
+    if paths is None:
+        if len(head) == 7 and _looks_like_git_external(head):
+            return [_external(head)]
+        if len(head) == 2 and all(os.path.exists(a) for a in head):
+            a, b = map(Path, head)
+            if a.is_dir() and b.is_dir():
+                return _folders(a, b)
+            if a.is_dir() or b.is_dir():
+                raise DiffInputError(f"compare two files or two folders, not a file and a folder "
+                                     f"({quoted(head[0])}, {quoted(head[1])})", usage=True)
+            return [Pair(_read(a), _read(b), str(a), str(b), a, b)]
     if not head:
         raise DiffInputError("give two scripts, or a git revision (sgt diff HEAD~1 FILE, sgt diff A..B -- PATHS)", usage=True)
     rev = head[0]
     git = Git.here()
     if git is None:
         missing = [a for a in head if not os.path.exists(a)]
-        raise DiffInputError(f"{missing[0] if missing else head[0]}: no such file, and not in a git repository "
+        raise DiffInputError(f"{quoted(missing[0] if missing else head[0])}: no such file, and not in a git repository "
                              f"(for a revision)", usage=True)
     if ".." in rev:
         old_rev, new_rev = git.range(rev)
-        return git.changed(old_rev, new_rev, head[1:] + paths)
-    if not git.is_revision(rev):
-        raise DiffInputError(f"{rev}: no such file, and not a git revision", usage=True)
-    return git.changed(rev, None, head[1:] + paths)
+    elif git.is_revision(rev):
+        old_rev, new_rev = rev, None
+    else:
+        raise DiffInputError(f"{quoted(rev)}: no such file, and not a git revision", usage=True)
+    for path in head[1:]:
+        git.check_path(path, old_rev, new_rev, after_dashes=False)
+    for path in paths or ():
+        git.check_path(path, old_rev, new_rev, after_dashes=True)
+    return git.changed(old_rev, new_rev, head[1:] + (paths or []))
 
 
 def _read(path: Path) -> str:
@@ -131,6 +136,28 @@ class Git:
             a = r.stdout.strip()
         return a, b
 
+    def check_path(self, path: str, old: str, new: str | None, *, after_dashes: bool) -> None:
+        """Refuse a path that is in neither version (``new`` None: the working tree), as one
+        line that names it; after ``--`` it may be an option put in the wrong place. A
+        pathspec git expands (``*.sgt``, ``:(glob)...``) and a path outside the repository are
+        left to git."""
+        rel = os.path.relpath(os.path.abspath(path), self.top)
+        if any(c in path for c in "*?[") or path.startswith(":") or rel == ".." or rel.startswith(".." + os.sep):
+            return
+        if (new is None and os.path.lexists(path)) or self.exists(old, rel) or (new is not None and self.exists(new, rel)):
+            return
+        where = f"{old} or {new}" if new is not None else f"{old} or the working tree"
+        hint = ("; everything after '--' is a path: put options before '--' (sgt diff --format json A..B -- PATHS)"
+                if after_dashes else "")
+        raise DiffInputError(f"{quoted(path)}: no such file or folder in {where}{hint}", usage=True)
+
+    def exists(self, rev: str, rel: str) -> bool:
+        """Whether ``rel`` (a file or a folder, from the top) is in revision ``rev``."""
+        if rel == ".":
+            return True
+        r = _git(["cat-file", "-e", f"{rev}:{Path(rel).as_posix()}"], self.top)
+        return r is not None and r.returncode == 0
+
     def changed(self, old: str, new: str | None, paths: list[str]) -> list[Pair]:
         """Every .sgt file that differs between ``old`` and ``new`` (None: the working tree)
         under ``paths`` (all when empty), renames followed."""
@@ -164,9 +191,8 @@ class Git:
                 if os.path.isfile(p) and p.endswith(SUFFIX):
                     rel = os.path.relpath(os.path.abspath(p), self.top)
                     text = _read(Path(p))
-                    out.append(Pair(self.show(old, rel) if new is None else self.show(old, rel), text if new is None
-                                    else self.show(new, rel), f"{old}:{rel}", p if new is None else f"{new}:{rel}",
-                                    Path(p), Path(p)))
+                    out.append(Pair(self.show(old, rel), text if new is None else self.show(new, rel), f"{old}:{rel}",
+                                    p if new is None else f"{new}:{rel}", Path(p), Path(p)))
         return out
 
     def show(self, rev: str, rel: str) -> str | None:
@@ -226,31 +252,83 @@ def json_diff(doc) -> str:
     return _UNSAFE.sub(lambda m: m.group() if m.group() < "\x7f" else f"\\u{ord(m.group()):04x}", text)
 
 
-_MARK = {"changed": "~", "moved": ">", "added": "+", "removed": "-", "same": "="}
-_COLOR = {"changed": "33", "moved": "36", "added": "32", "removed": "31", "same": "2"}
+_MARK = {"changed": "~", "moved": ">", "added": "+", "removed": "-", "affected": ".", "same": "="}
+_COLOR = {"changed": "33", "moved": "36", "added": "32", "removed": "31", "affected": "2", "same": "2"}
+#: The mark and colour of what is said once for many utterances (a header change, a shift).
+_SHARED = ("*", "35")
 
 
 def format_diff(d, *, color: bool = False, include_same: bool = False) -> str:
-    """The text of one script's diff: a header, then each utterance that changed with a line
-    per change. Marks (``~ > + -``) say the status without colour. Names and text from the
-    files are :func:`quoted` and :func:`escaped`: nothing in a file reaches the terminal raw."""
+    """The text of one script's diff: a header; the header changes, once each; then each
+    utterance that changed with a line per change of its own, and each shift of the starts
+    once, where it begins. ``affected`` utterances (only a header change or a shift applies)
+    are listed with ``include_same`` alone. Marks (``~ > + - *``) say the status without colour.
+    Names and text from the files are :func:`quoted` and :func:`escaped`: nothing in a file
+    reaches the terminal raw."""
 
     def paint(code: str, text: str) -> str:
         return f"\x1b[{code}m{text}\x1b[0m" if color else text
 
-    shown = [u for u in d.utterances if include_same or u.status != "same"]
     c = d.counts()
-    summary = ", ".join(f"{c[k]} {k}" for k in ("changed", "moved", "added", "removed") if c[k]) or "no changes"
+    summary = ", ".join(f"{c[k]} {k}" for k in ("changed", "moved", "added", "removed", "affected") if c[k]) or "no changes"
     lines = [paint("1", f"{quoted(d.old_name)} -> {quoted(d.new_name)}") + f"  ({summary}; {c['same']} unchanged)"]
     lines += [paint("33", f"  note: {escaped(p)}") for p in d.problems]
-    for u in shown:
+    lines += [paint(_SHARED[1], f"{_SHARED[0]} {escaped(describe_header(h))}") for h in d.header]
+    shown = None
+    for u in d.utterances:
+        if u.shift is not None and u.shift != shown:
+            shown = u.shift
+            lines.append(paint(_SHARED[1], f"{_SHARED[0]} {describe_shift(d.shifts[u.shift])}"))
+        if not include_same and u.status in ("same", "affected"):
+            continue
         side = u.new or u.old
-        where = _where(u)
         who = f"{escaped(side.speaker)}: " if side.speaker else ""
-        lines.append(paint(_COLOR[u.status], f"{_MARK[u.status]} {where}  {who}\"{escaped(_short(side.text))}\""))
+        lines.append(paint(_COLOR[u.status], f"{_MARK[u.status]} {_where(u)}  {who}\"{escaped(_short(side.text))}\""))
         for ch in u.changes:
             lines.append("    " + escaped(describe(ch)))
     return "\n".join(lines) + "\n\n"
+
+
+def describe_header(h) -> str:
+    """A header change in words: ``@rate visitor: 160 -> 190 (8 lines, each 0.47 s shorter)``."""
+    if h.kind != "voice":
+        (name, old, new), = h.settings
+        if h.kind == "gap":
+            return f"{name}: {old:g} s -> {new:g} s (the silence between lines)"
+        return f"{name}: {old} -> {new} (every line's motion is drawn anew)"
+    who = ", ".join("(lines without a speaker)" if s is None else s for s in h.speakers)
+    said = "; ".join(f"{name} {who}: {old} -> {new}" for name, old, new in h.settings)
+    n = len(h.lines)
+    lengths = [new - old for _, old, new in h.lengths]
+    return f"{said} ({n} line{'s' if n != 1 else ''}{_lengths(lengths, len(h.lengths) == n)})"
+
+
+def _lengths(deltas: list[float], all_of_them: bool) -> str:
+    if not deltas:
+        return ""
+    lo, hi = min(deltas), max(deltas)
+    if hi - lo < 0.005:
+        each = "each " if all_of_them and len(deltas) > 1 else ""
+        return f", {each}{abs(lo):.2f} s {'longer' if lo > 0 else 'shorter'}" if abs(lo) >= 0.005 else ""
+    if lo > 0 or hi < 0:
+        return f", {min(abs(lo), abs(hi)):.2f} to {max(abs(lo), abs(hi)):.2f} s {'longer' if lo > 0 else 'shorter'}"
+    return f", lengths {lo:+.2f} to {hi:+.2f} s"
+
+
+def describe_shift(shift) -> str:
+    """A run of starts that moved in words: ``from line 7 on, every line starts 2.20 s earlier``."""
+    first, last = shift.lines[0], shift.lines[-1]
+    if len(shift.starts) == 1:
+        ((_, old, new),) = shift.starts
+        return f"line {first} starts {abs(new - old):.2f} s {'later' if new > old else 'earlier'} ({old:.2f} -> {new:.2f} s)"
+    which = f"from line {first} on, every line starts" if shift.to_end else f"lines {first} to {last} start"
+    lo, hi = min(shift.seconds), max(shift.seconds)
+    if shift.constant:
+        return f"{which} {abs(shift.seconds[0]):.2f} s {'later' if shift.seconds[0] > 0 else 'earlier'}"
+    if lo > 0 or hi < 0:
+        return (f"{which} {'later' if lo > 0 else 'earlier'}, by {min(abs(lo), abs(hi)):.2f} "
+                f"to {max(abs(lo), abs(hi)):.2f} s")
+    return f"{which} at another time, {lo:+.2f} to {hi:+.2f} s"
 
 
 def _where(u) -> str:
@@ -293,7 +371,8 @@ def describe(ch) -> str:
 
 
 def render_changes(pairs: list[Pair], diffs, folder: Path, *, engine: str | None, size, video: bool) -> list[Path]:
-    """For each utterance both versions have and that changed (more than its start time), the
+    """For each utterance both versions have and that changed (more than its start time; a
+    header change of its voice counts), the
     old take beside the new one (A old, B new) in ``folder``: ``STEM_lineNNNN.gif`` (or
     ``.mp4``, without sound: two speeches cannot play as one) named by the new version's line.
     Returns the files written."""
@@ -304,7 +383,7 @@ def render_changes(pairs: list[Pair], diffs, folder: Path, *, engine: str | None
     make_folder(folder)
     # an utterance that only plays at another time moves the same way: nothing to compare
     jobs = [(p, u) for p, d in zip(pairs, diffs) for u in d.utterances if u.old is not None and u.new is not None
-            and any(c.kind != "retimed" for c in u.changes)]
+            and (u.header or any(c.kind != "retimed" for c in u.changes))]
     written: list[Path] = []
     m = Mannequin(*size)
     try:

@@ -9,8 +9,9 @@ HELP = "rewrite scripts in the canonical layout (--check for CI, --stdin for edi
 DESCRIPTION = """\
 Rewrite .sgt scripts in place in one canonical layout: tags without inner padding and
 pose options in the order speed, flip, hold=; one space between words; 'speaker: text';
-directives one space apart, per-speaker values and preset '=' signs lined up; continuation
-lines indented by four spaces; comments kept; at most one blank line in a row.
+directives one space apart; continuation lines indented by four spaces; comments kept, two
+spaces after code; at most one blank line in a row. Nothing is lined up across lines, so a
+change to one line never rewrites another.
 
 Only whitespace and the order of pose options of different kinds change: what is spoken
 and gestured stays the same. A script with a syntax error (an unknown escape such as \\q
