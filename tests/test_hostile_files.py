@@ -23,7 +23,6 @@ import struct
 import subprocess
 import sys
 import tempfile
-import time
 import wave
 import zipfile
 import zlib
@@ -53,29 +52,33 @@ class Run:
     peak_mib: float
 
 
+#: Runs the command given as its arguments and writes that command's peak resident memory (KiB,
+#: ``RUSAGE_CHILDREN`` of this small process: a process forked from the test's own, which may
+#: hold a gigabyte by the end of the suite, starts with that much resident) to the file in argv[1].
+_LAUNCHER = ("import resource, subprocess, sys\n"
+             "rc = subprocess.call(sys.argv[2:])\n"
+             "open(sys.argv[1], 'w').write(str(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss))\n"
+             "sys.exit(rc)\n")
+
+
 def sgt(*args: str, cwd: Path, timeout: float = 60) -> Run:
-    """``sgt ARGS`` in a process of its own: its exit status, output, and peak memory (the
-    child's own ``ru_maxrss``, from ``os.wait4``); killed, and the test failed, after ``timeout`` s."""
-    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
-        proc = subprocess.Popen([sys.executable, "-m", "sgt_tui.cli", *args], cwd=cwd, stdin=subprocess.DEVNULL,
-                                stdout=out, stderr=err,
+    """``sgt ARGS`` in a process of its own: its exit status, output, and peak memory (measured
+    by a launcher process, see :data:`_LAUNCHER`); killed, and the test failed, after ``timeout`` s."""
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err, tempfile.TemporaryDirectory() as tmp:
+        peak_file = Path(tmp) / "peak"
+        proc = subprocess.Popen([sys.executable, "-c", _LAUNCHER, str(peak_file), sys.executable, "-m", "sgt_tui.cli", *args],
+                                cwd=cwd, stdin=subprocess.DEVNULL, stdout=out, stderr=err, start_new_session=True,
                                 env={**os.environ, "PYTHONPATH": str(ROOT), "SGT_CACHE_DIR": str(cwd / ".cache")})
-        deadline = time.monotonic() + timeout
-        while True:
-            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
-            if pid:
-                break
-            if time.monotonic() > deadline:
-                proc.kill()
-                os.wait4(proc.pid, 0)
-                proc.returncode = -9
-                pytest.fail(f"sgt {' '.join(args)} still ran after {timeout} s")
-            time.sleep(0.05)
-        proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait for it
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, 9)
+            proc.wait()
+            pytest.fail(f"sgt {' '.join(args)} still ran after {timeout} s")
         out.seek(0)
         err.seek(0)
-        return Run(proc.returncode, out.read().decode(errors="replace"), err.read().decode(errors="replace"),
-                   usage.ru_maxrss / 1024)
+        peak_kib = int(peak_file.read_text()) if peak_file.exists() else 0
+        return Run(proc.returncode, out.read().decode(errors="replace"), err.read().decode(errors="replace"), peak_kib / 1024)
 
 
 def refused(run: Run, *needles: str) -> str:

@@ -213,7 +213,7 @@ def test_serve_refuses_the_hostile_inputs_in_bounded_memory(server, tmp_path):
         assert status == 422 and body["diagnostics"][0]["code"] == "SGT411", body
         assert body["diagnostics"][0]["file"] == "<request>" and body["diagnostics"][0]["line"] >= 1
     flac = six_hours_of_silence(tmp_path / "silence.flac")
-    r = subprocess.run(["curl", "-s", "-w", "\n%{http_code}", "-F", 'request={"text": "hello there"}',
+    r = subprocess.run(["curl", "-s", "-w", "\n%{http_code}", "-H", "X-Requested-With: sgt", "-F", 'request={"text": "hello there"}',
                         "-F", f"audio=@{flac}", server.url + "/v1/generate/upload"],
                        capture_output=True, text=True, timeout=120, check=False)
     text, _, status = r.stdout.rpartition("\n")

@@ -60,17 +60,27 @@ def run(args) -> int:
     if result.plan is None:
         return exit_code(result.diagnostics) or 1
     report = []
-    with Inside(out_dir, create=True) as folder:  # the WAVs' names are sgt's: no link planted in the folder is followed
+    # -o DIR: the user's folder, written as a named output is (a link, FIFO or device there is
+    # theirs); the default folder is sgt's: no link planted in it is followed
+    folder = Inside(out_dir, create=True) if args.out_dir is None else None
+    try:
         for u in result.plan.utterances:
             wav = out_dir / f"{path.stem}_{u.index:03d}.wav"
             if u.audio_path is not None and Path(u.audio_path).resolve() != wav.resolve():
-                folder.write(wav.name, Path(u.audio_path).read_bytes())
+                data = Path(u.audio_path).read_bytes()
+                if folder is not None:
+                    folder.write(wav.name, data)
+                else:
+                    atomic_write(wav, data)
             # the plan's words are on the motion timeline (after the lead-in); the table is the audio's
             lead = u.lead_in
             speech_end = u.duration - u.speech.get("tail", 0.0) - lead
             report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav),
                            "duration": round(speech_end, 3), "start": round(u.start + lead, 6),
                            "words": [w.shifted(-lead).to_dict() for w in u.words]})
+    finally:
+        if folder is not None:
+            folder.close()
     if mix_out is not None:
         import sys
 
