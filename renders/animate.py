@@ -263,7 +263,7 @@ def _sheet_items(clip: MotionClip, at: str, n_samples: int):
         return items, f"{n} gesture{'s' if n != 1 else ''}"
     items = []
     for f in sheet_frames(clip.n_frames, n_samples):
-        word = overlay.word_at(clip.words, (f + 0.5) / FPS)
+        word = overlay.frame_word(clip.words, f)
         playing = [gesture_label(c) for c in strokes if c.start_frame <= f < c.end_frame]
         items.append((f, playing[0] if playing else None, word, [(word or "—", True, not word),
                                                                  (", ".join(playing), False, False),

@@ -84,6 +84,13 @@ def word_at(words, seconds: float) -> str | None:
     return None
 
 
+def frame_word(words, frame: int) -> str | None:
+    """The word frame ``frame`` is captioned with: the one being spoken at the frame's middle,
+    ``(frame + 0.5) / FPS`` (the first in ``words`` when two are), or None between words. The
+    page of ``sgt view`` has the same rule (``viewer/src/caption.js``)."""
+    return word_at(words, (frame + 0.5) / FPS)
+
+
 def draw_timeline(draw, width: int, height: int, frame: int, n_frames: int, controls, *, legend=True) -> None:
     g = timeline_geometry(width, height, n_frames)
     s = scale(width, height)
@@ -147,7 +154,7 @@ def decorate(image, frame: int, clip, *, label: str | None = None, word: bool = 
     n = clip.n_frames
     f = min(frame, n - 1)
     if word:
-        draw_word(d, w, h, word_at(clip.words, (f + 0.5) / FPS))
+        draw_word(d, w, h, frame_word(clip.words, f))
     draw_timeline(d, w, h, f, n, clip.controls, legend=legend)
     if label:
         draw_label(d, w, h, label)
