@@ -72,7 +72,10 @@ class ViewServer(uvicorn.Server):
         super().handle_exit(sig, frame)
 
     async def shutdown(self, sockets=None) -> None:
-        self.viewer.close()
+        # A stop without ctrl+c. After one, never close again here: a second ctrl+c landing while
+        # this holds the event's lock would have its handler wait on it for ever.
+        if not self.viewer.closing.is_set():
+            self.viewer.close()
         cut = asyncio.get_running_loop().call_later(CUT_S, self._cut)
         try:
             await super().shutdown(sockets=sockets)
