@@ -119,8 +119,7 @@ def long_take(folder) -> Path:
 @pytest.mark.parametrize("gone, delay", [
     (0, 0.0),  # three pages waiting
     (1, 0.0),  # one of them closed just now
-    (1, 0.05),
-    (3, 0.0),  # all three just closed
+    (3, 0.05),  # all three closed a moment ago
 ])
 def test_ctrl_c_with_pages_waiting_and_pages_just_gone(folder, gone, delay):
     view = View(folder, str(folder / "talk.sgt"))
@@ -137,7 +136,7 @@ def test_ctrl_c_with_pages_waiting_and_pages_just_gone(folder, gone, delay):
         assert status == 503 and json.loads(body)["error"].startswith("sgt view is stopping"), (status, body)
 
 
-@pytest.mark.parametrize("delay", [0.0, 0.01, 0.05, 0.2])
+@pytest.mark.parametrize("delay", [0.0, 0.02, 0.2])
 def test_ctrl_c_right_after_it_listens_and_twice_in_a_row(folder, delay):
     view = View(folder, str(folder / "talk.sgt"))  # SIGINT as soon as the address is printed
     time.sleep(delay)
