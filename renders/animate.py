@@ -14,7 +14,9 @@ framed in the body's colour: by default wherever the head is drawn too small for
 
 Panels side by side are told apart by a label each (the speaker's name, or A/B for a
 comparison) and, given ``tints``, by the colour of the mannequin's body; the label's box is
-drawn in a dark shade of the same colour (:func:`label_color`).
+drawn in a dark shade of the same colour (:func:`label_color`), at the left under the spoken
+word's band (:func:`renders.overlay.label_layout`: never over the word), cut short before the
+face's close-up.
 """
 
 from __future__ import annotations
@@ -52,21 +54,6 @@ def label_color(tint) -> tuple[int, int, int]:
     return tuple(int(round(255 * v)) for v in srgb)
 
 
-def draw_label(image, label: str, color) -> None:
-    """``label`` in white on a box of ``color`` in the top-left corner of PIL ``image`` (the
-    place and size of :func:`renders.overlay.draw_label`)."""
-    from PIL import ImageDraw
-
-    d = ImageDraw.Draw(image)
-    s = overlay.scale(*image.size)
-    f = overlay.font(max(8, round(12 * s)), bold=True)
-    pad = max(1, round(4 * s))
-    y = max(1, round(4 * s))
-    box = d.textbbox((pad * 2, y + pad), label, font=f, anchor="lt")
-    d.rectangle([box[0] - pad, y, box[2] + pad, box[3] + pad], fill=tuple(color))
-    d.text((pad * 2, y + pad), label, font=f, fill=overlay.WHITE, anchor="lt")
-
-
 class _Panel:
     """One clip drawn into a width x height panel, from one view, in one tint, with its overlays
     and, given an ``inset`` (:class:`renders.face_closeup.FaceInset`), a close-up of its face."""
@@ -82,19 +69,27 @@ class _Panel:
         self.hands = hand_positions(clip.positions, clip.hands)
         self.face = FaceFrames(clip.face) if clip.face is not None else None
 
-    def image(self, frame: int, **kw):
-        from PIL import Image
+    def image(self, frame: int, *, word: bool = True, legend: bool = True):
+        from PIL import Image, ImageDraw
 
         f = min(frame, self.clip.n_frames - 1)
         face = self.face[f] if self.face is not None else None
         img = Image.fromarray(self.m.render(self.clip.positions[f], self.hands[f], view=self.view, tint=self.tint,
                                             face=face))
-        overlay.decorate(img, f, self.clip, **kw)
+        overlay.decorate(img, f, self.clip, word=word, legend=legend)
         if self.inset is not None:
             self.inset.draw(img, self.m, self.clip.positions[f], self.hands[f], face, self.tint, label_color(self.tint))
         if self.label:
-            draw_label(img, self.label, label_color(self.tint))
+            overlay.draw_label(ImageDraw.Draw(img), img.width, img.height, self.label, color=label_color(self.tint),
+                               word=overlay.frame_word(self.clip.words, f) if word else None, right=self.label_end(img.width))
         return img
+
+    def label_end(self, width: int) -> float | None:
+        """Where the label must end: before the face's close-up (its frame, and a gap), if any."""
+        if self.inset is None:
+            return None
+        i = self.inset
+        return width - i.margin - i.side - i.border - max(2, i.border * 2)
 
 
 def _compose(panels, frame: int):
@@ -263,7 +258,7 @@ def _sheet_items(clip: MotionClip, at: str, n_samples: int):
         return items, f"{n} gesture{'s' if n != 1 else ''}"
     items = []
     for f in sheet_frames(clip.n_frames, n_samples):
-        word = overlay.word_at(clip.words, (f + 0.5) / FPS)
+        word = overlay.frame_word(clip.words, f)
         playing = [gesture_label(c) for c in strokes if c.start_frame <= f < c.end_frame]
         items.append((f, playing[0] if playing else None, word, [(word or "—", True, not word),
                                                                  (", ".join(playing), False, False),
@@ -295,14 +290,6 @@ def sheet_layout(width: int, height: int, counts: list[int], columns: int = SHEE
         y += band + n * (height + caption)
     return {"cols": cols, "lines": lines, "title": title, "band": band, "caption": caption, "row_tops": tops,
             "size": (cols * width, y), "pad": pad, "fonts": fonts, "caption_lines": centres}
-
-
-def _fit(draw, text: str, font, width: float) -> str:
-    if draw.textlength(text, font=font) <= width:
-        return text
-    while len(text) > 1 and draw.textlength(text + "…", font=font) > width:
-        text = text[:-1]
-    return text + "…"
 
 
 def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, size=DEFAULT_SIZE,
@@ -339,7 +326,7 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
         if title is None:
             title = " / ".join(c.text for c in clips if c.text) or "(no text)"
         tf = overlay.font(big, bold=True)
-        d.text((pad, lay["title"] / 2), _fit(d, title, tf, lay["size"][0] - 2 * pad), font=tf, fill=overlay.INK,
+        d.text((pad, lay["title"] / 2), overlay.fit(title, tf, lay["size"][0] - 2 * pad), font=tf, fill=overlay.INK,
                anchor="lm")
         panels: list[SheetPanel] = []
         for r, (clip, (items, note)) in enumerate(zip(clips, rows)):
@@ -354,7 +341,7 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
             d.rectangle([x, top + 2, chip[2] + pad, top + bh - 3], fill=color)
             d.text((x + pad, top + bh / 2), labels[r], font=nf, fill=overlay.WHITE, anchor="lm")
             x = chip[2] + 2 * pad
-            d.text((x, top + bh / 2), _fit(d, note, overlay.font(small), lay["size"][0] - x - pad),
+            d.text((x, top + bh / 2), overlay.fit(note, overlay.font(small), lay["size"][0] - x - pad),
                    font=overlay.font(small), fill=overlay.SOFT_INK, anchor="lm")
             panel = _Panel(m, clip, None, view=view, tint=tints[r], inset=inset)
             for k, (f, gesture, word, caption) in enumerate(items):
@@ -369,7 +356,7 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
                         continue
                     size_px = (big, mid, small)[i]
                     font = overlay.font(size_px, bold=bold)
-                    text = _fit(d, text, font, width - 2 * pad)
+                    text = overlay.fit(text, font, width - 2 * pad)
                     centre = (x + width / 2, cy + lay["caption_lines"][i])
                     fill = overlay.SOFT_INK if dim else overlay.INK
                     d.text(centre, text, font=font, fill=fill, anchor="mm")

@@ -168,6 +168,7 @@ def test_a_gif_of_two_speakers_tints_each_and_its_label(tmp_path, mannequin, tra
 
     from renders.animate import label_color, render_gif
     from renders.mannequin import speaker_tint
+    from renders.overlay import label_layout
 
     tints = [speaker_tint(0), speaker_tint(1)]
     render_gif(tracks[0], tmp_path / "two.gif", size=SIZE, others=tracks[1:], labels=("guide", "robot"),
@@ -178,8 +179,9 @@ def test_a_gif_of_two_speakers_tints_each_and_its_label(tmp_path, mannequin, tra
     left, right = rgb[:, : SIZE[0]], rgb[:, SIZE[0]:]
     assert _body_color(left[:90])[2] > _body_color(left[:90])[0] + 30
     assert _body_color(right[:90])[1] > _body_color(right[:90])[0] + 20
-    for half, tint in ((left, tints[0]), (right, tints[1])):  # the label's box: the tint's dark shade
-        assert np.abs(half[3, 3] - np.array(label_color(tint))).max() <= 12, (half[3, 3], label_color(tint))
+    for half, tint, name in ((left, tints[0], "guide"), (right, tints[1], "robot")):  # the label's box: the tint's dark shade
+        x0, y0, _, _ = (round(v) for v in label_layout(*SIZE, name).box)  # its top left corner, under the word's band
+        assert np.abs(half[y0 + 1, x0 + 1] - np.array(label_color(tint))).max() <= 12, (half[y0 + 1, x0 + 1], label_color(tint))
 
 
 def test_even_frames_and_a_row_without_gestures(tmp_path, mannequin, tracks):

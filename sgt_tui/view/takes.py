@@ -13,11 +13,12 @@ outside the folder is not read (the take shows without speech, and says why). :c
 script, the recordings it names; a motion file; the manifest) and loads a take again, in its
 own thread, once its files have changed and then stood still for a moment (an editor's save
 may take several writes). A take that fails to load again keeps what it showed, with the error.
+:meth:`Viewer.close` (ctrl+c) cancels the load under way (:mod:`core.cancel`: generation stops at
+its next loop point) and stops the watching.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 import threading
@@ -25,6 +26,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from core import cancel
 from core.diagnostics import format_text, summary
 from core.fileio import LinkRefused, resolved_inside
 from core.motion import MotionFile, MotionFileError, load_motion_file
@@ -41,6 +43,8 @@ MANIFEST = "manifest.json"
 #: Seconds between looks at the files, and how long they must stand still before a reload.
 POLL_S = 0.25
 SETTLE_S = 0.3
+#: Why a load is cancelled when sgt view stops.
+STOPPING = "sgt view is stopping"
 
 
 class ViewError(Exception):
@@ -240,7 +244,8 @@ class Viewer:
     """The takes ``sgt view`` serves, and the thread that loads them again when they change.
 
     ``version`` counts every change the page should see (a take loaded, an error, a reload
-    begun, the list of takes changed); :meth:`status` says it all."""
+    begun, the list of takes changed); :meth:`status` says it all. ``closing`` is set once
+    sgt view stops (:meth:`close`)."""
 
     def __init__(self, path: Path, engine: str | None = None, seed: int | None = None) -> None:
         self.path, self.engine, self.seed = Path(path), engine, seed
@@ -250,7 +255,8 @@ class Viewer:
         self.version = 1
         self._manifest = _stamp([self.path / MANIFEST]) if self.folder else ()
         self.slots = [Slot(s) for s in sources_of(self.path, engine, seed)]
-        self._stop = threading.Event()
+        self.closing = threading.Event()
+        self._token: cancel.Token | None = None  # the load under way's
         self._thread: threading.Thread | None = None
 
     # -- the page's questions ---------------------------------------------------------------
@@ -268,22 +274,37 @@ class Viewer:
         self._load(slot)
         with self._lock:
             if slot.loaded is None:
+                if self.closing.is_set():
+                    raise ViewError(STOPPING)
                 raise ViewError(slot.error, slot.details)
             return slot.loaded, slot.id
 
     def _load(self, slot: Slot) -> None:
         with self._loading:
+            if self.closing.is_set():
+                return
+            self._token = token = cancel.Token()
+            if self.closing.is_set():  # closed before the token was there to cancel
+                token.cancel(STOPPING)
             with self._lock:
                 slot.busy = True
                 self.version += 1
             stamp = _stamp(slot.source.watched())
             try:
-                loaded, error, details = slot.source.load(), "", ""
+                with cancel.scope(token):
+                    loaded, error, details = slot.source.load(), "", ""
+            except cancel.Cancelled:  # sgt view is stopping: the slot shows what it showed
+                with self._lock:
+                    slot.busy = False
+                    self.version += 1
+                return
             except ViewError as exc:
                 loaded, error, details = None, str(exc), exc.details
             except Exception as exc:  # a bug: say so on the page and in the terminal, and go on watching
                 log.exception("sgt view: loading %s failed", slot.source.name)
                 loaded, error, details = None, f"{slot.source.name}: internal error ({type(exc).__name__}); the terminal has the details", ""
+            finally:
+                self._token = None
             with self._lock:
                 slot.stamp, slot.busy, slot.error, slot.details = stamp, False, error, details
                 if loaded is not None:
@@ -296,13 +317,23 @@ class Viewer:
         self._thread = threading.Thread(target=self._watch, name="sgt-view-watch", daemon=True)
         self._thread.start()
 
+    def close(self) -> None:
+        """Stop: cancel the load under way, end the watching; ``closing`` is set. It takes no
+        lock, so that uvicorn's signal handler may call it (ctrl+c) whatever the thread it
+        interrupts holds."""
+        self.closing.set()
+        token = self._token
+        if token is not None:
+            token.cancel(STOPPING)
+
     def stop(self) -> None:
-        self._stop.set()
+        """:meth:`close`, then wait (a few seconds at most) for the watching thread to end."""
+        self.close()
         if self._thread is not None:
             self._thread.join(timeout=5)
 
     def _watch(self) -> None:
-        while not self._stop.wait(POLL_S):
+        while not self.closing.wait(POLL_S):
             self.poll()
 
     def poll(self) -> None:
@@ -315,12 +346,12 @@ class Viewer:
             now = _stamp(slot.source.watched())
             if now == slot.stamp:
                 continue
-            while not self._stop.wait(SETTLE_S):  # until the save is over
+            while not self.closing.wait(SETTLE_S):  # until the save is over
                 later = _stamp(slot.source.watched())
                 if later == now:
                     break
                 now = later
-            if not self._stop.is_set():
+            if not self.closing.is_set():
                 self._load(slot)
 
     def _poll_manifest(self) -> None:
