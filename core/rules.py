@@ -392,12 +392,14 @@ SPEAKER_COLON = rule(
     "write '{name}: {rest}' for a speaker, or '{name}\\:{rest}' to speak it",
     """
 A speaker needs a space (or the end of the line) after its colon, so `g:hello` is not the
-speaker `g` saying "hello": it is the text "g:hello", spoken as two words.
+speaker `g` saying "hello": it is the text "g:hello", spoken as two words. The same goes for
+a mark right after the colon: `guide:[pose:nod] Yes.` has no speaker, and says "guide, yes"
+(the nod still plays).
 
-Example: `g:hello`.
+Example: `g:hello`, or `guide:[pose:nod] Yes.`
 
-Fix: add the space (`g: hello`), or escape the colon (`g\\:hello`) to speak it as written
-and silence this warning.
+Fix: add the space (`g: hello`, `guide: [pose:nod] Yes.`), or escape the colon
+(`g\\:hello`) to speak it as written and silence this warning.
 """,
     example="g:hello\n",
 )

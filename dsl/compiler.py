@@ -41,6 +41,10 @@ class CompileResult:
     script: Script
     plan: Plan | None
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    #: Each compiled utterance planned on its declared timing (:mod:`dsl.limits`): the
+    #: performance the limits are checked on (the editor, which compiles a script in pieces,
+    #: lays the pieces' out together); empty when the analysis found errors.
+    declared: list[UtterancePlan] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -143,9 +147,10 @@ def compile_file(
         cancel.check()
         own: list[Diagnostic] = []
         declared.append((_utterance_plan(script, utt, declared_timing(utt), lib, True, own), own))
-    over = too_long(script, Plan(source=str(path), fps=FPS, seed=script.header.seed, utterances=[p for p, _ in declared]))
+    declared_plans = [p for p, _ in declared]
+    over = too_long(script, Plan(source=str(path), fps=FPS, seed=script.header.seed, utterances=declared_plans))
     if over is not None:
-        return CompileResult(script, None, sorted(diags + [over], key=sort_key))
+        return CompileResult(script, None, sorted(diags + [over], key=sort_key), declared_plans)
     for n, (utt, (plan, own)) in enumerate(zip(selected, declared)):
         cancel.check()
         if progress:
@@ -167,7 +172,7 @@ def compile_file(
                                           script.source.replace("\r\n", "\n").replace("\r", "\n").split("\n"),
                                           timing == "estimate")
     diags = sorted(diags, key=sort_key)
-    return CompileResult(script, plan if not any(d.is_error for d in diags) else None, diags)
+    return CompileResult(script, plan if not any(d.is_error for d in diags) else None, diags, declared_plans)
 
 
 def compile_text(text: str, path: Path | str = "<text>", **options) -> CompileResult:

@@ -33,17 +33,28 @@ def declared_timing(utt: Utterance) -> Timing:
     return t
 
 
+def passing(plan: Plan) -> int | None:
+    """The number (in ``plan``) of the first utterance whose motion passes the longest
+    performance :func:`core.limits.current` allows for ``plan``'s speakers; None when it fits.
+    (The editor, which plans a script in pieces, places :func:`too_long`'s error by it.)"""
+    frames = math.floor(limits.current().seconds_for(len(plan.speakers)) * FPS + 1e-9)
+    if plan.n_frames <= frames:
+        return None
+    return next(n for n, u in enumerate(plan.utterances) if u.start_frame + u.n_frames > frames)
+
+
 def too_long(script: Script, plan: Plan) -> Diagnostic | None:
     """The error for a performance (``plan``, laid out on :func:`declared_timing`) longer than
     :func:`core.limits.current` allows for its speakers, at the place where it passes the
     limit; None when it fits."""
+    n = passing(plan)
+    if n is None:
+        return None
     lim = limits.current()
     speakers = len(plan.speakers)
     longest = lim.seconds_for(speakers)
     frames = math.floor(longest * FPS + 1e-9)
-    if plan.n_frames <= frames:
-        return None
-    u = next(u for u in plan.utterances if u.start_frame + u.n_frames > frames)
+    u = plan.utterances[n]
     utt = next(x for x in script.utterances if x.index == u.index)
     where = _crossing(script, utt, u, (frames - u.start_frame) / FPS)
     per = "" if speakers <= 1 else f" for {speakers} speakers (each speaker's track lasts the whole performance)"

@@ -97,7 +97,9 @@ def run(args) -> int:
         print(json_text(report, indent=2))
         return exit_code(result.diagnostics)
     for r in report:
-        who = f"{r['speaker']}: " if r["speaker"] else ""
+        # what is spoken, after who speaks it: a line without a speaker says so, so that a name
+        # it speaks ('guide:[pose:nod] Yes.' says "guide") never reads as its speaker
+        who = f"{r['speaker']}: " if r["speaker"] else "(no speaker) "
         print(f"[{r['index']}] {who}{r['text']}")
         print(f"    {r['audio']}  ({r['duration']:.2f}s, starts at {r['start']:.2f}s in the performance)")
         print(f"    {'word':<20} {'start':>7} {'end':>7}")

@@ -21,7 +21,9 @@ from core import rules
 from core.diagnostics import ERROR, WARNING, Diagnostic, sort_key
 from dsl.compiler import compile_text
 from dsl.fmt import format_source
+from dsl.lines import split_statements
 from dsl.speech.recording import timings_path
+from sgt_tui.editor.analysis import header_audio
 from sgt_tui.editor.tokens import line_tokens
 from sgt_tui.lsp import knowledge
 from sgt_tui.lsp.documents import Document, uri_of
@@ -195,6 +197,8 @@ def _late_strokes(doc: Document, info, change) -> int:
     lines = list(doc.lines)
     first = analysis.utterances[0].line
     keep = set(range(first - 1)) | set(range(info.chunk_line - 1, info.last_line))
+    if info.index:  # the first utterance's recording is not this one's
+        keep -= {n - 1 for n in header_audio(split_statements(doc.text)[0])}
     trial = [line if n in keep else "" for n, line in enumerate(lines)]
     if change is not None:
         row, s, e, text = change
