@@ -189,7 +189,10 @@ def _moves(n: int, rng: np.random.Generator, every, length, draw) -> np.ndarray:
     at = rng.uniform(0.0, every[1])
     while at * FPS < n:
         new = draw()
-        out += (new - value) * smoothstep(np.clip((t - at) / rng.uniform(*length), 0.0, 1.0))
+        span = rng.uniform(*length)
+        a, b = math.ceil(at * FPS), min(n, math.ceil((at + span) * FPS))
+        out[a:b] += (new - value) * smoothstep(np.clip((t[a:b] - at) / span, 0.0, 1.0))
+        out[b:] += new - value
         value = new
         at += rng.uniform(*every)
     return out
@@ -261,19 +264,27 @@ def head_answers(n_frames: int, phrase_times, rng: np.random.Generator, how: Lis
             continue
         if pick < how.nod_chance:
             deg = rng.uniform(*how.nod_deg)
-            pitch += math.radians(deg) * _nod(t - at, how)
+            nod = how.nod_down + how.nod_up
+            w = _frames(at, 2 * nod, n_frames)  # (a double nod starts as the first ends)
+            pitch[w] += math.radians(deg) * _nod(t[w] - at, how)
             if rng.random() < how.double_nod:
-                pitch += math.radians(0.6 * deg) * _nod(t - at - how.nod_down - how.nod_up + 0.05, how)
-            free = at + how.answer_gap + how.nod_down + how.nod_up
+                pitch[w] += math.radians(0.6 * deg) * _nod(t[w] - at - nod + 0.05, how)
+            free = at + how.answer_gap + nod
         elif pick < how.nod_chance + how.tilt_chance:
             deg = rng.uniform(*how.tilt_deg) * (1.0 if rng.random() < 0.5 else -1.0)
             hold = rng.uniform(*how.tilt_hold)
-            u = t - at
+            w = _frames(at, how.tilt_in + hold + how.tilt_out, n_frames)
+            u = t[w] - at
             shape = smoothstep(np.clip(u / how.tilt_in, 0, 1)) - smoothstep(np.clip((u - how.tilt_in - hold) / how.tilt_out, 0, 1))
-            roll += math.radians(deg) * shape
-            pitch += math.radians(1.0) * shape  # a tilt comes with the chin a little down
+            roll[w] += math.radians(deg) * shape
+            pitch[w] += math.radians(1.0) * shape  # a tilt comes with the chin a little down
             free = at + how.answer_gap + how.tilt_in + hold + how.tilt_out
     return pitch, roll
+
+
+def _frames(at: float, seconds: float, n_frames: int) -> slice:
+    """The frames from ``at`` (seconds) to ``seconds`` after it (and one more), within the clip."""
+    return slice(max(0, math.floor(at * FPS)), max(0, min(n_frames, math.ceil((at + seconds) * FPS) + 1)))
 
 
 def _nod(u: np.ndarray, how: Listener) -> np.ndarray:
