@@ -573,9 +573,8 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
     take = draw_take(db, take_posture.take_key(inputs, seed)) if opts.take_posture else None
-    a = postprocess.seeded_controls(inputs)
-    raw = match(db, audio, ids, onsets, a, seed, take, getattr(inputs, "start_poses", None),
-                postprocess.pause_frames(inputs.words, n))
+    a = inputs.arrays
+    raw = match(db, audio, ids, onsets, a, seed, take, pauses=postprocess.pause_frames(inputs.words, n))
     return finish(raw, a, smoothing=opts.smoothing, blend=opts.blend, ramp=opts.ramp, words=inputs.words)
 
 

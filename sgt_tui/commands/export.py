@@ -110,8 +110,9 @@ def run(args) -> int:
 
         from pathlib import Path
 
-        with Inside(Path(sidecar).parent) as folder:
-            folder.check(Path(sidecar).name)
+        if Path(sidecar).parent.is_dir():  # (a folder still to be made holds no link)
+            with Inside(Path(sidecar).parent) as folder:
+                folder.check(Path(sidecar).name)
     take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
 
     from core.motion import save_motion
@@ -125,7 +126,7 @@ def run(args) -> int:
         tracks = [t for t in tracks if speaker_name(t.speaker) == args.speaker]
         clips = [c for c in clips if speaker_name(c.speaker) == args.speaker]
     if face is None and rig == "sgt" and fmt in ("json", "npz"):
-        save_motion(out, clips, format=fmt, tracks=tracks, source=take.source)
+        save_motion(out, clips, format=fmt, tracks=tracks, source=take.source, engine=take.engine)
         print(f"wrote {shown(out)}: {len(clips)} utterance(s), {len(tracks)} track(s)", file=sys.stderr)
         return 0
     if not tracks:  # one utterance, or a version 1 file: the utterances one after another
@@ -249,5 +250,5 @@ def _write_timeline(path, clips, files, tracked: bool) -> None:
                      "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6)})
     doc = {"fps": FPS, "files": {speaker_name(s): Path(str(p)).name for p, s in files}, "utterances": rows}
     path = Path(path)
-    with Inside(path.parent) as folder:  # a name sgt chose: no link planted there is followed
+    with Inside(path.parent, create=True) as folder:  # a name sgt chose: no link planted there is followed
         folder.write(path.name, json_bytes(doc, indent=1) + b"\n")
