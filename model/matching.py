@@ -21,8 +21,8 @@ frames; for each it picks the database frame whose
 
 with a bonus for simply continuing the take it is already playing (:data:`CONTINUE_BONUS`),
 except where that take falls silent while the line speaks on (:func:`continue_bonus`).
-The speaker's track (``start_poses``) steers the first segment's entry only: the performance
-eases the line in from the track (:func:`model.performance.place`).
+An utterance is matched from its own inputs alone (no pose of the lines around it): the
+performance eases each line in from its speaker's track (:func:`model.performance.place`).
 Segments join with a cross-fade of :data:`BLEND` frames from the old take's own continuation
 into the new one, bone by bone, so no joint jumps. The first segment is drawn among the
 :data:`FIRST_CHOICES` best by the seed; the rest is deterministic. Then the same
@@ -608,11 +608,8 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
     take = draw_take(db, take_posture.take_key(inputs, seed)) if opts.take_posture else None
-    # the track's poses steer the first segment's entry; the line's first second is not held to
-    # them (as the neural engine's seed): the performance eases the line in from its track
     a = inputs.arrays
-    raw = match(db, audio, ids, onsets, a, seed, take, getattr(inputs, "start_poses", None),
-                postprocess.pause_frames(inputs.words, n))
+    raw = match(db, audio, ids, onsets, a, seed, take, pauses=postprocess.pause_frames(inputs.words, n))
     return finish(raw, a, smoothing=opts.smoothing, blend=opts.blend, ramp=opts.ramp, words=inputs.words)
 
 

@@ -108,7 +108,7 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     use_threads(opts.threads)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
-    arrays = postprocess.seeded_controls(inputs)
+    arrays = inputs.arrays
     raw = network_motion(model, audio, ids, onsets, arrays, seed, take_posture.take_key(inputs, seed), opts.take_posture,
                          take_posture.drift_start(inputs.words), inputs.words)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,

@@ -11,12 +11,9 @@ shifts, arms and hands that settle now and then (:func:`listening_hands`), and n
 tilts of the head shortly after the other speakers' phrase ends (:func:`phrase_ends`,
 :func:`head_answers`).
 
-Joins: engines that take seed poses (the neural engine, like its own sliding windows; the
-matching engine for its first segment's entry) start an utterance from its track's listening
-poses (:data:`SEED_FRAMES` of them, :func:`listening_tracks`), so it begins where the track
-is. An utterance ends wherever its
-engine left it (and the other engines start anywhere), so it is also eased in and out of
-the listening motion (:func:`place`). Each ease straddles the boundary (half
+Joins: an utterance starts and ends wherever its engine put it (each is generated from its
+own inputs alone, so ``sgt build`` caches exactly what ``sgt generate`` makes), so it is
+eased in and out of the listening motion (:func:`place`). Each ease straddles the boundary (half
 before the utterance's first frame, holding that frame, half inside it), and is as long as
 the distance to cover needs (:data:`EASE_PER_METRE` frames per metre of the largest joint
 distance, at least :data:`MIN_EASE`), so no joint steps more than a few centimetres a frame
@@ -41,8 +38,6 @@ from model.face import _after_words, phrases, speaker_face
 from model.hands import limit_speed, with_gestures
 from model.postprocess import blend_pose_controls, gauss_smooth, smoothstep
 
-#: Listening poses an utterance's generation starts from (the neural engine's seed poses).
-SEED_FRAMES = 15
 #: Shortest ease between listening and speaking motion, frames.
 MIN_EASE = 6
 #: Ease frames per metre of the largest joint distance at a boundary: a smoothstep's steepest
@@ -435,7 +430,9 @@ def perform(plan, clips: list[MotionClip], seed: int = 0, listening: dict | None
             prev_end = own[i - 1][0].start_frame + own[i - 1][0].n_frames if i else 0
             next_start = own[i + 1][0].start_frame if i + 1 < len(own) else n
             end = u.start_frame + c.n_frames
-            place(poses, c.poses, u.start_frame, (u.start_frame - prev_end) // 2, (next_start - end + 1) // 2)
+            # the engine's poses as a motion file holds them (5 decimals), as sgt build's cache gives them back
+            place(poses, np.round(np.asarray(c.poses, np.float32), 5), u.start_frame, (u.start_frame - prev_end) // 2,
+                  (next_start - end + 1) // 2)
             place_hands(hands, c.hands, u.start_frame)
         requests = ControlArrays.empty(n)
         requests.bone_mask = np.zeros((n, N_BONES), np.float32)

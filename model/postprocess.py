@@ -18,7 +18,6 @@ All work on poses (T, 27) of unit bone directions and return renormalised poses.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -381,23 +380,3 @@ def hold_pose(poses: np.ndarray, target: np.ndarray, weight: np.ndarray) -> np.n
     if on.any():
         out[on] = _nlerp(out[on], np.asarray(target, np.float32)[on], np.asarray(weight, np.float32)[on, None])
     return out
-
-
-def seeded_controls(inputs):
-    """The control arrays with ``inputs.start_poses`` (the track's poses where the utterance
-    starts) as pose controls on the first frames the user left free, for both engines: the
-    utterance starts where the speaker's track is (the blend then follows them exactly and
-    eases into the engine's motion)."""
-    start = getattr(inputs, "start_poses", None)
-    if start is None or not len(start):
-        return inputs.arrays
-    a = inputs.arrays
-    arrays = dataclasses.replace(a, pose=a.pose.copy(), pose_mask=a.pose_mask.copy(),
-                                 bone_mask=None if a.bone_mask is None else a.bone_mask.copy())
-    k = min(len(start), arrays.n_frames)
-    free = arrays.pose_mask[:k] < 0.5
-    arrays.pose[:k][free] = np.asarray(start[:k], np.float32)[free]
-    arrays.pose_mask[:k][free] = 1.0
-    if arrays.bone_mask is not None:  # a seeded frame controls every bone
-        arrays.bone_mask[:k][free] = 1.0
-    return arrays

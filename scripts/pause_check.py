@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from model.engines import DEFAULT_ENGINE
+
 SCRIPT = (
     "guide: Welcome to the mall. The shops on this floor open at nine every morning, [pause 2s] and the food court "
     "upstairs stays open late. [pause 4s] If you need anything at all, just ask me and I will show you the way.\n"
@@ -58,7 +60,7 @@ def summary(values: np.ndarray) -> dict:
             "frames": int(values.size)}
 
 
-def measure(path: Path, *, seeds: int = 5, weights=None, engine: str = "neural") -> dict:
+def measure(path: Path, *, seeds: int = 5, weights=None, engine: str = DEFAULT_ENGINE) -> dict:
     """Pause and speech wrist-speed summaries over every utterance with a pause and ``seeds`` takes."""
     from dsl.compiler import compile_file
     from model import matching, neural, teacher
@@ -106,7 +108,7 @@ def main() -> int:
     ap.add_argument("script", nargs="?", help="a .sgt script with [pause] tags (default: the built-in one above)")
     ap.add_argument("--weights", help="generator weights (default: the shipped ones)")
     ap.add_argument("--seeds", type=int, default=5, help="takes (default 5)")
-    ap.add_argument("--engine", choices=("neural", "matching", "rules", "stream"), default="neural")
+    ap.add_argument("--engine", choices=("neural", "matching", "rules", "stream"), default=DEFAULT_ENGINE)
     ap.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:

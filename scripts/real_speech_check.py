@@ -37,6 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
+from model.engines import DEFAULT_ENGINE
+
 ALSA = Path("/usr/share/sounds/alsa")
 PHRASES = ["Front_Left", "Front_Center", "Front_Right", "Rear_Left", "Rear_Center", "Rear_Right", "Side_Left", "Side_Right"]
 SPHINX = Path("/usr/share/pocketsphinx/test/data")
@@ -158,7 +160,7 @@ def main() -> int:
     ap.add_argument("--weights", help="generator weights (default: the shipped ones)")
     ap.add_argument("--out", default="out/real_speech", help="working folder (default out/real_speech)")
     ap.add_argument("--seeds", type=int, default=5, help="takes per condition (default 5)")
-    ap.add_argument("--engine", choices=("neural", "matching", "rules"), default="neural")
+    ap.add_argument("--engine", choices=("neural", "matching", "rules"), default=DEFAULT_ENGINE)
     ap.add_argument("--json", metavar="FILE", help="also write every row and the human-speech summary as JSON")
     args = ap.parse_args()
     sets = recording_sets()

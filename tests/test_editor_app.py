@@ -290,9 +290,7 @@ def test_jobs_cancel_and_missing_weights_errors(tmp_path):
         await pilot.press("ctrl+g")
         await until(pilot, lambda: not app.jobs.busy)
         assert "weights not found" in app.last_message and "sgt train" in app.last_message
-        await pilot.press("ctrl+o")  # neural -> matching (its database is shipped, no weights needed)
-        assert app.engine == "matching"
-        await pilot.press("ctrl+o")  # -> keyframe
+        await pilot.press("ctrl+o")  # neural -> keyframe (the order: matching, the default, first)
         assert app.engine == "keyframe"
         await pilot.press("f8")
         await pilot.pause(0.05)

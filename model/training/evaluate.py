@@ -33,6 +33,7 @@ from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
 from model import keyframe, matching, neural, postprocess
+from model.engines import DEFAULT_ENGINE
 from model.runtime import TorchRunner
 from model.style import style as style_of
 from model.teacher import teach
@@ -176,7 +177,7 @@ def format_style_following(result: dict) -> str:
 
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
                     progress=None, limit: int | None = None, smoothing: str = "one_euro",
-                    with_style: bool = False, takes: bool = True, engine: str = "neural",
+                    with_style: bool = False, takes: bool = True, engine: str = DEFAULT_ENGINE,
                     database=None) -> list[dict] | tuple[list[dict], dict]:
     """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``
     ("all": every clip of the corpus, for a held-out corpus built with another seed),

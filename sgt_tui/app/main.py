@@ -30,6 +30,7 @@ from textual.widgets.text_area import Selection
 
 from core.diagnostics import Diagnostic, summary
 from library.words import WordRulesError, load_word_rules
+from model.engines import DEFAULT_ENGINE
 from sgt_tui.app.actions import ACTION_NAMES, ACTIONS, ENGINE_ORDER, EditorCommands, bindings
 from sgt_tui.app.file_flow import FileFlow
 from sgt_tui.app.job_flow import JobFlow, weights_exist
@@ -77,7 +78,7 @@ class EditorApp(App):
                  cursor_blink: bool = True, gif_size: tuple[int, int] = (320, 320), weights: str | None = None) -> None:
         super().__init__()
         self.script, self.doc = script, script.document
-        self.engine = engine or "neural"
+        self.engine = engine or DEFAULT_ENGINE
         self.gif_size = gif_size
         self.weights = weights  # generator weights for the neural engine (None: the shipped file)
         self.cursor_blink = cursor_blink

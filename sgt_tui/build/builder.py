@@ -531,7 +531,7 @@ def _write(out: Path, s: _Script, exports: tuple[str, ...], settings: Settings, 
     with threadpool_limits(limits=1):  # the performance: the clips become views of the tracks, as sgt generate's
         clips, tracks = perform(plan, clips, seed, listening, exact_for(settings.engine, settings.options()))
     records = outputs.write_motion_outputs(out, s.rel, clips, tuple(e for e in exports if e != "wav"), tracks,
-                                           state=state, guard=guard)
+                                           state=state, guard=guard, source=s.path, engine=settings.engine)
     if "wav" in exports:  # the speech the layout was made from
         for u in utts:
             records.append(outputs.write_wav(out, s.rel, u.index, placed[u.index].audio_path, state=state, guard=guard))

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
+from model.engines import DEFAULT_ENGINE
+
 #: Bump when a change to the compiler, the speech timing, the engines or the post-processing
 #: changes the motion of an utterance whose inputs did not change.
 CODE_VERSION = 8  # 3: audio features summed without BLAS (last bits changed); 4: the speed style met (follow_speed); 5: zero-phase smoothing; 6: the take's posture; 7: the take's drift; 8: the face (motion files version 3)
@@ -44,7 +46,7 @@ _SEEDLESS = frozenset({"keyframe"})
 class Settings:
     """The build's generator settings (``sgt build``'s options)."""
 
-    engine: str = "neural"
+    engine: str = DEFAULT_ENGINE
     seed: int | None = None  # None: each script's @seed
     smoothing: str = "one_euro"
     blend: bool = True

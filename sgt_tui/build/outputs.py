@@ -224,8 +224,9 @@ def write(out: Path, rel: str, data: bytes) -> None:
 
 
 def write_motion_outputs(out: Path, rel: str, clips: list, exports: tuple[str, ...], tracks=(), *,
-                         state: dict | None = None, guard=None) -> list[dict]:
-    """The motion file (utterances on the performance clock and the speakers' ``tracks``) and
+                         state: dict | None = None, guard=None, source=None, engine: str | None = None) -> list[dict]:
+    """The motion file (utterances on the performance clock and the speakers' ``tracks``, the
+    script it was made from, ``source``, and the ``engine``: the file ``sgt generate`` writes) and
     the ``exports`` (``bvh``, ``glb``) of one script: one file per speaker's track as ``sgt
     export`` writes them (``NAME.bvh`` for one speaker, ``NAME.SPEAKER.bvh`` for several; the
     utterances joined when there are no tracks); their records. Nothing is written when one
@@ -246,7 +247,7 @@ def write_motion_outputs(out: Path, rel: str, clips: list, exports: tuple[str, .
     for name in names:
         _not_an_input(out, name, guard)
     motion = io.BytesIO()
-    save_motion(motion, clips, format="json", tracks=list(tracks))
+    save_motion(motion, clips, format="json", tracks=list(tracks), source=source, engine=engine, at=out / names[0])
     write(out, names[0], motion.getvalue())
     for suffix, make in parts:
         clip = make()

@@ -126,7 +126,7 @@ def run(args) -> int:
         tracks = [t for t in tracks if speaker_name(t.speaker) == args.speaker]
         clips = [c for c in clips if speaker_name(c.speaker) == args.speaker]
     if face is None and rig == "sgt" and fmt in ("json", "npz"):
-        save_motion(out, clips, format=fmt, tracks=tracks, source=take.source)
+        save_motion(out, clips, format=fmt, tracks=tracks, source=take.source, engine=take.engine)
         print(f"wrote {shown(out)}: {len(clips)} utterance(s), {len(tracks)} track(s)", file=sys.stderr)
         return 0
     if not tracks:  # one utterance, or a version 1 file: the utterances one after another

@@ -118,7 +118,7 @@ def _generate(config: ServeConfig, req: GenerateRequest, source: str, path: Path
         raise RequestError(422, str(exc)) from None
     cancel.check()  # (encoding the motion has no check points of its own)
     buf = io.BytesIO()
-    save_motion(buf, take.clips, format="json", tracks=take.tracks)  # as sgt generate writes it, less the server's path
+    save_motion(buf, take.clips, format="json", tracks=take.tracks, engine=take.engine)  # as sgt generate writes it, less the server's path
     rest = {"timing": take.timing, "diagnostics": diagnostics_json(take.diagnostics, path)}
     if req.outputs:
         rest["outputs"] = _outputs(req.outputs, take)

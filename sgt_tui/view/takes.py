@@ -102,7 +102,7 @@ class ScriptSource(Source):
             raise ViewError(f"{self.path}: {exc.reason}") from None
         if not take.clips:
             raise ViewError(f"{self.path}: no utterances (a script with only a header makes no motion)")
-        motion = MotionFile(take.clips, take.tracks, str(self.path))
+        motion = MotionFile(take.clips, take.tracks, str(self.path), engine=take.engine)
         plan = take.plan
         samples, rate = mix([(u.audio_path, u.start + u.audio_offset) for u in plan.utterances], plan.n_frames)
         warnings = format_text(take.diagnostics, {str(self.path): take.source}) if take.diagnostics else ""
