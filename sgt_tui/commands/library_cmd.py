@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from core.counting import no_utterance, plural
+
 HELP = "list, inspect and extend the gesture library"
 
 
 def register(subparsers) -> None:
+    from sgt_tui.commands.common import utterance_number
+
     p = subparsers.add_parser("library", help=HELP, description=HELP.capitalize() + ".")
     sub = p.add_subparsers(dest="library_command", metavar="SUBCOMMAND")
 
@@ -37,7 +41,8 @@ def register(subparsers) -> None:
     ad.add_argument("name")
     ad.add_argument("--from", dest="source", required=True, metavar="MOTION_FILE")
     ad.add_argument("--frames", required=True, metavar="A:B", help="frame span, B exclusive")
-    ad.add_argument("--utterance", type=int, default=0, metavar="N")
+    ad.add_argument("--utterance", type=utterance_number, default=0, metavar="N",
+                    help="the motion file's utterance N (the first is 1; default: 1)")
     ad.add_argument("--to", metavar="DIR", help="gesture folder (default: first configured)")
     ad.add_argument("--description", default="")
     ad.add_argument("--tags", default="", help="comma-separated tags")
@@ -67,6 +72,24 @@ def _origin(g) -> str:
     return "built-in" if g.origin == "built-in" else g.origin
 
 
+#: The width of ``library list``'s tags column; longer lists go on, whole, on the next lines.
+TAGS_WIDTH = 30
+
+
+def _tag_lines(tags) -> list[str]:
+    """``tags`` joined with ", " in lines of at most :data:`TAGS_WIDTH` characters (a longer
+    tag on a line of its own), every tag whole."""
+    lines: list[str] = []
+    for tag in tags:
+        if lines and len(lines[-1]) + len(tag) + 3 <= TAGS_WIDTH:  # (room for the comma that may follow)
+            lines[-1] += f", {tag}"
+        else:
+            if lines:
+                lines[-1] += ","
+            lines.append(tag)
+    return lines or [""]
+
+
 def _list(args) -> int:
     import json
 
@@ -89,22 +112,22 @@ def _list(args) -> int:
         print("no gestures" + (f" tagged {', '.join(args.tag)}" if args.tag else ""))
     else:
         width = max(14, max(len(g.name) for g in gestures))
-        print(f"{'NAME':<{width}}  {'SECS':>4}  {'TAGS':<30}  FROM")
+        print(f"{'NAME':<{width}}  {'SECS':>4}  {'TAGS':<{TAGS_WIDTH}}  FROM")
         for g in gestures:
-            tags = ", ".join(g.tags)
-            if len(tags) > 30:
-                tags = tags[:27] + "..."
             src = _origin(g)
             if g.overrides:
                 src += " (overrides)"
-            print(f"{g.name:<{width}}  {g.duration:>4.1f}  {tags:<30}  {src}")
-        print(f"{len(gestures)} gesture{'s' if len(gestures) != 1 else ''}")
+            first, *more = _tag_lines(g.tags)
+            print(f"{g.name:<{width}}  {g.duration:>4.1f}  {first:<{TAGS_WIDTH}}  {src}")
+            for line in more:  # every tag shown: the rest on lines of their own
+                print(f"{'':<{width}}  {'':>4}  {line}")
+        print(plural(len(gestures), "gesture"))
         for g in gestures:
             if g.overrides:
                 print(f"  {g.name}: {g.path} overrides {g.overrides}")
     if lib.problems:
         print()
-        print(f"{len(lib.problems)} problem{'s' if len(lib.problems) != 1 else ''}:")
+        print(f"{plural(len(lib.problems), 'problem')}:")
         for p in lib.problems:
             print(f"  {p}")
     return 0
@@ -229,7 +252,7 @@ def _sheet(args) -> int:
                                     progress=ProgressBar("sheet"))
     finally:
         m.close()
-    print(f"wrote {shown(out)}: {len(info['names'])} gestures ({', '.join(info['views'])}), "
+    print(f"wrote {shown(out)}: {plural(len(info['names']), 'gesture')} ({', '.join(info['views'])}), "
           f"{info['width']}x{info['height']}", file=sys.stderr)
     return 0
 
@@ -286,7 +309,7 @@ def _add(args) -> int:
     except MotionFileError as exc:
         raise InputError(str(exc)) from None
     if not 0 <= args.utterance < len(clips):
-        raise UsageError(f"utterance {args.utterance} does not exist ({args.source} has {len(clips)}: 0..{len(clips) - 1})")
+        raise UsageError(f"{args.source}: {no_utterance(args.utterance, range(len(clips)), what='the motion')}")
     poses, hands = clips[args.utterance].poses, clips[args.utterance].hands
     a, b = _parse_span(args.frames, len(poses))
     if args.stroke is not None and not a <= args.stroke < b:
