@@ -36,61 +36,42 @@ from dataclasses import dataclass, field
 
 # -- the closed classes ----------------------------------------------------------------------
 
-DET = frozenset("the a an this that these those my your his her its our their some any no every each all both another "
-                "either neither which what whose such".split())
-POSSESSIVE = frozenset("my your his her its our their".split())
-SUBJECT = frozenset("i you he she it we they".split())
-PRON = frozenset("i me you he him she her it we us they them myself yourself himself herself itself ourselves "
-                 "themselves mine yours ours theirs hers someone somebody anyone anybody everyone everybody nobody "
-                 "something anything everything nothing none".split())
+DET = frozenset(["the", "a", "an", "this", "that", "these", "those", "my", "your", "his", "her", "its", "our", "their", "some", "any", "no", "every", "each", "all", "both", "another", "either", "neither", "which", "what", "whose", "such"])
+POSSESSIVE = frozenset(["my", "your", "his", "her", "its", "our", "their"])
+SUBJECT = frozenset(["i", "you", "he", "she", "it", "we", "they"])
+PRON = frozenset(["i", "me", "you", "he", "him", "she", "her", "it", "we", "us", "they", "them", "myself", "yourself", "himself", "herself", "itself", "ourselves", "themselves", "mine", "yours", "ours", "theirs", "hers", "someone", "somebody", "anyone", "anybody", "everyone", "everybody", "nobody", "something", "anything", "everything", "nothing", "none"])
 CONTRACTED = {"i'm": "i", "i've": "i", "i'll": "i", "i'd": "i", "you're": "you", "you've": "you", "you'll": "you",
               "you'd": "you", "we're": "we", "we've": "we", "we'll": "we", "we'd": "we", "they're": "they",
               "they'll": "they", "it's": "it", "that's": "that", "there's": "there", "here's": "here",
               "let's": "us", "he's": "he", "she's": "she", "what's": "what", "who's": "who", "where's": "where"}
-COPULA = frozenset("am is are was were be been being 's 're seems seem seemed looks look looked feel feels felt "
-                   "got get gets become becomes became stays stay remain remains sounds sound".split())
-MODAL = frozenset("will would shall should can could may might must 'll 'd cannot".split())
-AUX = frozenset("am is are was were be been being have has had do does did".split()) | MODAL
-NEGATIVE_AUX = frozenset("isn't aren't wasn't weren't don't doesn't didn't won't wouldn't can't cannot couldn't "
-                         "shouldn't haven't hasn't hadn't mustn't ain't".split())
-ADP = frozenset("in on at to from by with about into onto over under above below behind beside between through "
-                "across around along against among after before during for of off out up down near past since until "
-                "till toward towards within without upon inside outside beyond via like".split())
-CONJ = frozenset("and or but nor so yet".split())
-SCONJ = frozenset("if when while because although though unless whenever whereas once as whether".split())
-CONDITION = frozenset("if when whenever once unless".split())
-WH = frozenset("what where why how who which when whom whose".split())
-INTJ = frozenset("hello hi hey bye goodbye yes yeah no oh oops wow shh please ok okay alright thanks farewell "
-                 "hooray yay welcome greetings".split())
+COPULA = frozenset(["am", "is", "are", "was", "were", "be", "been", "being", "'s", "'re", "seems", "seem", "seemed", "looks", "look", "looked", "feel", "feels", "felt", "got", "get", "gets", "become", "becomes", "became", "stays", "stay", "remain", "remains", "sounds", "sound"])
+MODAL = frozenset(["will", "would", "shall", "should", "can", "could", "may", "might", "must", "'ll", "'d", "cannot"])
+AUX = frozenset(["am", "is", "are", "was", "were", "be", "been", "being", "have", "has", "had", "do", "does", "did"]) | MODAL
+NEGATIVE_AUX = frozenset(["isn't", "aren't", "wasn't", "weren't", "don't", "doesn't", "didn't", "won't", "wouldn't", "can't", "cannot", "couldn't", "shouldn't", "haven't", "hasn't", "hadn't", "mustn't", "ain't"])
+ADP = frozenset(["in", "on", "at", "to", "from", "by", "with", "about", "into", "onto", "over", "under", "above", "below", "behind", "beside", "between", "through", "across", "around", "along", "against", "among", "after", "before", "during", "for", "of", "off", "out", "up", "down", "near", "past", "since", "until", "till", "toward", "towards", "within", "without", "upon", "inside", "outside", "beyond", "via", "like"])
+CONJ = frozenset(["and", "or", "but", "nor", "so", "yet"])
+SCONJ = frozenset(["if", "when", "while", "because", "although", "though", "unless", "whenever", "whereas", "once", "as", "whether"])
+CONDITION = frozenset(["if", "when", "whenever", "once", "unless"])
+WH = frozenset(["what", "where", "why", "how", "who", "which", "when", "whom", "whose"])
+INTJ = frozenset(["hello", "hi", "hey", "bye", "goodbye", "yes", "yeah", "no", "oh", "oops", "wow", "shh", "please", "ok", "okay", "alright", "thanks", "farewell", "hooray", "yay", "welcome", "greetings"])
 #: Adverbs that are only adverbs here (WordNet also has "still" as a verb, "just" as an adjective).
-ADVERBS = frozenset("still just also even only already always never often really very quite too then now soon again "
-                    "almost ever yet so suddenly finally".split())
+ADVERBS = frozenset(["still", "just", "also", "even", "only", "already", "always", "never", "often", "really", "very", "quite", "too", "then", "now", "soon", "again", "almost", "ever", "yet", "so", "suddenly", "finally"])
 NUMBERS = {"zero": 0, "one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8,
            "nine": 9, "ten": 10, "eleven": 11, "twelve": 12, "twenty": 20, "thirty": 30, "forty": 40, "fifty": 50,
            "sixty": 60, "hundred": 100, "thousand": 1000, "million": 10 ** 6, "billion": 10 ** 9}
 ORDINALS = {"first": 1, "second": 2, "third": 3, "fourth": 4, "fifth": 5, "firstly": 1, "secondly": 2, "thirdly": 3,
             "last": 0, "next": 0}
-NEGATORS = frozenset("no not never nothing nobody none neither nor cannot nowhere".split()) | NEGATIVE_AUX
+NEGATORS = frozenset(["no", "not", "never", "nothing", "nobody", "none", "neither", "nor", "cannot", "nowhere"]) | NEGATIVE_AUX
 #: Verbs after which "left", "right", "up", ... are a way to go.
-MOTION = frozenset("turn turns turned turning go goes going went gone keep keeps kept bear head heads move moves moved "
-                   "look looks looked looking step veer swing lean leaning walk walks walked climb climbed climbs "
-                   "point points pointed glance glanced drive stay stays".split())
+MOTION = frozenset(["turn", "turns", "turned", "turning", "go", "goes", "going", "went", "gone", "keep", "keeps", "kept", "bear", "head", "heads", "move", "moves", "moved", "look", "looks", "looked", "looking", "step", "veer", "swing", "lean", "leaning", "walk", "walks", "walked", "climb", "climbed", "climbs", "point", "points", "pointed", "glance", "glanced", "drive", "stay", "stays"])
 #: Nouns a direction word can be the side of ("the left hand", "the right door").
-SPATIAL = frozenset("side hand wing door doors window windows "
-                    "wall walls exit entrance corner lane aisle bank corridor hallway staircase stairs lift elevator "
-                    "tower column row shelf drawer pocket seat screen panel button path road street fork turn "
-                    "edge margin flank field hemisphere half picture figure image photo page".split())
+SPATIAL = frozenset(["side", "hand", "wing", "door", "doors", "window", "windows", "wall", "walls", "exit", "entrance", "corner", "lane", "aisle", "bank", "corridor", "hallway", "staircase", "stairs", "lift", "elevator", "tower", "column", "row", "shelf", "drawer", "pocket", "seat", "screen", "panel", "button", "path", "road", "street", "fork", "turn", "edge", "margin", "flank", "field", "hemisphere", "half", "picture", "figure", "image", "photo", "page"])
 #: Adjectives of size: with a noun or after a copula they are a size whatever the word before.
-SIZE_WORDS = frozenset("big huge large enormous giant gigantic massive vast immense tall small tiny little minuscule".split())
+SIZE_WORDS = frozenset(["big", "huge", "large", "enormous", "giant", "gigantic", "massive", "vast", "immense", "tall", "small", "tiny", "little", "minuscule"])
 #: Nouns an ordinal counts as an item of a list ("the second step") rather than a place in a row.
-LIST_ITEMS = frozenset("step steps stage stages phase point points thing things reason reasons option options rule rules "
-                       "question questions part lesson idea ideas problem problems example examples way method "
-                       "principle factor sign tip task goal choice feature advantage benefit item bag rule".split())
+LIST_ITEMS = frozenset(["step", "steps", "stage", "stages", "phase", "point", "points", "thing", "things", "reason", "reasons", "option", "options", "rule", "rules", "question", "questions", "part", "lesson", "idea", "ideas", "problem", "problems", "example", "examples", "way", "method", "principle", "factor", "sign", "tip", "task", "goal", "choice", "feature", "advantage", "benefit", "item", "bag", "rule"])
 #: Nouns a quantity is ("prices went up": a rise, not a place above).
-QUANTITY = frozenset("price prices fee fees cost costs rate rates number numbers sales profit profits temperature "
-                     "temperatures speed level levels value values balance bill bills rent tax taxes score scores "
-                     "population demand supply income salary wages count total amount share shares stock stocks "
-                     "unemployment inflation pressure volume".split())
+QUANTITY = frozenset(["price", "prices", "fee", "fees", "cost", "costs", "rate", "rates", "number", "numbers", "sales", "profit", "profits", "temperature", "temperatures", "speed", "level", "levels", "value", "values", "balance", "bill", "bills", "rent", "tax", "taxes", "score", "scores", "population", "demand", "supply", "income", "salary", "wages", "count", "total", "amount", "share", "shares", "stock", "stocks", "unemployment", "inflation", "pressure", "volume"])
 _CLEAN = re.compile(r"[^a-z0-9']+")
 _BREAK = re.compile(r"[,;:.?!()\u2014\u2013]|--| - ")
 
@@ -213,7 +194,7 @@ def _tag(toks: list[Token], i: int) -> str:
         return "ADV"
     if w in CONTRACTED:
         return "PRON"
-    if w in WH and not (w == "that"):
+    if w in WH:
         return "WH"
     if w in ("to",):
         return "PART" if nxt is not None and "v" in nxt.poses[:1] and nxt.word not in DET else "ADP"
@@ -257,9 +238,8 @@ def _tag(toks: list[Token], i: int) -> str:
             return "ADJ"
     if pw in ("have", "has", "had", "having", "'ve") and "v" in can and w.endswith(("ed", "en", "wn", "ne", "ht", "t")):
         return "VERB"
-    if pt == "PART" or pw in MODAL or pw in NEGATIVE_AUX | {"let's", "please", "do", "did", "does"} and "v" in can:
-        if "v" in can:
-            return "VERB"
+    if "v" in can and (pt == "PART" or pw in MODAL or pw in NEGATIVE_AUX | {"let's", "please", "do", "did", "does"}):
+        return "VERB"
     if pw in COPULA and "a" in can:
         return "ADJ"
     if pt == "PRON" and pw in SUBJECT | set(CONTRACTED) | {"nobody", "everyone", "someone"} and "v" in can:
@@ -443,7 +423,7 @@ def _idioms(toks, i, lex):
         return _as(i, "good", "'well done': praise", "evaluation")
     if w in ("right", "correct") and p in ("that's", "you're", "exactly", "quite", "absolutely", "all") and p != "all":
         return _as(i, "yes", f"'{p} {w}': agreeing", "affirmation")
-    if w == "right" and (p == "all" or (i == 0 and t.pause) or n in ("now", "away", "here", "there", "back", "after",
+    if w == "right" and p not in MOTION and (p == "all" or (i == 0 and t.pause) or n in ("now", "away", "here", "there", "back", "after",
                                                                           "before", "behind", "next", "then", "in",
                                                                           "at", "on", "under", "above", "below", "ahead")):
         if p == "all":
@@ -494,7 +474,7 @@ def _directions(toks, i, lex):
         pl = p.lemma if p is not None else None
         if pw in ("then",) or nw in ("then", "in", "when") and (i == 0 or pw in ("way", "years", "long")):
             return _as(i, "ago", "'back then': the past, behind", "time")
-        if pw in ("the", "its", "his", "her", "my", "your", "their") and nw == "of" or pw in ("at", "in", "on", "from") and False:
+        if pw in ("the", "its", "his", "her", "my", "your", "their") and nw == "of":
             return _as(i, "behind", "'the back of': a place behind", "direction")
         if pw == "the" and (n is None or t.pause or nw in SPATIAL | {"door", "row", "room", "yard", "wall", "seat", "garden", "office"}):
             return _as(i, "behind", "'the back': a place behind", "direction")
@@ -528,11 +508,11 @@ def _directions(toks, i, lex):
             if pl in ("go", "went", "gone") and not subject and i > 0 and toks[i - 1].start:
                 return _as(i, w, f"'{pw} {w}' as a direction", "direction")
             return _as(i, w, f"'{pw} {w}' as a direction", "direction") if pl in ("go", "move", "crept", "creep") and nw in DET | {"there", "the", "in", "to", "at", "from"} else None
-        if pl in ("look", "point", "climb", "climbed") or pw in ("straight", "way", "far", "deep") and w == "down" and False:
+        if pl in ("look", "point", "climb", "climbed"):
             return _as(i, w, f"'{pw} {w}': a direction", "direction")
-        if i == 0 or t.start or pw in ("far", "way", "right", "up", "down", "over", "deep"):
-            if nw in ("there", "here", "in", "at", "on", "the", "to") or pw in ("far",):
-                return _as(i, w, f"'{w} {nw}': a place {'above' if w == 'up' else 'below'}", "direction")
+        if (i == 0 or t.start or pw in ("far", "way", "right", "up", "down", "over", "deep")) and (
+                nw in ("there", "here", "in", "at", "on", "the", "to") or pw in ("far",)):
+            return _as(i, w, f"'{w} {nw}': a place {'above' if w == 'up' else 'below'}", "direction")
         if nw in ("there", "here") or pw in ("lies", "live", "lives", "sits") or (
                 pw in COPULA and nw in ("in", "on", "at", "above", "by", "near", "among")):
             return _as(i, w, f"'{w}' as a place", "direction")
@@ -750,8 +730,7 @@ def _roles(toks, i, lex):
         return _no(i, f"'{pw} {w}': a hedge, not thinking shown")
     if lemma in ("think", "wonder", "ponder", "consider"):
         if pw in ("let", "me", "to", "must", "need", "should") or t.start and (t.pause or nw in ("about", "of", "it", "carefully", "hard")) or nw in ("about", "of", "it", "hard", "carefully", "twice", "over"):
-            if not (pw in ("you", "we") and nw in ("of",) and False):
-                return _as(i, "ponder", f"'{w}' as thinking it over", "cognition")
+            return _as(i, "ponder", f"'{w}' as thinking it over", "cognition")
         if pw in SUBJECT or pw in ("you", "do", "don't"):
             return _no(i, f"'{pw} {w}': a hedge, not thinking shown")
         return None
@@ -781,9 +760,8 @@ def _roles(toks, i, lex):
         return _as(i, lemma, f"'{w}' as a size{f' (of {nw})' if n is not None and n.tag == 'NOUN' else ''}", "size")
     if w == "little" and nw == "one":
         return _no(i, "'little one': a way of calling someone")
-    if w in ("little",):
-        if pw in ("a",) and (n is None or n.tag not in ("NOUN",) or nw in ("bit", "more", "less", "while")):
-            return _no(i, "'a little': a degree, not a size")
+    if w == "little" and pw == "a" and (n is None or n.tag != "NOUN" or nw in ("bit", "more", "less", "while")):
+        return _no(i, "'a little': a degree, not a size")
     if w in ("bit",) and pw in ("a",):
         return _no(i, "'a bit': a degree, not a size")
     if w in ("short",) and (n is None or n.tag != "NOUN"):
@@ -851,8 +829,6 @@ def _roles(toks, i, lex):
     if w in ("great",) and (t.start or pw in COPULA or (n is not None and n.tag != "NOUN") or (n is not None and nw in (
             "job", "idea", "question", "news", "work", "day", "time", "choice", "answer", "team", "fun"))):
         return _as(i, "good", f"'{w}' as praise, not size", "evaluation")
-    if w in ("sorry",) and (pw in ("so",) or nw in ("about", "for", "to")) and False:
-        return None
     if lemma in ("cheer",) and t.tag == "VERB":
         return _as(i, "hooray", f"'{w}': cheering", "celebration")
     if w in ("future",) and pw in ("the",):
