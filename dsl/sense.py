@@ -63,6 +63,7 @@ ORDINALS = {"first": 1, "second": 2, "third": 3, "fourth": 4, "fifth": 5, "first
             "last": 0, "next": 0}
 NEGATORS = frozenset(["no", "not", "never", "nothing", "nobody", "none", "neither", "nor", "cannot", "nowhere"]) | NEGATIVE_AUX
 #: Verbs after which "left", "right", "up", ... are a way to go.
+HANDING = frozenset(("give", "hand", "pass", "bring"))
 MOTION = frozenset(["turn", "turns", "turned", "turning", "go", "goes", "going", "went", "gone", "keep", "keeps", "kept", "bear", "head", "heads", "move", "moves", "moved", "look", "looks", "looked", "looking", "step", "veer", "swing", "lean", "leaning", "walk", "walks", "walked", "climb", "climbed", "climbs", "point", "points", "pointed", "glance", "glanced", "drive", "stay", "stays"])
 #: Nouns a direction word can be the side of ("the left hand", "the right door").
 SPATIAL = frozenset(["side", "hand", "wing", "door", "doors", "window", "windows", "wall", "walls", "exit", "entrance", "corner", "lane", "aisle", "bank", "corridor", "hallway", "staircase", "stairs", "lift", "elevator", "tower", "column", "row", "shelf", "drawer", "pocket", "seat", "screen", "panel", "button", "path", "road", "street", "fork", "turn", "edge", "margin", "flank", "field", "hemisphere", "half", "picture", "figure", "image", "photo", "page"])
@@ -72,6 +73,8 @@ SIZE_WORDS = frozenset(["big", "huge", "large", "enormous", "giant", "gigantic",
 LIST_ITEMS = frozenset(["step", "steps", "stage", "stages", "phase", "point", "points", "thing", "things", "reason", "reasons", "option", "options", "rule", "rules", "question", "questions", "part", "lesson", "idea", "ideas", "problem", "problems", "example", "examples", "way", "method", "principle", "factor", "sign", "tip", "task", "goal", "choice", "feature", "advantage", "benefit", "item", "bag", "rule"])
 #: Nouns a quantity is ("prices went up": a rise, not a place above).
 QUANTITY = frozenset(["price", "prices", "fee", "fees", "cost", "costs", "rate", "rates", "number", "numbers", "sales", "profit", "profits", "temperature", "temperatures", "speed", "level", "levels", "value", "values", "balance", "bill", "bills", "rent", "tax", "taxes", "score", "scores", "population", "demand", "supply", "income", "salary", "wages", "count", "total", "amount", "share", "shares", "stock", "stocks", "unemployment", "inflation", "pressure", "volume"])
+#: Words of the closed classes: never the noun an adjective stands before ("the giant was ...").
+CLOSED = AUX | NEGATIVE_AUX | PRON | DET | CONJ | SCONJ | frozenset(CONTRACTED)
 _CLEAN = re.compile(r"[^a-z0-9']+")
 _BREAK = re.compile(r"[,;:.?!()\u2014\u2013]|--| - ")
 
@@ -230,8 +233,11 @@ def _tag(toks: list[Token], i: int) -> str:
     pt = prev.tag if prev is not None else None
     can = set(poses)
     if pt in ("DET", "ADJ", "NUM", "ORD") or (pw in POSSESSIVE):
-        if "a" in can and nxt is not None and ("n" in nxt.poses or nxt.word.endswith("s")) and nxt.tag != "ADP":
+        if "a" in can and nxt is not None and ("n" in nxt.poses or nxt.word.endswith("s")) and nxt.tag != "ADP" and (
+                nxt.word not in CLOSED):
             return "ADJ"
+        if "a" in can and pt == "ADJ" and nxt is not None and nxt.word in CLOSED:
+            return "ADJ"  # "much better this year"
         if "n" in can:
             return "NOUN"
         if "a" in can:
@@ -537,6 +543,8 @@ def _directions(toks, i, lex):
             return _as(i, "circle", f"'{w}': all round", "shape")
         return None
     if w == "there":
+        if n is not None and not t.pause and n.tag == "VERB" and pw not in ("over", "up", "down", "out", "right", "in"):
+            return _no(i, f"'there {nw}': 'there' introduces, it points nowhere")
         if pw in ("over", "up", "down", "out", "right") or (pw in MOTION and (n is None or t.pause)):
             return _as(i, "there", f"'{pw} there': a place pointed at", "deixis")
         if t.tag == "ADV" and (n is None or t.pause) and p is not None and p.tag in ("VERB", "NOUN"):
@@ -567,6 +575,8 @@ def _counting(toks, i, lex):
     if w in NUMBERS and neighbours:
         return _as(i, w, f"'{w}' counting aloud (a list of numbers)", "counting")
     if w in ("once", "twice"):
+        if w == "once" and n is not None and not t.pause and (n.tag == "VERB" or n.word.endswith("ed") and "v" in n.poses):
+            return _no(i, f"'once {nw}': formerly, not a count")
         if w == "once" and (pw in ("at", "all") or nw in ("upon", "again", "more") or (n is not None and (
                 n.word in SUBJECT or n.word in CONTRACTED or n.word in POSSESSIVE or n.word in ("the", "this", "that")))):
             return _no(i, f"'{w}' as 'when' or an idiom, not a count")
@@ -623,7 +633,7 @@ def _counting(toks, i, lex):
             return _as(i, w, f"'one {nw}': a count", "counting")
         return _no(i, "'one' as a pronoun")
     if pw in ("the", "these", "those", "its", "our", "your", "their", "my") and n is not None and n.tag in ("NOUN", "ADJ"):
-        return _as(i, w, f"'{pw} {w} {nw}': a number of things", "counting")
+        return _no(i, f"'{pw} {w} {nw}': a group already known, not counted off")
     if p is not None and p.tag == "NOUN" and p.word not in QUANTITY and not p.start:
         return _no(i, f"'{pw} {w}': a name or a number, not a count")
     if p is not None and p.tag == "NOUN" and p.start:
@@ -695,6 +705,8 @@ def _pronouns(toks, i, lex):
             return _as(i, "i", f"'{w} {nw}': the speaker, stressed", "deixis")
         return _no(i, f"'{w} {nw}': a routine 'I', no stress on the speaker")
     if base in ("me", "myself"):
+        if p is not None and p.tag == "VERB" and p.lemma in HANDING and not t.question:
+            return _as(i, "me", f"'{pw} {w}': asking to be given", "deixis")
         if pw in ("let", "show", "tell", "follow", "give", "excuse", "help", "hear", "with", "to", "for", "disagree") and not (
                 pw == "let" and nw in ("show", "tell", "take", "introduce")):
             if pw == "to" and (n is None or t.pause):
@@ -792,8 +804,8 @@ def _roles(toks, i, lex):
         if nw in ("this", "these", "it", "my", "one") and (t.start or pw in ("please", "here")):
             return _as(i, "offer", f"'{w} {nw}': handing it over", "exchange")
         return _no(i, f"'{w}' as taking, not offering")
-    if lemma in ("give", "hand", "pass", "bring") and nw in ("me", "us") and t.tag == "VERB":
-        return _as(i, "grab", f"'{w} {nw}': asking to be given", "exchange")
+    if lemma in HANDING and nw in ("me", "us") and t.tag == "VERB":
+        return _no(i, f"'{w} {nw}': the asking is on '{nw}'")
     if lemma in ("give", "offer", "share") and t.tag == "VERB":
         if nw in ("up", "back", "in", "away", "way") or (nw in ("it", "them") and _w(_next(toks, i, 2)) in ("back", "up", "away")):
             return _no(i, f"'{w} {nw}': no offering")
