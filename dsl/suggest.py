@@ -20,7 +20,8 @@ Three steps for each utterance of an analysed script (:func:`suggest`):
    (the same gesture, or gestures one table entry lists together); none within two words of
    another suggestion (counting words excepted: "one, two, three" chains); at most one mark per
    :data:`WORDS_PER_MARK` words of the utterance, the author's included; when more words call
-   for one, the kinds of :data:`PRIORITY` come first, then the earlier word.
+   for one, the kinds of :data:`PRIORITY` come first, then the earlier word; a count in a sentence
+   that joins things together yields to the joining ("two teams as one, together").
 
 Each :class:`Suggestion` says which word called it, what that word means there and where its
 gesture came from (``sgt suggest --explain``). :func:`apply_suggestions` inserts them into the
@@ -232,6 +233,9 @@ def suggest(script, library, rules, lexicon=...) -> list[Suggestion]:
                    for j, name in marks):
                 continue
             candidates.append((rank.get(kind, len(PRIORITY)), i, gesture, kind, reading.sense, via))
+        joined = {toks[c[1]].sentence for c in candidates if c[3] == "union"}
+        # "the two teams work together": the number counts the parties joined, the joining is the gesture
+        candidates = [c for c in candidates if not (c[3] == "counting" and toks[c[1]].sentence in joined)]
         room = max(0, n // WORDS_PER_MARK - len(marked)) if n >= WORDS_PER_MARK else (0 if marked else 1)
         chosen: list[tuple] = []
         used = 0
