@@ -8,8 +8,8 @@ in "the back door" and a return in "I'll be right back". This module reads an ut
 stands for (``key``: the word itself, its base form, or the word of its sense: "went up" said of
 prices stands for "rise"), or that it calls for no gesture here, and why.
 
-How it reads, by the project's own rules (no statistical tagger installs offline from PyPI with an
-English model; see docs/library.md):
+How it reads, by the project's own rules over WordNet (no statistical tagger: docs/library.md,
+"The lexical resource", says why and what it costs):
 
 - **parts of speech** from a closed-class lexicon (determiners, pronouns, prepositions,
   auxiliaries, conjunctions, numbers) and, for the open classes, WordNet's parts of speech with
