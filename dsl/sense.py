@@ -317,15 +317,6 @@ def _w(t) -> str | None:
     return t.word if t is not None else None
 
 
-def _phrase(toks, i, *words) -> bool:
-    """Whether the words from ``i`` on are ``words``."""
-    return all(i + k < len(toks) and toks[i + k].word == w for k, w in enumerate(words))
-
-
-def _same_clause(toks, i, j) -> bool:
-    return 0 <= j < len(toks) and toks[j].clause == toks[i].clause
-
-
 def _noun_after(toks, i) -> Token | None:
     """The noun that the word at ``i`` modifies (the next word, past adjectives), if any."""
     for j in range(i + 1, min(len(toks), i + 4)):

@@ -34,6 +34,7 @@ import re
 from dataclasses import dataclass
 
 from dsl import sense
+from library.lexicon import find_lexicon
 
 #: Which kinds of reference win when a line has more words that call for a gesture than it has
 #: room for (earlier first).
@@ -201,8 +202,6 @@ def suggest(script, library, rules, lexicon=...) -> list[Suggestion]:
     with gestures from ``library`` only, by ``rules`` (:class:`library.words.WordRules`) and the
     WordNet ``lexicon`` (:func:`library.lexicon.find_lexicon` when not given; None: the table alone)."""
     if lexicon is ...:
-        from library.lexicon import find_lexicon
-
         lexicon = find_lexicon()
     near = neighbours(rules, lexicon)
     meanings = _meanings(rules)
