@@ -411,11 +411,12 @@ _NAMES_SHOWN = 24
 
 class MappingError(LoaderError):
     """Joints of sgt's skeleton that no joint of the take matches by name: ``missing`` (sgt
-    joints) and ``names`` (the take's joints, end sites left out)."""
+    joints), ``names`` (the take's joints, end sites left out) and ``free`` (those of them no
+    sgt joint took)."""
 
-    def __init__(self, message: str, missing: list[str], names: list[str]) -> None:
+    def __init__(self, message: str, missing: list[str], names: list[str], free: list[str]) -> None:
         super().__init__(message)
-        self.missing, self.names = missing, names
+        self.missing, self.names, self.free = missing, names, free
 
 
 def _key(name: str) -> str:
@@ -442,20 +443,28 @@ def resolve_mapping(bvh: Bvh, mapping: dict | None = None) -> dict[str, int]:
         if mapping and joint in mapping:
             m = mapping[joint]
             cands += [m] if isinstance(m, str) else list(m)
+        given = len(cands)
         cands += list(defaults)
-        for c in cands:
-            if c in bvh.names:
-                out[joint] = bvh.names.index(c)
+        for k, c in enumerate(cands):
+            i = bvh.names.index(c) if c in bvh.names else by_key.get(_key(c))
+            if i is not None:
+                out[joint] = i
                 break
-            if _key(c) in by_key:
-                out[joint] = by_key[_key(c)]
-                break
+            if k + 1 == given:  # the mapping's names for it are not in the take
+                raise LoaderError(f"{bvh.name}: the mapping names {', '.join(map(repr, cands[:given]))} for {joint}; "
+                                  f"the take has no such joint (its joints: {listed(_joint_names(bvh))})")
     missing = [j for j in REQUIRED if j not in out]
     if missing:
-        names = [j.name for j in bvh.joints if not j.end_site]
+        names = _joint_names(bvh)
+        used = {bvh.joints[i].name for i in out.values()}
         raise MappingError(f"{bvh.name}: cannot find BVH joints for {', '.join(missing)} (joints in the file: "
-                           f"{listed(names)}); pass a mapping", missing, names)
+                           f"{listed(names)}); pass a mapping", missing, names, [n for n in names if n not in used])
     return out
+
+
+def _joint_names(bvh: Bvh) -> list[str]:
+    """The take's joint names, end sites left out."""
+    return [j.name for j in bvh.joints if not j.end_site]
 
 
 def _rot_y(angle: float) -> np.ndarray:

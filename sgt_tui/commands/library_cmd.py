@@ -468,10 +468,14 @@ def _unmapped(source, exc) -> str:
 
     from model.training.loaders import DEFAULT_MAPPING, _key, listed
 
-    names = [n if n.isprintable() else n.encode("unicode_escape").decode("ascii") for n in exc.names]
+    def shown(name: str) -> str:
+        return name if name.isprintable() else name.encode("unicode_escape").decode("ascii")
+
+    names = [shown(n) for n in exc.names]
     first = exc.missing[0]
     wanted = [_key(c) for c in (first, *DEFAULT_MAPPING[first])]
-    scored = [(max(difflib.SequenceMatcher(None, _key(n), w).ratio() for w in wanted), n) for n in names]
+    # the likeliest of the joints no sgt joint took (not the other arm's, already mapped)
+    scored = [(max(difflib.SequenceMatcher(None, _key(n), w).ratio() for w in wanted), shown(n)) for n in exc.free]
     best = max(scored, default=(0.0, ""))
     guess = best[1] if best[0] >= 0.5 else "THEIR_NAME"
     return (f"{source}: no joint for {', '.join(exc.missing)} among its joints ({listed(names)}); "
