@@ -8,6 +8,8 @@ computed by a forward kinematics of this file's, independent of the loader's.
 from __future__ import annotations
 
 import math
+import os
+import pwd
 import shutil
 import subprocess
 import sys
@@ -385,3 +387,85 @@ def test_a_hostile_take_is_bounded(tmp_path):
     assert len(lines) == 2 and "deep.bvh" in lines[0] and "--map" in lines[0]
     rss_mb = int(lines[1].split()[1]) / 1024
     assert rss_mb < 1024, rss_mb
+
+
+# -- written by Blender ---------------------------------------------------------------------
+
+#: A Mixamo-named armature posed in Blender (z up, facing -y, metres, a T-pose), exported by
+#: Blender's own BVH and glTF writers; the world-space bone ends of every frame as Blender
+#: computes them go to a JSON file.
+BLENDER_RIG = 'import bpy, json, math, sys\nfrom mathutils import Matrix, Vector\nout_bvh, out_glb, out_json, fps = sys.argv[sys.argv.index("--") + 1:]\nfps = int(fps)\nbpy.ops.wm.read_factory_settings(use_empty=True)\nscene = bpy.context.scene\nscene.render.fps = fps\nn = 2 * fps\nscene.frame_start, scene.frame_end = 1, n\ndata = bpy.data.armatures.new("Armature")\narm = bpy.data.objects.new("Armature", data)\nscene.collection.objects.link(arm)\nbpy.context.view_layer.objects.active = arm\nbpy.ops.object.mode_set(mode="EDIT")\n# Mixamo\'s names, metres, a T-pose facing -Y (Blender\'s front), z up\nbones = [("Hips", None, (0, 0, 1.0), (0, 0, 1.1)), ("Spine", "Hips", (0, 0, 1.1), (0, 0, 1.22)),\n         ("Spine1", "Spine", (0, 0, 1.22), (0, 0, 1.35)), ("Spine2", "Spine1", (0, 0, 1.35), (0, 0, 1.51)),\n         ("Neck", "Spine2", (0, 0, 1.51), (0, -0.02, 1.6)), ("Head", "Neck", (0, -0.02, 1.6), (0, -0.02, 1.8)),\n         ("LeftShoulder", "Spine2", (0.06, 0.01, 1.46), (0.18, 0.01, 1.46)),\n         ("LeftArm", "LeftShoulder", (0.18, 0.01, 1.46), (0.45, 0.01, 1.46)),\n         ("LeftForeArm", "LeftArm", (0.45, 0.01, 1.46), (0.70, 0.01, 1.46)),\n         ("LeftHand", "LeftForeArm", (0.70, 0.01, 1.46), (0.78, 0.01, 1.46)),\n         ("RightShoulder", "Spine2", (-0.06, 0.01, 1.46), (-0.18, 0.01, 1.46)),\n         ("RightArm", "RightShoulder", (-0.18, 0.01, 1.46), (-0.45, 0.01, 1.46)),\n         ("RightForeArm", "RightArm", (-0.45, 0.01, 1.46), (-0.70, 0.01, 1.46)),\n         ("RightHand", "RightForeArm", (-0.70, 0.01, 1.46), (-0.78, 0.01, 1.46))]\nfor name, parent, head, tail in bones:\n    b = data.edit_bones.new("mixamorig:" + name)\n    b.head, b.tail = head, tail\n    if parent:\n        b.parent = data.edit_bones["mixamorig:" + parent]\n        b.use_connect = tuple(b.parent.tail) == tuple(b.head)\nbpy.ops.object.mode_set(mode="POSE")\n\ndef ease(t, a, b):\n    u = min(max((t - a) / (b - a), 0.0), 1.0)\n    return u * u * (3 - 2 * u)\n\ndef rot(axis, deg):\n    return Matrix.Rotation(math.radians(deg), 3, axis)\n\ndef pose(name, w):  # a rotation in world axes, relative to the parent\'s\n    pb = arm.pose.bones["mixamorig:" + name]\n    rest = pb.bone.matrix_local.to_3x3()\n    pb.rotation_mode = "QUATERNION"\n    pb.rotation_quaternion = (rest.inverted() @ w @ rest).to_quaternion()\n    pb.keyframe_insert("rotation_quaternion")\n\nrecord = {"fps": fps, "frames": []}\nfor f in range(1, n + 1):\n    scene.frame_set(f)\n    t = (f - 1) / fps\n    up = ease(t, 0.5, 0.9) - 0.6 * ease(t, 1.4, 2.0)\n    drift = 0.5 * math.sin(2 * math.pi * t / 2.0)\n    pose("Spine1", rot("X", 6 * drift) @ rot("Y", 3 * drift))\n    pose("Neck", rot("Z", 10 * drift))\n    pose("LeftArm", rot("Z", -25 * drift) @ rot("Y", 80 - 20 * drift))\n    pose("LeftForeArm", rot("Z", -30 - 20 * drift))\n    pose("RightArm", rot("Z", 60 * up) @ rot("Y", -80 + 110 * up))\n    pose("RightForeArm", rot("Z", 25 + 50 * up) @ rot("X", 20 * up))\n    for name in ("Hips", "Spine", "Spine1", "Spine2", "Neck", "Head", "LeftShoulder", "RightShoulder", "LeftHand", "RightHand"):\n        if name not in ("Spine1", "Neck"):\n            pb = arm.pose.bones["mixamorig:" + name]\n            pb.rotation_mode = "QUATERNION"\n            pb.keyframe_insert("rotation_quaternion")\nfor f in range(1, n + 1):\n    scene.frame_set(f)\n    bpy.context.view_layer.update()\n    record["frames"].append({pb.name.split(":")[1]: [list(arm.matrix_world @ pb.head), list(arm.matrix_world @ pb.tail)]\n                             for pb in arm.pose.bones})\njson.dump(record, open(out_json, "w"))\nbpy.ops.object.mode_set(mode="OBJECT")\narm.select_set(True)\nbpy.ops.export_anim.bvh(filepath=out_bvh, frame_start=1, frame_end=n)\nbpy.ops.export_scene.gltf(filepath=out_glb, export_format="GLB", export_animations=True, export_frame_range=True,\n                          export_force_sampling=True)\nprint("DONE")\n'
+
+
+@pytest.mark.skipif(shutil.which("blender") is None, reason="blender is not installed")
+def test_takes_written_by_blender(tmp_path, capsys):
+    import json
+
+    # Blender takes its Python's prefix from the python3 on PATH: give it the system's
+    r = subprocess.run([shutil.which("blender"), "-b", "--factory-startup", "--python-expr", BLENDER_RIG, "--",
+                        str(tmp_path / "b.bvh"), str(tmp_path / "b.glb"), str(tmp_path / "b.json"), "30"],
+                       capture_output=True, text=True, timeout=120,
+                       env={"PATH": "/usr/bin:/bin", "HOME": pwd.getpwuid(os.getuid()).pw_dir})
+    assert r.returncode == 0 and "DONE" in r.stdout, r.stdout + r.stderr
+    frames = json.loads((tmp_path / "b.json").read_text())["frames"]
+    names = {"left_elbow": "LeftArm", "left_wrist": "LeftForeArm", "right_elbow": "RightArm",
+             "right_wrist": "RightForeArm"}
+    for source in ("b.bvh", "b.glb"):
+        code, out, err = _run(capsys, "library", "add", "blended", "--from", tmp_path / source,
+                              "--frames", "0:60", "--to", tmp_path / "lib", "--force")
+        assert code == 0, err
+        assert "at 15 fps from frames 0:60 at 30 fps" in out
+        stroke = _source_stroke(out)
+        assert abs(stroke / 30 - 0.9) <= 0.1, out
+        want = {}
+        for bone, name in names.items():
+            head, tail = (np.asarray(p) for p in frames[stroke][name])
+            x, y, z = tail - head
+            want[bone] = np.array([x, z, -y])  # Blender's axes (z up, facing -y) -> sgt's
+        errors = _stroke_errors(tmp_path / "lib", "blended", want)
+        assert max(errors.values()) < 3.0, (source, errors)
+        assert len(load_library([tmp_path / "lib"], use_config=False).get("blended").clip().poses) == 30
+
+
+# -- glTF: bad files ------------------------------------------------------------------------
+
+def _gltf(**extra) -> dict:
+    doc = {"asset": {"version": "2.0"}, "nodes": [{"name": "Hips", "children": [1]}, {"name": "Spine"}],
+           "animations": [{"samplers": [{"input": 0, "output": 1}],
+                           "channels": [{"sampler": 0, "target": {"node": 1, "path": "rotation"}}]}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "type": "SCALAR", "count": 2},
+                         {"bufferView": 1, "componentType": 5126, "type": "VEC4", "count": 2}],
+           "bufferViews": [{"buffer": 0, "byteLength": 8}, {"buffer": 0, "byteOffset": 8, "byteLength": 32}],
+           "buffers": [{"byteLength": 40, "uri": "data:application/octet-stream;base64,"
+                        + __import__("base64").b64encode(np.array([0, 1 / 30, 0, 0, 0, 1, 0, 0, 0, 1],
+                                                                  dtype="<f4").tobytes()).decode()}]}
+    doc.update(extra)
+    return doc
+
+
+@pytest.mark.parametrize("change,words", [
+    ({}, ["no joint for", "--map"]),
+    ({"buffers": [{"byteLength": 40, "uri": "../outside.bin"}]}, ["buffers[0]"]),
+    ({"buffers": [{"byteLength": 4000, "uri": "data:application/octet-stream;base64,AAAA"}]}, ["4000 bytes"]),
+    ({"nodes": [{"name": "Hips", "children": [1]}, {"name": "Spine", "children": [0]}]}, ["trees"]),
+    ({"accessors": [{"bufferView": 0, "componentType": 5126, "type": "SCALAR", "count": 2000000},
+                    {"bufferView": 1, "componentType": 5126, "type": "VEC4", "count": 2}]}, ["accessors[0]"]),
+    ({"asset": {"version": "1.0"}}, ["glTF version"]),
+])
+def test_bad_gltf_files(tmp_path, capsys, change, words):
+    (tmp_path / "outside.bin").write_bytes(bytes(40))
+    folder = tmp_path / "take"
+    folder.mkdir()
+    take = folder / "t.gltf"
+    take.write_text(__import__("json").dumps(_gltf(**change)))
+    code, _, err = _run(capsys, "library", "add", "x", "--from", take, "--frames", "0:2", "--to", tmp_path / "lib")
+    assert code == 1 and len(err.strip().splitlines()) == 1 and "Traceback" not in err and "t.gltf" in err
+    assert all(w in err for w in words), err
+
+
+def test_a_truncated_glb(tmp_path, capsys):
+    take = tmp_path / "t.glb"
+    take.write_bytes(b"glTF" + (2).to_bytes(4, "little") + (400).to_bytes(4, "little")
+                     + (300).to_bytes(4, "little") + b"JSON" + b"{}")
+    code, _, err = _run(capsys, "library", "add", "x", "--from", take, "--frames", "0:2", "--to", tmp_path / "lib")
+    assert code == 1 and "t.glb" in err and "runs past the end" in err

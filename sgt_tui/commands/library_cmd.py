@@ -407,7 +407,7 @@ def _from_take(args, source, map_file):
     try:
         if bvh:
             take = read_bvh(source)
-            fps, n = (take.fps if args.fps_in is None else args.fps_in), len(take.motion)
+            fps, n = (_whole(take.fps) if args.fps_in is None else args.fps_in), len(take.motion)
         else:
             take = GltfTake(source, args.animation, args.fps_in)
             fps, n = take.fps, take.n_frames
@@ -428,6 +428,12 @@ def _from_take(args, source, map_file):
     if len(poses) < 2:
         raise UsageError(f"--frames {a}:{b} is {(b - a) / fps:.3f} s: less than 2 frames at {FPS} fps")
     return poses, None, at, a, b, fps, stroke
+
+
+def _whole(fps: float) -> float:
+    """A BVH's rate from its Frame Time, to the whole number of frames a second it rounds
+    (Blender writes 0.033333 for 30 fps)."""
+    return float(round(fps)) if abs(fps - round(fps)) < 1e-4 * fps else fps
 
 
 def _read_map(path) -> dict[str, str | list[str]]:
@@ -477,7 +483,7 @@ def _unmapped(source, exc) -> str:
     # the likeliest of the joints no sgt joint took (not the other arm's, already mapped)
     scored = [(max(difflib.SequenceMatcher(None, _key(n), w).ratio() for w in wanted), shown(n)) for n in exc.free]
     best = max(scored, default=(0.0, ""))
-    guess = best[1] if best[0] >= 0.5 else "THEIR_NAME"
+    guess = best[1] if best[0] >= 0.75 else "THEIR_NAME"
     return (f"{source}: no joint for {', '.join(exc.missing)} among its joints ({listed(names)}); "
             f"name them in a --map file, a line per joint: {first} = \"{guess}\" (see docs/library.md)")
 
