@@ -341,6 +341,9 @@ def test_a_span_longer_than_a_gesture(tmp_path, capsys):
     write_bvh(take, MIXAMO, MIXAMO_NAMES, 30, seconds=12)
     code, _, err = _run(capsys, "library", "add", "x", "--from", take, "--frames", "0:360", "--to", tmp_path / "lib")
     assert code == 2 and "at most 10 s" in err
+    # ten seconds exactly are a gesture's longest: 150 frames
+    assert _run(capsys, "library", "add", "x", "--from", take, "--frames", "0:300", "--to", tmp_path / "lib")[0] == 0
+    assert len(load_library([tmp_path / "lib"], use_config=False).get("x").clip().poses) == 10 * FPS
 
 
 @pytest.mark.parametrize("body", [

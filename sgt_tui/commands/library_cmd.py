@@ -304,7 +304,7 @@ def _parse_span(text: str, n: int, fps: float | None = None, what: str = "the ut
             f"--frames {a}:{b} is not a span of at least 2 frames inside 0:{n} "
             f"({what} has {n} frames{rate}; B is exclusive)"
         )
-    if (b - 1 - a) / fps * FPS + 1 > frame_count(MAX_DURATION) + 1e-6:  # more frames than a spec may have
+    if math.floor((b - 1 - a) / fps * FPS + 1e-6) + 1 > frame_count(MAX_DURATION):  # the frames it resamples to
         raise UsageError(f"--frames {a}:{b} is {(b - a) / fps:.2f} s{rate}; a gesture may be at most "
                          f"{MAX_DURATION:g} s: take a shorter span")
     return a, b
