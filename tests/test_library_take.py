@@ -477,3 +477,27 @@ def test_a_truncated_glb(tmp_path, capsys):
                      + (300).to_bytes(4, "little") + b"JSON" + b"{}")
     code, _, err = _run(capsys, "library", "add", "x", "--from", take, "--frames", "0:2", "--to", tmp_path / "lib")
     assert code == 1 and "t.glb" in err and "runs past the end" in err
+
+
+# -- the project's own exports ----------------------------------------------------------------
+
+@pytest.mark.parametrize("rig", ["sgt", "mixamo", "smplx"])
+def test_the_projects_own_bvh_exports_come_back(tmp_path, capsys, rig):
+    """`sgt export` BVH on sgt's rig, Mixamo's and SMPL-X's: every frame's arms come back
+    (on sgt's own rig every bone)."""
+    from core.motion import MotionClip
+    from renders.export import write_bvh as export_bvh
+    from renders.rigs import get_rig
+
+    poses = load_library(use_config=False).get("point_up").clip().poses
+    export_bvh(tmp_path / "out.bvh", MotionClip(poses=poses), get_rig(rig))
+    code, out, err = _run(capsys, "library", "add", "back", "--from", tmp_path / "out.bvh",
+                          "--frames", f"0:{len(poses)}", "--to", tmp_path / "lib")
+    assert code == 0, err
+    got = load_library([tmp_path / "lib"], use_config=False).get("back").clip().poses
+    assert got.shape == poses.shape
+    bones = list(BONE_INDEX) if rig == "sgt" else list(ARMS)
+    g = got.reshape(len(got), -1, 3)[:, [BONE_INDEX[b] for b in bones]]
+    w = poses.reshape(len(poses), -1, 3)[:, [BONE_INDEX[b] for b in bones]]
+    cos = np.sum(g * w, axis=-1) / np.linalg.norm(g, axis=-1) / np.linalg.norm(w, axis=-1)
+    assert np.degrees(np.arccos(np.clip(cos, -1, 1))).max() < 3.0
