@@ -491,7 +491,7 @@ def test_the_projects_own_bvh_exports_come_back(tmp_path, capsys, rig):
 
     poses = load_library(use_config=False).get("point_up").clip().poses
     export_bvh(tmp_path / "out.bvh", MotionClip(poses=poses), get_rig(rig))
-    code, out, err = _run(capsys, "library", "add", "back", "--from", tmp_path / "out.bvh",
+    code, _, err = _run(capsys, "library", "add", "back", "--from", tmp_path / "out.bvh",
                           "--frames", f"0:{len(poses)}", "--to", tmp_path / "lib")
     assert code == 0, err
     got = load_library([tmp_path / "lib"], use_config=False).get("back").clip().poses

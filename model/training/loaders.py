@@ -636,7 +636,7 @@ def bvh_to_poses(path_or_bvh, *, sgt_proportions: bool = False, **kwargs) -> np.
     the take's neck: ``sgt_head``). A take on sgt's own skeleton gives its own directions."""
     bvh = path_or_bvh if isinstance(path_or_bvh, Bvh) else read_bvh(path_or_bvh)
     if not sgt_proportions:
-        return _checked_poses(bvh, _positions(bvh, **kwargs)[:, :len(JOINTS)], kwargs.get("fps", FPS))
+        return _checked_poses(bvh, bvh_positions(bvh, **kwargs), kwargs.get("fps", FPS))
     kwargs = {**kwargs, "sgt_head": True}
     x = _positions(bvh, **kwargs)
     rest = _positions(rest_take(bvh), **{**kwargs, "fps": bvh.fps})[0]
