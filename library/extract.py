@@ -11,7 +11,6 @@ where they differ from the previous keyframe's.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -25,6 +24,7 @@ from core.skeleton import (
     N_BONES,
     frame_count,
     positions_from_pose,
+    slerp_poses,
 )
 from library.spec import REST_DIRS, parse_spec_text, sample
 
@@ -112,12 +112,61 @@ def _max_errors(text: str, name: str, dirs: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(cos)).max(axis=-1)  # per frame
 
 
-def default_stroke(dirs: np.ndarray) -> int:
-    """The frame where the wrists are farthest from where they start."""
-    pos = positions_from_pose(dirs.reshape(len(dirs), -1))
-    w = pos[:, [JOINT_INDEX["right_wrist"], JOINT_INDEX["left_wrist"]]]
-    d = np.linalg.norm(w - w[:1], axis=-1).max(axis=-1)
-    return int(np.argmax(d))
+#: The joints whose speed finds the stroke (:func:`find_stroke`): the wrists and the head.
+STROKE_JOINTS = ("right_wrist", "left_wrist", "nose", "head_top")
+#: A movement ends where its speed has fallen to this share of its peak, ...
+END_SHARE = 0.2
+#: ... or where it stops falling once under this share of it.
+STOP_SHARE = 0.3
+#: A movement that ends nearer the span's first pose than it began, within this share of the
+#: span's largest excursion from that pose, brings the gesture back: a retraction.
+BACK_SHARE = 1 / 3
+
+
+def find_stroke(poses: np.ndarray, fps: float = FPS) -> int:
+    """The stroke's frame in ``poses`` (n, 27) at ``fps``: where the span's fastest movement
+    ends. Speed: the fastest of :data:`STROKE_JOINTS` on sgt's skeleton, over a 1/15 s centred
+    difference. Each peak of it is a movement, which ends at the first frame after the peak
+    where the speed has fallen to :data:`END_SHARE` of the peak, or stops falling under
+    :data:`STOP_SHARE` of it (the hold's onset, the key pose), or at the span's end; it began at
+    the last such frame before the peak. The movement with the highest peak that is not a
+    retraction (:data:`BACK_SHARE`) gives the stroke; with none, the frame farthest from the
+    first pose."""
+    p = np.asarray(poses, dtype=np.float64)
+    n = len(p)
+    x = positions_from_pose(p)[:, [JOINT_INDEX[j] for j in STROKE_JOINTS]]
+    h = max(1, round(fps / (2 * FPS)))
+    i0 = np.clip(np.arange(n) - h, 0, n - 1)
+    i1 = np.clip(np.arange(n) + h, 0, n - 1)
+    speed = np.linalg.norm(x[i1] - x[i0], axis=-1).max(axis=-1) / np.maximum(i1 - i0, 1) * fps
+    away = np.linalg.norm(x - x[:1], axis=-1).max(axis=-1)
+    pad = np.concatenate([[np.inf], speed, [np.inf]])
+    minimum = (speed <= pad[:-2]) & (speed <= pad[2:])
+    pad = np.concatenate([[-np.inf], speed, [-np.inf]])
+    peaks = np.flatnonzero((speed > pad[:-2]) & (speed >= pad[2:]) & (speed > 0))
+    for peak in peaks[np.argsort(-speed[peaks], kind="stable")]:
+        stop = (speed <= END_SHARE * speed[peak]) | (minimum & (speed <= STOP_SHARE * speed[peak]))
+        after = np.flatnonzero(stop[peak + 1:])
+        before = np.flatnonzero(stop[:peak])
+        end = peak + 1 + int(after[0]) if len(after) else n - 1
+        start = int(before[-1]) if len(before) else 0
+        if not (away[end] < away[start] and away[end] <= BACK_SHARE * away.max()):
+            return int(end)
+    return int(np.argmax(away))
+
+
+def resample_through(poses: np.ndarray, fps: float, frame: int) -> tuple[np.ndarray, int]:
+    """``poses`` (n, 27) at ``fps`` resampled to :data:`core.skeleton.FPS` on the frames through
+    ``frame`` (so that pose is kept exactly; the others are slerped between their neighbours):
+    (the new poses, ``frame``'s index among them)."""
+    p = np.asarray(poses, dtype=np.float64)
+    step = fps / FPS  # source frames per frame
+    before = math.floor(frame / step + 1e-6)
+    after = math.floor((len(p) - 1 - frame) / step + 1e-6)
+    u = frame + np.arange(-before, after + 1) * step
+    i0 = np.clip(np.floor(u + 1e-9).astype(int), 0, len(p) - 1)
+    i1 = np.minimum(i0 + 1, len(p) - 1)
+    return slerp_poses(p[i0], p[i1], np.clip(u - i0, 0.0, 1.0)), before
 
 
 def spec_text_from_poses(name: str, poses: np.ndarray, *, description: str = "",
@@ -133,7 +182,7 @@ def spec_text_from_poses(name: str, poses: np.ndarray, *, description: str = "",
     dirs = p.reshape(n, N_BONES, 3)
     dirs = dirs / np.linalg.norm(dirs, axis=-1, keepdims=True)
     if stroke is None:
-        stroke = default_stroke(dirs)
+        stroke = find_stroke(dirs.reshape(n, -1))
     frames = sorted({0, n - 1, stroke})
     while True:
         text = render_spec(name, dirs, frames, n, description=description, tags=list(tags),

@@ -15,12 +15,13 @@ echo "    ffmpeg: ffprobe, the independent reader of sgt's MP4s in the tests;"
 echo "    blender + python3-numpy: Blender's glTF/BVH importers read the rig exports in tests/test_rigs_blender.py;"
 echo "    neovim: a real client of 'sgt lsp' in tests/test_nvim.py; nodejs + npm: the VS Code extension, editors/vscode;"
 echo "    chromium: the browser tests of 'sgt view' (tests/test_view_browser.py, headless, DevTools protocol);"
-echo "    praat: reads the TextGrids 'sgt align' writes, in tests/test_align_command.py)"
+echo "    praat: reads the TextGrids 'sgt align' writes, in tests/test_align_command.py;"
+echo "    wordnet-base: the English lexicon 'sgt suggest' reads words' senses from, docs/library.md)"
 $SUDO apt-get update -qq
 DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends \
     espeak-ng libespeak-ng1 tmux libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 fortunes fortunes-min alsa-utils \
     pocketsphinx-testdata festival festvox-kallpc16k festvox-kdlpc16k festvox-us-slt-hts \
-    ffmpeg blender python3-numpy neovim chromium fonts-liberation praat >/dev/null
+    ffmpeg blender python3-numpy neovim chromium fonts-liberation praat wordnet-base >/dev/null
 if ! command -v npm >/dev/null; then  # (a Node.js of its own, from NodeSource say, brings its npm)
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
 fi

@@ -10,7 +10,11 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-LABELS = Path(__file__).resolve().parent / "data" / "suggest_labels.txt"
+DATA = Path(__file__).resolve().parent / "data"
+LABELS = DATA / "suggest_labels.txt"
+#: The fresh set, split once: tune on DEV only; TEST gives the figures.
+DEV = DATA / "suggest_dev.txt"
+TEST = DATA / "suggest_test.txt"
 _CLEAN = re.compile(r"[^a-z0-9']+")
 
 

@@ -245,13 +245,13 @@ def test_a_request_that_times_out_frees_its_worker(server):
 
 
 def test_a_stream_message_that_times_out_frees_its_worker(server):
-    """A ``text`` message of 800 words makes the stream decide 6,000 frames (half a minute of
-    work); at the timeout the stream is closed and the work stops."""
+    """A ``text`` message of 800 words makes the neural stream decide 6,000 frames (half a
+    minute of work); at the timeout the stream is closed and the work stops."""
     from websockets.sync.client import connect
 
     before = pool(server)["cancelled"]
     with connect(server.url.replace("http://", "ws://") + "/v1/stream", open_timeout=10, close_timeout=2) as ws:
-        ws.send(json.dumps({"type": "start"}))
+        ws.send(json.dumps({"type": "start", "engine": "neural"}))
         assert json.loads(ws.recv(timeout=30))["type"] == "ready"
         ws.send(json.dumps({"type": "text", "text": " ".join(["mountains"] * 800)}))
         reply = json.loads(ws.recv(timeout=30))

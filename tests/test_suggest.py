@@ -60,7 +60,7 @@ def test_suggestions_leave_everything_else_and_keep_their_distances(lib):
     text = apply_suggestions(SCRIPT, found)
     assert re.sub(r"\[pose:(?!nod\])\w+\] ", "", text) == SCRIPT  # nothing but the inserted marks
     assert {(s.word, s.gesture) for s in found} >= {("Hello", "wave"), ("one", "count_one"), ("upstairs", "point_up"),
-                                                    ("What", "what"), ("no", "head_shake"), ("huge", "big")}
+                                                    ("What", "what"), ("idea", "shrug"), ("huge", "big")}
     again = analyse(text, "s.sgt")
     for u in again.utterances:
         marked = [m.word_index for m in u.poses]
@@ -104,7 +104,8 @@ def test_sgt_suggest_writes_the_script_or_the_json_and_never_over_its_input(tmp_
     assert main(["suggest", str(src), "--format", "json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     first = doc["suggestions"][0]
-    assert first == {"utterance": 0, "line": 2, "col": 8, "gesture": "wave", "word": "Hello", "kind": "greeting"}
+    assert first == {"utterance": 0, "line": 2, "col": 8, "gesture": "wave", "word": "Hello", "kind": "greeting",
+                     "sense": "'hello' as an interjection", "via": "'hello' in the built-in table (greeting)"}
     assert main(["suggest", str(src), "-o", str(src)]) == 2  # the input is never the output
     assert src.read_text() == SCRIPT
     bad = tmp_path / "bad.sgt"
@@ -167,9 +168,9 @@ def test_the_editor_suggests_for_the_utterance_at_the_cursor(tmp_path):
     doc = Document(SCRIPT)
     a = Analyser(tmp_path / "s.sgt").run(doc.text)
     action = suggest_gestures(doc, a.utterance_at(4), a.library, load_word_rules())
-    assert action.message.startswith("3 gestures suggested: what on 'What', head_shake on 'no', big on 'huge'")
+    assert action.message.startswith("3 gestures suggested: what on 'What', shrug on 'idea', big on 'huge'")
     assert {r.start[0] for r in action.replacements} == {3}  # only the utterance at the cursor (line 4)
-    assert {r.text for r in action.replacements} == {"[pose:what] ", "[pose:head_shake] ", "[pose:big] "}
+    assert {r.text for r in action.replacements} == {"[pose:what] ", "[pose:shrug] ", "[pose:big] "}
     with pytest.raises(EditRefused):
         suggest_gestures(doc, None, a.library, load_word_rules())
 

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from core.reading import InputFileError, open_input, read_bytes
-from core.skeleton import BONE_NAMES, FPS, JOINTS, pose_from_positions
+from core.skeleton import BONE_INDEX, BONE_LENGTHS, BONE_NAMES, FPS, JOINTS, N_BONES, REST_DIRECTIONS, normalize_pose, pose_from_positions
 from core.words import TimedWord
 from dsl.speech.recording import read_timings
 from dsl.speech.types import SpeechError
@@ -292,16 +292,21 @@ def _check_motion(toks: _Tokens, joints: list[BvhJoint], motion: np.ndarray) -> 
 def read_bvh(path) -> Bvh:
     """A BVH file, read by :func:`core.reading.read_bytes` (a regular file of at most
     ``LIMITS["motion capture"]`` bytes: a FIFO or a device is refused without being read)."""
+    return parse_bvh(read_take(path, "a BVH file"), str(path))
+
+
+def read_take(path, kind: str) -> bytes:
+    """A take's bytes, read by :func:`core.reading.read_bytes` (at most ``LIMITS["motion
+    capture"]``); :class:`LoaderError` naming the file, ``kind`` ("a BVH file") for a folder."""
     p = Path(path)
     try:
-        data = read_bytes(p, "motion capture")
+        return read_bytes(p, "motion capture")
     except InputFileError as e:
         raise LoaderError(f"{p}: {e.reason}") from None
     except IsADirectoryError:
-        raise LoaderError(f"{p}: it is a folder, not a BVH file") from None
+        raise LoaderError(f"{p}: it is a folder, not {kind}") from None
     except OSError as e:
         raise LoaderError(f"cannot read {str(p)!r}: {e.strerror or e}") from None
-    return parse_bvh(data, str(p))
 
 
 def _axis_rot(axis: int, deg: np.ndarray) -> np.ndarray:
@@ -372,30 +377,63 @@ def zero_pose_positions(bvh: Bvh) -> np.ndarray:
 
 # -- joint mapping --------------------------------------------------------------------------
 
-#: sgt joint -> BVH joint names tried in order (case-insensitive, prefixes like "mixamorig:" ignored).
+#: sgt joint -> BVH joint names tried in order (case-insensitive, and compared without "_", "."
+#: or spaces and without a "mixamorig:"-style namespace or a "Bip01" prefix). One list serves the
+#: skeletons sgt knows by name: Mixamo (``mixamorig:LeftArm``), the CMU motion capture BVH
+#: (``LeftArm``, ``LeftForeArm``, ``LeftHand``; CMU's ASF names ``lhumerus``, ``lradius``,
+#: ``lwrist``), GENEA/Trinity and BEAT takes, Unreal (``upperarm_l``), Blender's human metarig
+#: (``upper_arm.L``, ``forearm.L``, ``hand.L``; ``spine.004`` the neck, ``spine.006`` the
+#: head), SMPL-X (``left_shoulder`` is its upper arm's root, ``left_collar`` the collar bone) and
+#: sgt's own BVH (renders/export.py: ``nose`` and ``head_top`` are joints). A name that means
+#: another bone in another skeleton comes after the names that cannot be mistaken: Mixamo's
+#: ``LeftShoulder`` is a collar bone, so ``left_shoulder`` is tried after every upper-arm name.
 DEFAULT_MAPPING: dict[str, tuple[str, ...]] = {
-    "spine": ("Spine", "Spine1", "spine_01", "Chest", "Hips", "pelvis"),
-    "neck": ("Neck", "Neck1", "neck_01", "Neck2"),
-    "head": ("Head", "head"),
-    "head_top": ("HeadEnd", "Head_End", "HeadTop_End", "head_top", "Head_Nub", "Head_end"),
-    "left_shoulder": ("LeftArm", "LeftUpArm", "LeftUpperArm", "L_UpperArm", "upperarm_l", "LeftShoulder1"),
-    "left_elbow": ("LeftForeArm", "LeftLowArm", "LeftLowerArm", "L_Forearm", "lowerarm_l", "LeftElbow"),
-    "left_wrist": ("LeftHand", "L_Hand", "hand_l", "LeftWrist"),
-    "right_shoulder": ("RightArm", "RightUpArm", "RightUpperArm", "R_UpperArm", "upperarm_r", "RightShoulder1"),
-    "right_elbow": ("RightForeArm", "RightLowArm", "RightLowerArm", "R_Forearm", "lowerarm_r", "RightElbow"),
-    "right_wrist": ("RightHand", "R_Hand", "hand_r", "RightWrist"),
+    "spine": ("Spine", "Spine1", "spine_01", "Chest", "Hips", "pelvis", "lowerback"),
+    "neck": ("Neck", "Neck1", "neck_01", "Neck2", "spine.004", "lowerneck"),
+    "head": ("Head", "head", "spine.006", "nose"),
+    "nose": ("nose",),
+    "head_top": ("HeadEnd", "Head_End", "HeadTop_End", "head_top", "Head_Nub", "Head_end", "spine.006_End"),
+    "left_shoulder": ("LeftArm", "LeftUpArm", "LeftUpperArm", "L_UpperArm", "upperarm_l", "upper_arm.L",
+                      "lhumerus", "LeftShoulder1", "left_shoulder"),
+    "left_elbow": ("LeftForeArm", "LeftLowArm", "LeftLowerArm", "L_Forearm", "lowerarm_l", "forearm.L",
+                   "lradius", "LeftElbow"),
+    "left_wrist": ("LeftHand", "L_Hand", "hand_l", "hand.L", "lwrist", "LeftWrist"),
+    "right_shoulder": ("RightArm", "RightUpArm", "RightUpperArm", "R_UpperArm", "upperarm_r", "upper_arm.R",
+                       "rhumerus", "RightShoulder1", "right_shoulder"),
+    "right_elbow": ("RightForeArm", "RightLowArm", "RightLowerArm", "R_Forearm", "lowerarm_r", "forearm.R",
+                    "rradius", "RightElbow"),
+    "right_wrist": ("RightHand", "R_Hand", "hand_r", "hand.R", "rwrist", "RightWrist"),
 }
 REQUIRED = ("spine", "neck", "head", "left_shoulder", "left_elbow", "left_wrist", "right_shoulder", "right_elbow", "right_wrist")
+#: The most joint names a message lists.
+_NAMES_SHOWN = 24
+
+
+class MappingError(LoaderError):
+    """Joints of sgt's skeleton that no joint of the take matches by name: ``missing`` (sgt
+    joints), ``names`` (the take's joints, end sites left out) and ``free`` (those of them no
+    sgt joint took)."""
+
+    def __init__(self, message: str, missing: list[str], names: list[str], free: list[str]) -> None:
+        super().__init__(message)
+        self.missing, self.names, self.free = missing, names, free
 
 
 def _key(name: str) -> str:
     name = name.split(":")[-1]
-    name = re.sub(r"^(bip0?1|mixamorig)[ _]?", "", name, flags=re.I)
+    name = re.sub(r"^(bip0?1|mixamorig)[ _]?", "", name, flags=re.IGNORECASE)
     return re.sub(r"[^a-z0-9]", "", name.lower())
 
 
+def listed(names: list[str], most: int = _NAMES_SHOWN) -> str:
+    """``names`` joined by commas, at most ``most`` of them and how many more."""
+    shown = ", ".join(names[:most])
+    return shown + (f" and {len(names) - most} more" if len(names) > most else "")
+
+
 def resolve_mapping(bvh: Bvh, mapping: dict | None = None) -> dict[str, int]:
-    """sgt joint (plus "head") -> BVH joint index; ``mapping`` entries (a name or list) come first."""
+    """sgt joint (plus "head") -> BVH joint index; ``mapping`` entries (a name or list) come first.
+    :class:`MappingError` names the joints not found."""
     by_key: dict[str, int] = {}
     for i, j in enumerate(bvh.joints):
         by_key.setdefault(_key(j.name), i)
@@ -405,19 +443,28 @@ def resolve_mapping(bvh: Bvh, mapping: dict | None = None) -> dict[str, int]:
         if mapping and joint in mapping:
             m = mapping[joint]
             cands += [m] if isinstance(m, str) else list(m)
+        given = len(cands)
         cands += list(defaults)
-        for c in cands:
-            if c in bvh.names:
-                out[joint] = bvh.names.index(c)
+        for k, c in enumerate(cands):
+            i = bvh.names.index(c) if c in bvh.names else by_key.get(_key(c))
+            if i is not None:
+                out[joint] = i
                 break
-            if _key(c) in by_key:
-                out[joint] = by_key[_key(c)]
-                break
+            if k + 1 == given:  # the mapping's names for it are not in the take
+                raise LoaderError(f"{bvh.name}: the mapping names {', '.join(map(repr, cands[:given]))} for {joint}; "
+                                  f"the take has no such joint (its joints: {listed(_joint_names(bvh))})")
     missing = [j for j in REQUIRED if j not in out]
     if missing:
-        raise LoaderError(f"cannot find BVH joints for {', '.join(missing)} (joints in the file: "
-                          f"{', '.join(j.name for j in bvh.joints if not j.end_site)}); pass a mapping")
+        names = _joint_names(bvh)
+        used = {bvh.joints[i].name for i in out.values()}
+        raise MappingError(f"{bvh.name}: cannot find BVH joints for {', '.join(missing)} (joints in the file: "
+                           f"{listed(names)}); pass a mapping", missing, names, [n for n in names if n not in used])
     return out
+
+
+def _joint_names(bvh: Bvh) -> list[str]:
+    """The take's joint names, end sites left out."""
+    return [j.name for j in bvh.joints if not j.end_site]
 
 
 def _rot_y(angle: float) -> np.ndarray:
@@ -469,14 +516,32 @@ def _sample_times(n: int, src_fps: float, dst_fps: float) -> tuple[np.ndarray, n
 _FK_PIECE = 1 << 18
 
 
-def bvh_positions(bvh: Bvh, *, mapping: dict | None = None, scale: float | None = None,
-                  up: str | None = None, fps: float = FPS, nose_forward: float = 0.10,
-                  head_top_height: float = 0.18) -> np.ndarray:
+def bvh_positions(bvh: Bvh, **kwargs) -> np.ndarray:
     """(T, 10, 3) sgt joint positions in metres, y up, facing +z, at ``fps`` (linear
     interpolation of the positions). Forward kinematics runs over the joints the mapping needs,
     a piece of the take at a time, keeping only the frames the resampling reads: memory does
-    not grow with the file's joints, and the work is bounded by :data:`MAX_JOINT_FRAMES`."""
+    not grow with the file's joints, and the work is bounded by :data:`MAX_JOINT_FRAMES`.
+
+    The nose and the top of the head: the take's own joints where it has them (a ``nose``, an
+    end site above the head); else a point ``nose_forward`` in front of the head joint and one
+    ``head_top_height`` above it. With ``sgt_head`` (and no nose joint) they are sgt's rest head
+    on the take's neck, turned as the take's head joint turned from its rest pose."""
+    return _positions(bvh, **kwargs)[:, :len(JOINTS)]
+
+
+#: The joints :func:`_positions` gives after sgt's: the parent joints of the take's upper arms
+#: (collar bones, where it has them).
+COLLARS = ("left_collar", "right_collar")
+
+
+def _positions(bvh: Bvh, *, mapping: dict | None = None, scale: float | None = None,
+               up: str | None = None, fps: float = FPS, nose_forward: float = 0.10,
+               head_top_height: float = 0.18, sgt_head: bool = False) -> np.ndarray:
+    """(T, 12, 3): :func:`bvh_positions`' joints and then :data:`COLLARS`."""
     idx = resolve_mapping(bvh, mapping)
+    for side in ("left", "right"):
+        parent = bvh.joints[idx[f"{side}_shoulder"]].parent
+        idx[f"{side}_collar"] = parent if parent >= 0 else idx["neck"]
     scale = detect_scale(bvh, idx) if scale is None else float(scale)
     up = detect_up(bvh, idx) if up is None else up
     r_up = _up_rotation(up)
@@ -484,7 +549,7 @@ def bvh_positions(bvh: Bvh, *, mapping: dict | None = None, scale: float | None 
     zp = np.einsum("ij,kj->ki", r_up, zero_pose_positions(bvh)) * scale
     F = len(bvh.motion)
     if F == 0:
-        return np.zeros((0, len(JOINTS), 3))
+        return np.zeros((0, len(JOINTS) + len(COLLARS), 3))
     names = list(idx)  # the sgt joints found, and their columns in the pieces
     col = {name: k for k, name in enumerate(names)}
     needed = [idx[name] for name in names]
@@ -521,32 +586,94 @@ def bvh_positions(bvh: Bvh, *, mapping: dict | None = None, scale: float | None 
     fwd = np.einsum("fij,j->fi", head_rot, r_up.T @ zfwd)
     upv = np.einsum("fij,j->fi", head_rot, r_up.T @ zup)
     head = pos[:, col["head"]]
-    nose = head + nose_forward * fwd + 0.02 * upv
+    # a nose joint of the take's own (sgt's BVH has one), or a point in front of the head
+    nose = pos[:, col["nose"]] if "nose" in col else head + nose_forward * fwd + 0.02 * upv
     if "head_top" in idx:
         top = pos[:, col["head_top"]]
         if np.linalg.norm(top - head, axis=-1).mean() < 1e-4:
             top = head + head_top_height * upv
     else:
         top = head + head_top_height * upv
+    if sgt_head and "nose" not in col:
+        # the head's turn from the rest pose (both in their own facing), on sgt's head
+        turn = head_rot @ r_up.T @ _rot_y(-math.atan2(-zlr[2], zlr[0])).T
+        nose = pos[:, col["neck"]] + turn @ (np.asarray(REST_DIRECTIONS["nose"]) * BONE_LENGTHS["nose"])
+        top = nose + turn @ (np.asarray(REST_DIRECTIONS["head_top"]) * BONE_LENGTHS["head_top"])
     at = {"spine": pos[:, col["spine"]], "neck": pos[:, col["neck"]], "nose": nose, "head_top": top}
-    for j in ("left_shoulder", "left_elbow", "left_wrist", "right_shoulder", "right_elbow", "right_wrist"):
+    for j in ("left_shoulder", "left_elbow", "left_wrist", "right_shoulder", "right_elbow", "right_wrist", *COLLARS):
         at[j] = pos[:, col[j]]
-    out = np.stack([at[j] for j in JOINTS], axis=1)
+    out = np.stack([at[j] for j in JOINTS + COLLARS], axis=1)
     j0, j1 = np.searchsorted(keep, i0), np.searchsorted(keep, i1)
     return out[j0] * (1 - w.reshape(-1, 1, 1)) + out[j1] * w.reshape(-1, 1, 1)
 
 
-def bvh_to_poses(path_or_bvh, **kwargs) -> np.ndarray:
-    """Poses (T, 27) at FPS from a BVH file or :class:`Bvh` (keywords: see :func:`bvh_positions`)."""
+#: The bones whose rest direction is a matter of each rig's proportions rather than of the pose:
+#: the torso (spine -> neck), the head (neck -> nose -> head_top) and the shoulders (neck ->
+#: upper arm). Mixamo's neck joint sits 6 cm above its shoulders and sgt's level with them, so
+#: Mixamo's shoulder bones point 18 degrees lower than sgt's in the same rest pose.
+RIG_BONES = ("neck", "nose", "head_top", "left_shoulder", "right_shoulder")
+
+
+def rest_take(bvh: Bvh) -> Bvh:
+    """The take's rest pose as a take of one frame: every rotation 0, every position channel
+    at its joint's offset (the pose :func:`zero_pose_positions` gives)."""
+    row = np.zeros((1, bvh.motion.shape[1]))
+    for j in bvh.joints:
+        for k, ch in enumerate(j.channels):
+            if ch.endswith("position"):
+                row[0, j.channel_start + k] = j.offset[_AXIS[ch[0]]]
+    return Bvh(bvh.joints, bvh.frame_time, row, bvh.name)
+
+
+def bvh_to_poses(path_or_bvh, *, sgt_proportions: bool = False, **kwargs) -> np.ndarray:
+    """Poses (T, 27) at FPS from a BVH file or :class:`Bvh` (keywords: see :func:`bvh_positions`).
+
+    The arms are the take's own directions. With ``sgt_proportions`` the bones of
+    :data:`RIG_BONES` are sgt's rest directions turned as the take turned from its rest pose
+    (:func:`rest_take`), so that another rig's proportions are not carried over: the torso as
+    the take's spine-to-neck line, each shoulder as the line from the take's collar joint (the
+    upper arm's parent) to the upper arm, the head as the take's head joint (sgt's rest head on
+    the take's neck: ``sgt_head``). A take on sgt's own skeleton gives its own directions."""
     bvh = path_or_bvh if isinstance(path_or_bvh, Bvh) else read_bvh(path_or_bvh)
-    poses = pose_from_positions(bvh_positions(bvh, **kwargs)).astype(np.float32)
+    if not sgt_proportions:
+        return _checked_poses(bvh, bvh_positions(bvh, **kwargs), kwargs.get("fps", FPS))
+    kwargs = {**kwargs, "sgt_head": True}
+    x = _positions(bvh, **kwargs)
+    rest = _positions(rest_take(bvh), **{**kwargs, "fps": bvh.fps})[0]
+    poses = _checked_poses(bvh, x[:, :len(JOINTS)], kwargs.get("fps", FPS))
+    d = poses.reshape(len(poses), N_BONES, 3).astype(np.float64)
+    lines = {"neck": ("spine", "neck"), "nose": ("neck", "nose"), "head_top": ("nose", "head_top"),
+             "left_shoulder": ("left_collar", "left_shoulder"), "right_shoulder": ("right_collar", "right_shoulder")}
+    at = {name: k for k, name in enumerate(JOINTS + COLLARS)}
+    for bone in RIG_BONES:
+        a, b = at[lines[bone][0]], at[lines[bone][1]]
+        d[:, BONE_INDEX[bone]] = _turned(rest[b] - rest[a], x[:, b] - x[:, a], np.asarray(REST_DIRECTIONS[bone]))
+    return normalize_pose(d.reshape(len(d), -1))
+
+
+def _checked_poses(bvh: Bvh, positions: np.ndarray, fps: float) -> np.ndarray:
+    poses = pose_from_positions(positions).astype(np.float32)
     length = np.linalg.norm(poses.reshape(len(poses), -1, 3), axis=-1)
     bad = ~(np.abs(length - 1) < 1e-3)  # a bone of length 0 (its joints coincide), or not a number
     if bad.any():
         frame, bone = (int(x) for x in np.argwhere(bad)[0])
-        raise LoaderError(f"{bvh.name}: at {frame / kwargs.get('fps', FPS):.2f} s the {BONE_NAMES[bone]} bone has no "
+        raise LoaderError(f"{bvh.name}: at {frame / fps:.2f} s the {BONE_NAMES[bone]} bone has no "
                           "direction: its joints coincide, or the take's values are too large for positions")
     return poses
+
+
+def _turned(a: np.ndarray, b: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``v`` turned by the shortest rotation that takes unit ``a`` (3,) to each unit ``b`` (T, 3)."""
+    a = a / np.linalg.norm(a)
+    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    c = b @ a
+    w = np.cross(a, b)
+    wv = np.cross(w, v)
+    out = v + wv + np.cross(w, wv) / np.maximum(1.0 + c, 1e-12)[:, None]
+    # b opposite a: half a turn about an axis square to a
+    k = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    k /= np.linalg.norm(k)
+    return np.where((1.0 + c < 1e-9)[:, None], 2 * (k @ v) * k - v, out)
 
 
 # -- datasets -------------------------------------------------------------------------------

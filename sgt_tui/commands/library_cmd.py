@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from core.counting import no_utterance, plural
 
 HELP = "list, inspect and extend the gesture library"
@@ -37,17 +39,30 @@ def register(subparsers) -> None:
                             "(default front,side)")
     sheet.add_argument("--dir", action="append", default=[], metavar="D", help="extra gesture folder")
 
-    ad = sub.add_parser("add", help="save a span of a motion file as a new gesture")
+    ad = sub.add_parser("add", help="save a span of a motion file, a BVH take or a glTF animation as a new gesture",
+                        description="Save a span of a motion file (.json, .npz), a motion capture take (.bvh) or a "
+                                    "glTF animation (.glb, .gltf) as a new gesture. Takes are mapped onto sgt's "
+                                    "skeleton by their joint names and resampled to 15 fps.")
     ad.add_argument("name")
-    ad.add_argument("--from", dest="source", required=True, metavar="MOTION_FILE")
-    ad.add_argument("--frames", required=True, metavar="A:B", help="frame span, B exclusive")
-    ad.add_argument("--utterance", type=utterance_number, default=0, metavar="N",
+    ad.add_argument("--from", dest="source", required=True, metavar="FILE",
+                    help="a motion file (.json, .npz), a BVH take (.bvh) or a glTF animation (.glb, .gltf)")
+    ad.add_argument("--frames", required=True, metavar="A:B",
+                    help="the span, B exclusive: the file's own frame numbers (a take's, at its own rate) "
+                         "or seconds (1.5s:3s)")
+    ad.add_argument("--utterance", type=utterance_number, metavar="N",
                     help="the motion file's utterance N (the first is 1; default: 1)")
     ad.add_argument("--to", metavar="DIR", help="gesture folder (default: first configured)")
     ad.add_argument("--description", default="")
     ad.add_argument("--tags", default="", help="comma-separated tags")
-    ad.add_argument("--stroke", type=int, default=None, metavar="F",
-                    help="stroke frame inside the span (default: fastest frame)")
+    ad.add_argument("--stroke", default=None, metavar="F",
+                    help="the stroke's frame, counted as --frames counts (or seconds: 2.1s); default: where "
+                         "the span's fastest movement ends")
+    ad.add_argument("--map", metavar="MAP.toml",
+                    help="a take's joint names for sgt's joints, a TOML line each (right_elbow = \"R_Elbow\"), "
+                         "for a skeleton sgt does not know by name")
+    ad.add_argument("--fps-in", type=_fps_in, default=None, metavar="auto|N",
+                    help="a take's frame rate (default auto: a BVH's Frame Time, a glTF animation's key rate)")
+    ad.add_argument("--animation", metavar="NAME", help="the glTF animation to read, when the file has several")
     ad.add_argument("--force", action="store_true", help="overwrite an existing file")
 
     p.set_defaults(run=run, _library_parser=p)
@@ -268,21 +283,69 @@ def _direction(v) -> str:
     return "rest" if v is None else "[" + ", ".join(f"{x:.3f}" for x in v) + "]"
 
 
-def _parse_span(text: str, n: int) -> tuple[int, int]:
+def _fps_in(text: str) -> float | None:
+    """``--fps-in``: "auto" (None) or frames a second, as a BVH frame time may give them."""
+    import argparse
+
+    if text == "auto":
+        return None
+    from sgt_tui.commands.common import positive_float
+
+    fps = positive_float(text)
+    if not 1.0 <= fps <= 10000.0:
+        raise argparse.ArgumentTypeError(f"{text} frames a second: give 1 to 10000, or auto")
+    return fps
+
+
+def _frame_number(text: str, fps: float) -> int:
+    """A frame number, or seconds ("1.5s") at ``fps``; ValueError for anything else."""
+    text = text.strip()
+    if text.endswith("s"):
+        seconds = float(text[:-1])
+        if not math.isfinite(seconds) or abs(seconds) > 1e7:
+            raise ValueError(text)
+        return round(seconds * fps)
+    return int(text)
+
+
+def _parse_span(text: str, n: int, fps: float | None = None, what: str = "the utterance") -> tuple[int, int]:
+    """``--frames``: (A, B) inside 0:n, at most a gesture's longest at ``fps`` (default 15)."""
+    from core.skeleton import FPS, frame_count
+    from library.spec import MAX_DURATION
     from sgt_tui.errors import UsageError
 
+    fps = FPS if fps is None else fps
     try:
         a_txt, b_txt = text.split(":")
-        a = int(a_txt) if a_txt.strip() else 0
-        b = int(b_txt) if b_txt.strip() else n
+        a = _frame_number(a_txt, fps) if a_txt.strip() else 0
+        b = _frame_number(b_txt, fps) if b_txt.strip() else n
     except ValueError:
-        raise UsageError(f"--frames must look like A:B (two frame numbers), got '{text}'") from None
+        raise UsageError(f"--frames must look like A:B (two frame numbers, or seconds: 1.5s:3s), got '{text}'") from None
+    rate = "" if fps == FPS else f" at {fps:g} fps"
     if a < 0 or b > n or b - a < 2:
         raise UsageError(
             f"--frames {a}:{b} is not a span of at least 2 frames inside 0:{n} "
-            f"(the utterance has {n} frames; B is exclusive)"
+            f"({what} has {n} frames{rate}; B is exclusive)"
         )
+    if math.floor((b - 1 - a) / fps * FPS + 1e-6) + 1 > frame_count(MAX_DURATION):  # the frames it resamples to
+        raise UsageError(f"--frames {a}:{b} is {(b - a) / fps:.2f} s{rate}; a gesture may be at most "
+                         f"{MAX_DURATION:g} s: take a shorter span")
     return a, b
+
+
+def _stroke(args, a: int, b: int, fps: float) -> int | None:
+    """``--stroke`` as a frame of the source (None: not given), inside the span."""
+    from sgt_tui.errors import UsageError
+
+    if args.stroke is None:
+        return None
+    try:
+        f = _frame_number(args.stroke, fps)
+    except ValueError:
+        raise UsageError(f"--stroke must be a frame number (or seconds: 2.1s), got '{args.stroke}'") from None
+    if not a <= f < b:
+        raise UsageError(f"--stroke {args.stroke} is outside the span {a}:{b}")
+    return f
 
 
 def _add(args) -> int:
@@ -290,39 +353,163 @@ def _add(args) -> int:
     from pathlib import Path
 
     from core.fileio import atomic_write_text, check_not_input, check_output
-    from core.motion import MotionFileError, load_motion
+    from core.skeleton import FPS
     from library.extract import spec_text_from_poses
     from sgt_tui.commands.common import existing_file, output_folder, text
-    from sgt_tui.errors import InputError, UsageError
+    from sgt_tui.errors import UsageError
 
     if not re.fullmatch(r"[a-z][a-z0-9_]*", args.name):
         raise UsageError(f"name '{args.name}' must be lower-case letters, digits and '_', starting with a letter")
     source = existing_file(args.source)
+    map_file = existing_file(args.map) if args.map else None
     folder = output_folder(args.to or str(_default_folder()), "--to")
     target = folder / f"{args.name}.toml"
     if target.exists() and not args.force:
         raise UsageError(f"{target} exists; use --force to overwrite")
     check_output(target)
-    check_not_input(target, [source], "--to")
+    check_not_input(target, [source] + ([map_file] if map_file else []), "--to")
+    tags = [t.strip() for t in text(args.tags, "--tags").split(",") if t.strip()]
+    description = text(args.description, "--description")
+    shown = Path(args.source).name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    if source.suffix.lower() in TAKE_SUFFIXES:
+        poses, hands, stroke, a, b, fps, source_stroke = _from_take(args, source, map_file)
+        description = description or f"Recorded from {shown}, frames {a}:{b} at {fps:g} fps."
+        where = f" at {FPS} fps from frames {a}:{b} at {fps:g} fps, the stroke at frame {source_stroke}"
+    else:
+        for option, value in (("--map", args.map), ("--fps-in", args.fps_in), ("--animation", args.animation)):
+            if value is not None:
+                raise UsageError(f"{option} is for takes ({', '.join(TAKE_SUFFIXES)}), not for motion files")
+        poses, hands, stroke, a, b = _from_motion_file(args, source)
+        description = description or f"Recorded from {shown}, frames {a}:{b}."
+        where = ""
+    spec, err = spec_text_from_poses(args.name, poses, description=description, tags=tags, stroke=stroke, hands=hands)
+    atomic_write_text(target, spec)
+    print(f"wrote {target} ({len(poses)} frames{where}; max error {err:.1f} degrees on re-load)")
+    return 0
+
+
+#: The takes ``sgt library add`` reads besides motion files: BVH and glTF.
+TAKE_SUFFIXES = (".bvh", ".glb", ".gltf")
+
+
+def _from_motion_file(args, source):
+    """(poses, hands, stroke frame in them or None, a, b) of the span of a motion file."""
+    from core.motion import MotionFileError, load_motion
+    from core.skeleton import FPS
+    from sgt_tui.errors import InputError, UsageError
+
     try:
         clips = load_motion(source)
     except MotionFileError as exc:
         raise InputError(str(exc)) from None
-    if not 0 <= args.utterance < len(clips):
-        raise UsageError(f"{args.source}: {no_utterance(args.utterance, range(len(clips)), what='the motion')}")
-    poses, hands = clips[args.utterance].poses, clips[args.utterance].hands
+    index = 0 if args.utterance is None else args.utterance  # the first by default
+    if not 0 <= index < len(clips):
+        raise UsageError(f"{args.source}: {no_utterance(index, range(len(clips)), what='the motion')}")
+    poses, hands = clips[index].poses, clips[index].hands
     a, b = _parse_span(args.frames, len(poses))
-    if args.stroke is not None and not a <= args.stroke < b:
-        raise UsageError(f"--stroke {args.stroke} is outside the span {a}:{b}")
-    tags = [t.strip() for t in text(args.tags, "--tags").split(",") if t.strip()]
-    shown = Path(args.source).name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
-    description = text(args.description, "--description") or f"Recorded from {shown}, frames {a}:{b}."
-    stroke = None if args.stroke is None else args.stroke - a
-    spec, err = spec_text_from_poses(args.name, poses[a:b], description=description, tags=tags,
-                                     stroke=stroke, hands=hands.take(slice(a, b)))
-    atomic_write_text(target, spec)
-    print(f"wrote {target} ({b - a} frames; max error {err:.1f} degrees on re-load)")
-    return 0
+    stroke = _stroke(args, a, b, FPS)
+    return poses[a:b], hands.take(slice(a, b)), None if stroke is None else stroke - a, a, b
+
+
+def _from_take(args, source, map_file):
+    """(poses at 15 fps, None, their stroke frame, a, b, the take's rate, the stroke's frame in the
+    take) of the span of a BVH
+    take or a glTF animation: mapped by joint names (``--map``), sgt's proportions for the torso,
+    head and shoulders, resampled through the stroke (the take's own pose there)."""
+    from core.skeleton import FPS
+    from library.extract import find_stroke, resample_through
+    from model.training.gltf_take import GltfTake
+    from model.training.loaders import Bvh, LoaderError, MappingError, bvh_to_poses, read_bvh
+    from sgt_tui.errors import InputError, UsageError
+
+    if args.utterance is not None:
+        raise UsageError("--utterance is for motion files; a take is one recording")
+    bvh = source.suffix.lower() == ".bvh"
+    if bvh and args.animation is not None:
+        raise UsageError("--animation is for glTF files (.glb, .gltf)")
+    mapping = _read_map(map_file) if map_file else None
+    try:
+        if bvh:
+            take = read_bvh(source)
+            fps, n = (_whole(take.fps) if args.fps_in is None else args.fps_in), len(take.motion)
+        else:
+            take = GltfTake(source, args.animation, args.fps_in)
+            fps, n = take.fps, take.n_frames
+    except LoaderError as exc:
+        raise InputError(str(exc)) from None
+    a, b = _parse_span(args.frames, n, fps, "the take")
+    stroke = _stroke(args, a, b, fps)
+    try:
+        span = Bvh(take.joints, 1.0 / fps, take.motion[a:b], take.name) if bvh else take.span(a, b, mapping)
+        poses = bvh_to_poses(span, mapping=mapping, fps=fps, sgt_proportions=True)
+    except MappingError as exc:
+        raise InputError(_unmapped(source, exc)) from None
+    except LoaderError as exc:
+        raise InputError(str(exc)) from None
+    if stroke is None:
+        stroke = a + find_stroke(poses, fps)
+    poses, at = resample_through(poses, fps, stroke - a)
+    if len(poses) < 2:
+        raise UsageError(f"--frames {a}:{b} is {(b - a) / fps:.3f} s: less than 2 frames at {FPS} fps")
+    return poses, None, at, a, b, fps, stroke
+
+
+def _whole(fps: float) -> float:
+    """A BVH's rate from its Frame Time, to the whole number of frames a second it rounds
+    (Blender writes 0.033333 for 30 fps)."""
+    return float(round(fps)) if abs(fps - round(fps)) < 1e-4 * fps else fps
+
+
+def _read_map(path) -> dict[str, str | list[str]]:
+    """A ``--map`` file: sgt joint = the take's joint name (or a list of names, tried in order)."""
+    import tomllib
+
+    from core.reading import InputFileError, read_bytes
+    from library.spec import _close, toml_error
+    from model.training.loaders import DEFAULT_MAPPING
+    from sgt_tui.errors import InputError
+
+    try:
+        data = tomllib.loads(read_bytes(path, "configuration").decode("utf-8"))
+    except InputFileError as exc:
+        raise InputError(f"{path}: {exc.reason}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not UTF-8 text") from None
+    except tomllib.TOMLDecodeError as exc:
+        message, line, col = toml_error(exc)
+        raise InputError(f"{path}:{line}:{col}: {message}" if line else f"{path}: {message}") from None
+    joints = list(DEFAULT_MAPPING)
+    for key, value in data.items():
+        if key not in DEFAULT_MAPPING:
+            hint = _close(key, joints)
+            raise InputError(f"{path}: '{key}' is not one of sgt's joints" + (f" (did you mean '{hint[0]}'?)" if hint else "")
+                             + f"; the keys are {', '.join(joints)}")
+        if not (isinstance(value, str) and value) and not (
+                isinstance(value, list) and value and all(isinstance(v, str) and v for v in value)):
+            raise InputError(f"{path}: {key} must be the take's joint name in quotes "
+                             f"({key} = \"NAME\"), or a list of names tried in order")
+    return data
+
+
+def _unmapped(source, exc) -> str:
+    """One line for a take whose joints sgt cannot find: which, the take's joints, and a --map
+    line to write (with the take's likeliest name for the first)."""
+    import difflib
+
+    from model.training.loaders import DEFAULT_MAPPING, _key, listed
+
+    def shown(name: str) -> str:
+        return name if name.isprintable() else name.encode("unicode_escape").decode("ascii")
+
+    names = [shown(n) for n in exc.names]
+    first = exc.missing[0]
+    wanted = [_key(c) for c in (first, *DEFAULT_MAPPING[first])]
+    # the likeliest of the joints no sgt joint took (not the other arm's, already mapped)
+    scored = [(max(difflib.SequenceMatcher(None, _key(n), w).ratio() for w in wanted), shown(n)) for n in exc.free]
+    best = max(scored, default=(0.0, ""))
+    guess = best[1] if best[0] >= 0.75 else "THEIR_NAME"
+    return (f"{source}: no joint for {', '.join(exc.missing)} among its joints ({listed(names)}); "
+            f"name them in a --map file, a line per joint: {first} = \"{guess}\" (see docs/library.md)")
 
 
 def _default_folder():
