@@ -214,6 +214,27 @@ def test_a_long_row_wraps(tmp_path, mannequin, tracks):
     assert all(p.box[2] <= im.width and p.box[3] <= im.height for p in info["panels"])
 
 
+def test_a_one_picture_sheet_shows_its_whole_title(tmp_path, mannequin, tracks):
+    """One picture is as narrow as a sheet gets: its title goes on more lines, never cut short."""
+    from dataclasses import replace
+
+    from PIL import Image
+
+    from renders.animate import render_sheet
+
+    guide = tracks[0]
+    one = replace(guide, controls=[next(k for k in guide.controls if k.kind == "pose")])
+    title = "tavern_npc_with_a_long_name.sgt · three-quarter view"
+    short = render_sheet([one], tmp_path / "short.png", size=SIZE, title="t", mannequin=mannequin)
+    info = render_sheet([one], tmp_path / "long.png", size=SIZE, title=title, mannequin=mannequin)
+    assert short["title"] == ["t"] and len(info["title"]) > 1
+    assert "".join(info["title"]).replace(" ", "") == title.replace(" ", "")  # every character, none cut
+    assert info["width"] == SIZE[0] and info["height"] > short["height"]  # the title's lines get room
+    ink = np.asarray(Image.open(tmp_path / "long.png").convert("L"))[: info["height"] - short["height"] + 20] < 128
+    rows = np.flatnonzero(ink.any(axis=1))
+    assert len(rows) and np.any(np.diff(rows) > 1)  # ink on more than one line of the title band
+
+
 # -- command line ------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
@@ -308,24 +329,3 @@ def test_cli_sheet_says_what_its_pictures_are(tmp_path, capsys, script, summary)
                  "--size", "64"]) == 0
     (line,) = [x for x in capsys.readouterr().err.splitlines() if x.startswith(f"wrote {tmp_path / 'o.png'}:")]
     assert line.startswith(f"wrote {tmp_path / 'o.png'}: {summary}, ")
-
-
-def test_a_one_picture_sheet_shows_its_whole_title(tmp_path, mannequin, tracks):
-    """One picture is as narrow as a sheet gets: its title goes on more lines, never cut short."""
-    from dataclasses import replace
-
-    from PIL import Image
-
-    from renders.animate import render_sheet
-
-    guide = tracks[0]
-    one = replace(guide, controls=[next(k for k in guide.controls if k.kind == "pose")])
-    title = "tavern_npc_with_a_long_name.sgt · three-quarter view"
-    short = render_sheet([one], tmp_path / "short.png", size=SIZE, title="t", mannequin=mannequin)
-    info = render_sheet([one], tmp_path / "long.png", size=SIZE, title=title, mannequin=mannequin)
-    assert short["title"] == ["t"] and len(info["title"]) > 1
-    assert "".join(info["title"]).replace(" ", "") == title.replace(" ", "")  # every character, none cut
-    assert info["width"] == SIZE[0] and info["height"] > short["height"]  # the title's lines get room
-    ink = np.asarray(Image.open(tmp_path / "long.png").convert("L"))[: info["height"] - short["height"] + 20] < 128
-    rows = np.flatnonzero(ink.any(axis=1))
-    assert len(rows) and np.any(np.diff(rows) > 1)  # ink on more than one line of the title band
