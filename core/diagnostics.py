@@ -16,6 +16,7 @@ import unicodedata
 from dataclasses import asdict, dataclass, field
 from typing import Iterable, Sequence
 
+from core.counting import plural
 from core.fileio import json_text
 
 ERROR = "error"
@@ -261,9 +262,9 @@ def summary(diags: Sequence[Diagnostic]) -> str:
     n_warn = sum(d.severity == WARNING for d in diags)
     parts = []
     if n_err:
-        parts.append(f"{n_err} error{'s' if n_err != 1 else ''}")
+        parts.append(plural(n_err, "error"))
     if n_warn:
-        parts.append(f"{n_warn} warning{'s' if n_warn != 1 else ''}")
+        parts.append(plural(n_warn, "warning"))
     return ", ".join(parts) if parts else "no problems"
 
 

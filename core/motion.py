@@ -57,6 +57,7 @@ from typing import Sequence
 import numpy as np
 
 from core.controls import Control
+from core.counting import number
 from core.fileio import atomic_write
 from core.frames_text import frame_lines_of_many, json_with_lines
 from core.face import ARKIT_NAMES, EYES, FaceTrack
@@ -353,7 +354,7 @@ def _face(face, n_frames: int, names) -> FaceTrack | None:
 
 def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None, face=None, names=ARKIT_NAMES) -> MotionClip:
     if not isinstance(meta, dict):
-        raise MotionFileError(f"{path}: utterance {i} is not an object")
+        raise MotionFileError(f"{path}: utterance {number(i)} is not an object")
     try:
         poses = np.asarray(poses, dtype=np.float32)
         if poses.ndim != 2 or poses.shape[1] != POSE_DIM:
@@ -383,7 +384,7 @@ def _clip(meta: dict, poses, positions, path: Path, i: int, hands=None, face=Non
             audio_offset=None if offset is None else float(offset),
         )
     except (ValueError, TypeError, AttributeError) as exc:
-        raise MotionFileError(f"{path}: utterance {i}: {exc}") from None
+        raise MotionFileError(f"{path}: utterance {number(i)}: {exc}") from None
 
 
 def _track(meta, poses, positions, path: Path, i: int, n_frames: int, hands=None, face=None, names=ARKIT_NAMES) -> Track:
@@ -536,6 +537,6 @@ def _frames(doc: dict, clips: list[MotionClip], path: Path) -> int:
         raise MotionFileError(f"{path}: 'frames' must be a whole number of frames, not {n!r}")
     for i, c in enumerate(clips):
         if c.start < 0 or c.start_frame + c.n_frames > n:
-            raise MotionFileError(f"{path}: utterance {i} (start {c.start:g} s, {c.n_frames} frames) "
+            raise MotionFileError(f"{path}: utterance {number(i)} (start {c.start:g} s, {c.n_frames} frames) "
                                   f"does not fit in the performance's {n} frames")
     return n

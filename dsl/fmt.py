@@ -40,6 +40,7 @@ import re
 from pathlib import Path
 
 from core import rules
+from core.counting import plural
 from core.diagnostics import Diagnostic
 from dsl.directives import NAME_RE as PRESET_NAME_RE
 from dsl.lines import SPEAKER_RE, split_lines, strip_comment
@@ -69,7 +70,7 @@ class FormatError(Exception):
     """The script has syntax errors; :attr:`diagnostics` are they."""
 
     def __init__(self, diagnostics: list[Diagnostic]) -> None:
-        super().__init__(f"{len(diagnostics)} syntax error{'s' if len(diagnostics) != 1 else ''}")
+        super().__init__(plural(len(diagnostics), "syntax error"))
         self.diagnostics = diagnostics
 
 

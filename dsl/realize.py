@@ -36,6 +36,7 @@ from functools import lru_cache
 import numpy as np
 
 from core import cancel
+from core.counting import plural
 from core.hands import HandTrack
 from core.skeleton import FPS, N_BONES, bone_angles, frame_count, mirror_name, seconds_to_frame
 
@@ -242,7 +243,7 @@ def _follow(g: Placed, before: list[Placed]) -> None:
     g.late = stroke_at - word
     g.after = last
     room = max(0, word - key_end)
-    until = "then" if room == 0 else f"{room} frame{'s' if room != 1 else ''} before"
+    until = "then" if room == 0 else f"{plural(room, 'frame')} before"
     g.why = (f"the arm needs {need} frames to turn {angle:.0f} degrees from '{last.mark.name}', which keeps its stroke "
              f"until {until}" if g.late else "")
     for p in before:

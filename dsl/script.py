@@ -157,12 +157,8 @@ class Script:
     utterances: list[Utterance]
     diagnostics: list[Diagnostic]
 
-    def missing_utterance(self, requested) -> str | None:
-        """Why ``requested`` (utterance numbers, 0-based) cannot all be found here; None when they can."""
+    def missing_utterance(self, requested) -> int | None:
+        """The first of ``requested`` (utterance indices, 0-based) the script does not have; None
+        when it has them all (:func:`core.counting.no_utterance` says so)."""
         known = {u.index for u in self.utterances}
-        missing = [n for n in requested or () if n not in known]
-        if not missing:
-            return None
-        n = len(self.utterances)
-        have = f"{n} ({min(known)}..{max(known)})" if known else "none"
-        return f"no utterance {missing[0]}: the script has {have}"
+        return next((n for n in requested or () if n not in known), None)

@@ -33,6 +33,7 @@ from typing import Callable
 
 from core import cancel, limits
 from core.controls import ControlArrays
+from core.counting import no_utterance, plural
 from core.fileio import OutputError
 from core.motion import MotionClip, Track, save_motion
 from core.reading import LIMITS
@@ -81,7 +82,15 @@ class GenerateError(Exception):
 
 
 class NoSuchUtterance(GenerateError):
-    """An utterance number that the script does not have."""
+    """An utterance the script (or plan) does not have. ``str()`` counts from 0, as the API's
+    ``utterances`` do; :meth:`for_people` from 1, as the command line does (:mod:`core.counting`)."""
+
+    def __init__(self, missing: int, known, what: str = "the script") -> None:
+        self.missing, self.known, self.what = missing, sorted(known), what
+        super().__init__(no_utterance(missing, self.known, first=0, what=what))
+
+    def for_people(self) -> str:
+        return no_utterance(self.missing, self.known, what=self.what)
 
 
 @dataclass
@@ -237,7 +246,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
             known = {u.index for u in plan.utterances}
             missing = [n for n in utterances if n not in known]
             if missing:
-                raise NoSuchUtterance(f"no utterance {missing[0]} in the plan (it has {sorted(known)})")
+                raise NoSuchUtterance(missing[0], known, "the plan")
             plan = dataclasses.replace(plan, utterances=[dataclasses.replace(u) for u in plan.utterances if u.index in utterances])
     else:
         if script is None and source is None:
@@ -245,11 +254,11 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
         path = Path(script) if script is not None else Path("<text>")
         result = compile_file(path, timing=timing, source=source, utterances=utterances, progress=speech_progress,
                               library=library)
-        problem = result.script.missing_utterance(utterances) if result.script.header is not None else None
+        missing = result.script.missing_utterance(utterances) if result.script.header is not None else None
         if result.plan is None:
             raise GenerateError(_errors_message(path, result.diagnostics), result.diagnostics, result.script.source)
-        if problem:
-            raise NoSuchUtterance(problem)
+        if missing is not None:
+            raise NoSuchUtterance(missing, [u.index for u in result.script.utterances])
         plan, diagnostics, text = result.plan, result.diagnostics, result.script.source
     base_seed = plan.seed if seed is None else seed
     # once, for the seed poses and the tracks (the other engines' tracks compute it when asked)
@@ -273,4 +282,4 @@ def _check_seed(seed: int) -> None:
 def _errors_message(path: Path, diagnostics) -> str:
     errors = [d for d in diagnostics if d.is_error]
     first = f" (line {errors[0].line}: {errors[0].message})" if errors else ""
-    return f"{path.name} has {len(errors)} error{'s' if len(errors) != 1 else ''}{first}"
+    return f"{path.name} has {plural(len(errors), 'error')}{first}"

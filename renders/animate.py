@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.counting import plural
 from core.fileio import atomic_write
 from core.hands import hand_positions
 from core.motion import MotionClip
@@ -237,8 +238,9 @@ class SheetPanel:
 
 
 def _sheet_items(clip: MotionClip, at: str, n_samples: int):
-    """(frame, gesture, word, caption lines as (text, bold, dim)) of the pictures of one row, and a
-    note for its band."""
+    """(frame, gesture, word, caption lines as (text, bold, dim)) of the pictures of one row, a
+    note for its band, and what they show: "strokes", or "even" (evenly spaced frames: asked
+    for, or a row without pose controls)."""
     strokes = sorted((c for c in clip.controls if c.kind == "pose"),
                      key=lambda c: (c.stroke_frame if c.stroke_frame is not None else c.start_frame, c.line, c.col))
     last = clip.n_frames - 1
@@ -254,8 +256,7 @@ def _sheet_items(clip: MotionClip, at: str, n_samples: int):
             items.append((f, gesture_label(c), word, [(gesture_label(c), True, False),
                                                       (f"“{word}”" if word else "(no word)", False, not word),
                                                       (f"frame {f} · {f / FPS:.2f} s", False, True)]))
-        n = len(items)
-        return items, f"{n} gesture{'s' if n != 1 else ''}"
+        return items, plural(len(items), "gesture"), "strokes"
     items = []
     for f in sheet_frames(clip.n_frames, n_samples):
         word = overlay.frame_word(clip.words, f)
@@ -263,22 +264,24 @@ def _sheet_items(clip: MotionClip, at: str, n_samples: int):
         items.append((f, playing[0] if playing else None, word, [(word or "—", True, not word),
                                                                  (", ".join(playing), False, False),
                                                                  (f"frame {f} · {f / FPS:.2f} s", False, True)]))
-    note = f"{len(items)} evenly spaced frames"
+    note = plural(len(items), "evenly spaced frame")
     if at == "strokes":
         note = "no marked gestures: " + note
-    return items, note
+    return items, note, "even"
 
 
-def sheet_layout(width: int, height: int, counts: list[int], columns: int = SHEET_COLUMNS) -> dict:
+def sheet_layout(width: int, height: int, counts: list[int], columns: int = SHEET_COLUMNS, title_lines: int = 1) -> dict:
     """Geometry of a contact sheet of pictures ``width`` x ``height``: rows of ``counts[i]``
-    pictures each (one row per speaker), wrapped at ``columns`` a line."""
+    pictures each (one row per speaker), wrapped at ``columns`` a line, under a title of
+    ``title_lines`` lines (``title_line``: their spacing)."""
     s = overlay.scale(width, height)
     cols = max(1, min(columns, max(counts, default=1)))
     lines = [max(1, math.ceil(c / cols)) for c in counts]
-    title = max(16, round(30 * s))
+    fonts = (max(9, round(16 * s)), max(8, round(14 * s)), max(8, round(12 * s)))
+    title_line = math.ceil(1.25 * fonts[0])
+    title = max(16, round(30 * s)) + (max(1, title_lines) - 1) * title_line
     band = max(14, round(26 * s))
     pad = max(3, round(8 * s))
-    fonts = (max(9, round(16 * s)), max(8, round(14 * s)), max(8, round(12 * s)))
     # The caption's three lines (gesture, word, frame), their centres spaced by their font sizes.
     centres = [pad / 2 + 0.65 * fonts[0]]
     for a, b in zip(fonts, fonts[1:]):
@@ -288,8 +291,8 @@ def sheet_layout(width: int, height: int, counts: list[int], columns: int = SHEE
     for n in lines:
         tops.append(y)
         y += band + n * (height + caption)
-    return {"cols": cols, "lines": lines, "title": title, "band": band, "caption": caption, "row_tops": tops,
-            "size": (cols * width, y), "pad": pad, "fonts": fonts, "caption_lines": centres}
+    return {"cols": cols, "lines": lines, "title": title, "title_line": title_line, "band": band, "caption": caption,
+            "row_tops": tops, "size": (cols * width, y), "pad": pad, "fonts": fonts, "caption_lines": centres}
 
 
 def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, size=DEFAULT_SIZE,
@@ -304,7 +307,9 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
     close-up as ``face_inset`` says.
 
     Returns frames (every picture's, row by row), panels (:class:`SheetPanel`), width,
-    height and platform.
+    height, platform, the title's lines (wrapped to the sheet's width, never cut short on a
+    narrow sheet; at most 4) and rows (each row's label, number of pictures and ``at``:
+    "strokes", or "even" for evenly spaced frames).
     """
     from PIL import Image, ImageDraw
 
@@ -315,7 +320,14 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
     tints = list(tints) if tints is not None else [BODY] * len(clips)
     labels = list(labels) if labels else [c.speaker or "unnamed" for c in clips]
     rows = [_sheet_items(c, at, n_samples) for c in clips]
-    lay = sheet_layout(width, height, [len(items) for items, _ in rows], columns)
+    counts = [len(items) for items, _, _ in rows]
+    lay = sheet_layout(width, height, counts, columns)
+    if title is None:
+        title = " / ".join(c.text for c in clips if c.text) or "(no text)"
+    tf = overlay.font(lay["fonts"][0], bold=True)
+    title_lines = overlay.wrap(title, tf, lay["size"][0] - 2 * lay["pad"])  # a narrow sheet: on more lines, not cut
+    if len(title_lines) > 1:
+        lay = sheet_layout(width, height, counts, columns, title_lines=len(title_lines))
     own = mannequin is None
     inset = _inset(face_inset, view, width, height)
     m = mannequin or Mannequin(width, height)
@@ -323,13 +335,11 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
         sheet = Image.new("RGB", lay["size"], overlay.WHITE)
         d = ImageDraw.Draw(sheet)
         pad, (big, mid, small) = lay["pad"], lay["fonts"]
-        if title is None:
-            title = " / ".join(c.text for c in clips if c.text) or "(no text)"
-        tf = overlay.font(big, bold=True)
-        d.text((pad, lay["title"] / 2), overlay.fit(title, tf, lay["size"][0] - 2 * pad), font=tf, fill=overlay.INK,
-               anchor="lm")
+        first = (lay["title"] - (len(title_lines) - 1) * lay["title_line"]) / 2
+        for i, line in enumerate(title_lines):
+            d.text((pad, first + i * lay["title_line"]), line, font=tf, fill=overlay.INK, anchor="lm")
         panels: list[SheetPanel] = []
-        for r, (clip, (items, note)) in enumerate(zip(clips, rows)):
+        for r, (clip, (items, note, _)) in enumerate(zip(clips, rows)):
             top = lay["row_tops"][r]
             color = label_color(tints[r])
             # The band: the label in white on the row's colour (as in the animation), then what the row shows.
@@ -368,7 +378,8 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
         sheet.save(buf, format="PNG", optimize=False)
         atomic_write(path, buf.getvalue())
         return {"frames": [p.frame for p in panels], "panels": panels, "width": sheet.width, "height": sheet.height,
-                "platform": m.platform}
+                "platform": m.platform, "title": title_lines,
+                "rows": [{"label": labels[r], "pictures": counts[r], "at": mode} for r, (_, _, mode) in enumerate(rows)]}
     finally:
         if own:
             m.close()

@@ -44,15 +44,6 @@ def concat_clips(clips: list[MotionClip]) -> MotionClip:
     )
 
 
-def pick(clips: list[MotionClip], utterance: int | None) -> list[MotionClip]:
-    """The clips to use: all of them, or utterance N (0-based). Raises IndexError."""
-    if utterance is None:
-        return list(clips)
-    if not 0 <= utterance < len(clips):
-        raise IndexError(f"no utterance {utterance}: the motion has {len(clips)} (0..{len(clips) - 1})")
-    return [clips[utterance]]
-
-
 def speaker_name(speaker: str | None) -> str:
     """A speaker as a user reads it (and as files are named): its name, or ``unnamed``."""
     return speaker or "unnamed"

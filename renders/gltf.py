@@ -9,10 +9,11 @@ Layout (one scene):
   ``mannequin`` with a mesh of one box per bone, each vertex bound to its bone alone;
 - one animation, ``take``: a LINEAR ``rotation`` channel per bone and a ``translation``
   channel for the root, keys at ``i / 15`` s (15 fps), quaternions sign-continuous;
-- with the VRM rig, the ``VRMC_vrm_animation`` extension (spec 1.0) maps VRM humanoid bone
-  names to nodes, so the file is a VRM Animation (``.vrma``) as well as a plain glTF; a take with
-  a face adds the extension's ``expressions``: a node per VRM preset expression
-  (:data:`renders.face_export.VRM_EXPRESSIONS`) whose ``translation.x`` carries its weight;
+- with the VRM rig and ``vrma`` (a ``.vrma``), the ``VRMC_vrm_animation`` extension (spec 1.0)
+  maps VRM humanoid bone names to nodes, so the file is a VRM Animation; a take with a face adds
+  the extension's ``expressions``: a node per VRM preset expression
+  (:data:`renders.face_export.VRM_EXPRESSIONS`) whose ``translation.x`` carries its weight.
+  Without ``vrma`` (a ``.glb``) it is a plain glTF of the VRM skeleton, with no face;
 - with sgt's own rig and a face, a node ``face``: the head and face of :mod:`renders.face_rig`
   (a mesh per colour) with a morph target per ARKit blendshape (their names in the mesh's
   ``extras.targetNames``, as Blender and three.js read them), animated by a ``weights`` channel
@@ -111,8 +112,10 @@ def mannequin_mesh(rig: Rig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.array(pos), np.array(joints), np.array(tris)
 
 
-def glb_bytes(clip: MotionClip, rig: Rig, mesh: bool = True) -> bytes:
-    """The .glb file for ``clip`` on ``rig``."""
+def glb_bytes(clip: MotionClip, rig: Rig, mesh: bool = True, vrma: bool = True) -> bytes:
+    """The .glb file for ``clip`` on ``rig``. With the VRM rig, ``vrma`` makes it a VRM
+    Animation (the ``VRMC_vrm_animation`` extension, and the face's expression tracks);
+    without, a plain glTF of the VRM skeleton (``sgt export --rig vrm -o x.glb``)."""
     motion: RigMotion = retarget_clip(rig, clip)
     buf = _Buffer()
     parents = rig.parent_indices()
@@ -178,7 +181,7 @@ def glb_bytes(clip: MotionClip, rig: Rig, mesh: bool = True) -> bytes:
     if face is not None and mesh and rig.name == "sgt":
         _add_face(doc, buf, nodes, scene_nodes, clip, channel)
     extension = None
-    if rig.vrm_animation:
+    if rig.vrm_animation and vrma:
         bones = {b.humanoid: {"node": i} for i, b in enumerate(rig.bones) if b.humanoid}
         extension = {"specVersion": "1.0", "humanoid": {"humanBones": bones}}
         if face is not None:
@@ -249,5 +252,5 @@ def _add_face(doc: dict, buf: _Buffer, nodes: list, scene_nodes: list, clip: Mot
     channel(node, "weights", np.clip(face.weights, 0.0, 1.0).reshape(-1), "SCALAR")
 
 
-def write_glb(path, clip: MotionClip, rig: Rig, mesh: bool = True) -> None:
-    atomic_write(path, glb_bytes(clip, rig, mesh))
+def write_glb(path, clip: MotionClip, rig: Rig, mesh: bool = True, vrma: bool = True) -> None:
+    atomic_write(path, glb_bytes(clip, rig, mesh, vrma))

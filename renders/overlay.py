@@ -168,6 +168,27 @@ def fit(text: str, font, width: float) -> str:
     return text + "…"
 
 
+def wrap(text: str, font, width: float, max_lines: int = 4) -> list[str]:
+    """``text`` in lines of at most ``width`` pixels in ``font``, broken between words, and
+    inside a word wider than a line; at most ``max_lines``, the last one cut short with "…"
+    (as :func:`fit` does) when the text goes on."""
+    lines: list[str] = []
+    for word in text.split():
+        if len(lines) > max_lines:
+            break
+        if lines and font.getlength(f"{lines[-1]} {word}") <= width:
+            lines[-1] = f"{lines[-1]} {word}"
+            continue
+        while len(word) > 1 and font.getlength(word) > width:
+            cut = max(1, next((k for k in range(len(word) - 1, 0, -1) if font.getlength(word[:k]) <= width), 1))
+            lines.append(word[:cut])
+            word = word[cut:]
+        lines.append(word)
+    if len(lines) > max_lines:
+        lines = lines[: max_lines - 1] + [fit(" ".join(lines[max_lines - 1:]), font, width)]
+    return lines or [""]
+
+
 @dataclass(frozen=True)
 class Label:
     """Where a picture's label goes: its ``text`` (cut short to fit), drawn from ``origin`` (its

@@ -22,7 +22,10 @@ def write_rig_file(path, clip: MotionClip, rig: str, suffix: str) -> str:
                 f"{100 * vel / n:.1f}% to the joint speeds")
     target = get_rig(rig)
     if suffix in (".glb", ".vrma"):
-        write_glb(path, clip, target)
+        write_glb(path, clip, target, vrma=suffix == ".vrma")  # a .glb is a glTF, a .vrma a VRM Animation
+        if clip.face is not None and rig != "sgt" and suffix == ".glb":
+            return (f"no face: a glTF of the {rig} rig has none (the face: -o x.vrma for VRM expression tracks, "
+                    "--rig sgt for morph targets, or --face)")
     elif suffix == ".bvh":
         write_bvh(path, clip, target)
     elif suffix == ".npz" and rig == "smplx":

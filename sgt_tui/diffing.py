@@ -10,6 +10,7 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
+from core.counting import plural
 from core.fileio import make_folder
 from core.reading import read_bytes
 from sgt_tui.errors import InputError
@@ -300,7 +301,7 @@ def describe_header(h) -> str:
     said = "; ".join(f"{name} {who}: {old} -> {new}" for name, old, new in h.settings)
     n = len(h.lines)
     lengths = [new - old for _, old, new in h.lengths]
-    return f"{said} ({n} line{'s' if n != 1 else ''}{_lengths(lengths, len(h.lengths) == n)})"
+    return f"{said} ({plural(n, 'line')}{_lengths(lengths, len(h.lengths) == n)})"
 
 
 def _lengths(deltas: list[float], all_of_them: bool) -> str:

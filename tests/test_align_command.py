@@ -103,7 +103,8 @@ def test_recordings_with_timings_are_skipped_and_a_script_without_any_says_so(tm
     path = script(tmp_path, recording, SAID, timings="given.json")
     assert main(["align", str(path)]) == 0
     assert "skipped" in capsys.readouterr().err and not (tmp_path / "rec.timings.json").exists()
-    assert main(["align", str(path), "--utterance", "0"]) == 2
+    assert main(["align", str(path), "--utterance", "1"]) == 2  # the first: timed already, nothing to align
+    assert "no utterance of 1 is spoken from a recording without timings=" in capsys.readouterr().err
     spoken = tmp_path / "tts.sgt"
     spoken.write_text("bot: Hello there.\n")
     assert main(["align", str(spoken)]) == 0

@@ -78,8 +78,8 @@ def test_layout_mirrors_the_sources_and_the_manifest_hashes_every_output(env, ca
     out = env / "out"
     assert build(env / "game", "-o", out, "--bvh", "--wav", "--glb", "-j", "1") == 0
     got = files(out)
-    assert set(got) == {"manifest.json", "act1/intro.json", "act1/intro.bvh", "act1/intro.glb", "act1/intro_000.wav",
-                        "act1/intro_001.wav", "act2.json", "act2.bvh", "act2.glb", "act2_000.wav", "act2_001.wav"}
+    assert set(got) == {"manifest.json", "act1/intro.json", "act1/intro.bvh", "act1/intro.glb", "act1/intro_001.wav",
+                        "act1/intro_002.wav", "act2.json", "act2.bvh", "act2.glb", "act2_001.wav", "act2_002.wav"}
     doc = manifest(out)
     import hashlib
 

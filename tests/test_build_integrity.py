@@ -261,12 +261,12 @@ def test_outputs_that_are_inputs_through_links_or_of_another_script_are_refused(
     out = tmp_path / "out"
     out.mkdir()
     os.link(data / "t.json", out / "a.json")  # a's motion file would be rec.sgt's timings file (a hard link)
-    (out / "b_000.wav").symlink_to(data / "rec.wav")  # b's speech would be written through the link
+    (out / "b_001.wav").symlink_to(data / "rec.wav")  # b's speech would be written through the link
     assert build(small, "-o", out, "-j", "1", "--engine", "keyframe", "--wav") == 1
     err = capsys.readouterr().err
     assert (f"{small / 'a.sgt'}: not built: its output {out / 'a.json'} is the timings file {data / 't.json'} that "
             f"{small / 'rec.sgt'} reads") in err
-    assert (f"{small / 'b.sgt'}: not built: its output {out / 'b_000.wav'} is the recording {data / 'rec.wav'} that "
+    assert (f"{small / 'b.sgt'}: not built: its output {out / 'b_001.wav'} is the recording {data / 'rec.wav'} that "
             f"{small / 'rec.sgt'} reads") in err
     assert (data / "t.json").read_text() == TIMINGS and (out / "a.json").read_text() == TIMINGS
     assert sf.info(str(data / "rec.wav")).frames == 16000

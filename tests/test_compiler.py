@@ -377,7 +377,7 @@ def test_cli_say_writes_wavs_and_prints_the_table(tmp_path, capsys, monkeypatch)
     assert "Hello" in out and "Second" in out
     wavs = sorted((tmp_path / "wav").glob("*.wav"))
     assert len(wavs) == 2
-    assert cli.main(["say", str(path), "-o", str(tmp_path / "wav"), "--json", "--utterance", "0"]) == 0
+    assert cli.main(["say", str(path), "-o", str(tmp_path / "wav"), "--json", "--utterance", "1"]) == 0
     data = json.loads(capsys.readouterr().out)
     (u,) = data
     assert 0 <= u["words"][0]["start"] < 0.2  # audio time: no gesture lead-in in the table

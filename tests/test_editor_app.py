@@ -471,6 +471,22 @@ def test_every_key_is_documented():
         assert f"| `{a.key}` | {a.title} |" in doc, a.key
 
 
+def test_no_key_has_two_meanings():
+    """An action's key (f6: suggest gestures) is not also a text key (the text area's f6 selects
+    the line, but the action takes the key first): not in the keys screen, not in docs/editor.md."""
+    import re
+
+    from sgt_tui.app.actions import TEXT_KEYS
+    from sgt_tui.app.main import ACTIONS
+
+    doc = (ROOT / "docs" / "editor.md").read_text()
+    text_editing = next(p for p in doc.split("\n\n") if p.startswith("Text editing is the usual"))
+    documented = set(re.findall(r"`([^`]+)`", text_editing))
+    listed = set(re.findall(r"[\w+]+", " ".join(TEXT_KEYS)))
+    for a in ACTIONS:
+        assert a.key not in documented and a.key not in listed, a.key
+
+
 # -- issue 13 §4: the tmux audit's findings, one test each ------------------------------------------------------
 
 def test_choice_dialogs_show_their_keys_as_written(tmp_path):

@@ -125,7 +125,7 @@ def test_cli_export_motion_files(tmp_path, motion_file, suffix, capsys):
     clips = load_motion(out)
     assert len(clips) == 2
     assert np.allclose(clips[1].poses, b.poses, atol=1e-5)
-    assert main(["export", str(path), "-o", str(out), "--utterance", "0"]) == 0
+    assert main(["export", str(path), "-o", str(out), "--utterance", "1"]) == 0  # the first: a
     clips = load_motion(out)
     assert len(clips) == 1 and clips[0].words == a.words
 
@@ -137,7 +137,7 @@ def test_cli_export_bvh_and_csv(tmp_path, motion_file):
     assert main(["export", str(path), "-o", str(tmp_path / "all.csv")]) == 0
     with open(tmp_path / "all.csv") as f:
         assert sum(1 for _ in f) == 1 + a.n_frames + b.n_frames
-    assert main(["export", str(path), "-o", str(tmp_path / "one.bvh"), "--utterance", "1"]) == 0
+    assert main(["export", str(path), "-o", str(tmp_path / "one.bvh"), "--utterance", "2"]) == 0  # the second: b
     _, pos, _ = _bvh_positions(tmp_path / "one.bvh")
     assert np.abs(pos - b.positions).max() < 1e-3
 
@@ -150,9 +150,9 @@ def test_cli_export_errors(tmp_path, motion_file, capsys):
     assert "no such file" in capsys.readouterr().err
     assert main(["export", str(path), "-o", str(tmp_path / "x.fbx")]) == 2
     assert "unknown export type" in capsys.readouterr().err
-    assert main(["export", str(path), "-o", str(tmp_path / "x.bvh"), "--utterance", "2"]) == 2
+    assert main(["export", str(path), "-o", str(tmp_path / "x.bvh"), "--utterance", "3"]) == 2
     err = capsys.readouterr().err
-    assert "no utterance 2" in err and "Traceback" not in err
+    assert "no utterance 3: the motion has 2 (1..2)" in err and "Traceback" not in err
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
     assert main(["export", str(bad), "-o", str(tmp_path / "x.csv")]) == 1

@@ -428,3 +428,21 @@ def test_the_commands_face_kinds_are_the_writers():
     from sgt_tui.commands.export import FACE_KINDS as COMMAND_KINDS
 
     assert COMMAND_KINDS == FACE_KINDS
+
+
+def test_a_vrm_glb_is_a_gltf_and_its_vrma_the_vrm_animation(fake_take, tmp_path, capsys):
+    """`--rig vrm -o x.glb` writes a glTF of the VRM skeleton (no VRM Animation extension: a
+    .glb name never holds .vrma bytes), and says the face is left out; `-o x.vrma` is the VRM
+    Animation with the face's expression tracks."""
+    from sgt_tui.cli import main
+
+    assert main(["export", "--rig", "vrm", str(fake_take[1]), "-o", str(tmp_path / "g.glb"), "--speaker", "guide"]) == 0
+    err = capsys.readouterr().err
+    doc = glb_json((tmp_path / "g.glb").read_bytes())
+    assert "VRMC_vrm_animation" not in doc.get("extensions", {}) and "VRMC_vrm_animation" not in doc.get("extensionsUsed", [])
+    assert doc["animations"] and "hips" in {n["name"] for n in doc["nodes"]}
+    (line,) = [line for line in err.splitlines() if line.startswith(f"wrote {tmp_path / 'g.glb'}:")]
+    assert "; no face: a glTF of the vrm rig has none" in line and "-o x.vrma" in line
+    assert main(["export", str(fake_take[1]), "-o", str(tmp_path / "g.vrma"), "--speaker", "guide"]) == 0
+    doc = glb_json((tmp_path / "g.vrma").read_bytes())
+    assert "VRMC_vrm_animation" in doc["extensionsUsed"] and doc["extensions"]["VRMC_vrm_animation"]["expressions"]

@@ -244,16 +244,16 @@ def test_export_never_writes_its_sidecar_through_a_planted_link(built, victim, t
 
 
 def test_say_never_writes_its_wavs_through_a_planted_link(tmp_path, victim):
-    """``sgt say`` names its WAVs itself (STEM_000.wav in STEM_speech/): a link planted at one is
+    """``sgt say`` names its WAVs itself (STEM_001.wav in STEM_speech/): a link planted at one is
     refused, and the file it points to keeps its bytes."""
     (tmp_path / "a.sgt").write_text(SCRIPT)
     (tmp_path / "a_speech").mkdir()
-    (tmp_path / "a_speech" / "a_000.wav").symlink_to(victim)
+    (tmp_path / "a_speech" / "a_001.wav").symlink_to(victim)
     r = sgt("say", "a.sgt", cwd=tmp_path)
     no_traceback(r)
     untouched(victim)
     assert r.returncode != 0
-    assert "a_000.wav" in r.stderr and "link" in r.stderr
+    assert "a_001.wav" in r.stderr and "link" in r.stderr
 
 
 # -- sgt align and the language server's sgt.writeTimings -----------------------------------------

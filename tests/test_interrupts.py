@@ -71,7 +71,7 @@ def motion_file(tmp_path_factory):
     from sgt_tui.cli import main
 
     path = tmp_path_factory.mktemp("motion") / "take.json"
-    assert main(["generate", str(EXAMPLE), "-o", str(path), "--engine", "keyframe", "--utterance", "0"]) == 0
+    assert main(["generate", str(EXAMPLE), "-o", str(path), "--engine", "keyframe", "--utterance", "1"]) == 0
     return path
 
 

@@ -324,3 +324,23 @@ def test_sheet_lean_bends_at_the_waist_not_the_chest():
             assert abs(_back_of_the_hips(image, row) - back) <= 2, name
             top = np.argmax((np.abs(image.astype(int) - rest.astype(int)).sum(axis=-1) > 30).any(axis=1))
             assert top < row - 100, name  # while the chest and head do move
+
+
+def test_list_shows_every_tag_whole(tmp_path, capsys):
+    """A long list of tags goes on, under the column, on lines of its own: no tag is cut."""
+    user = tmp_path / "mine"
+    user.mkdir()
+    tags = ["greeting", "friendly", "both-hands", "open", "welcoming-the-visitor-at-the-door", "loud"]
+    (user / "hello_all.toml").write_text(
+        f'name = "hello_all"\nduration = 1\ntags = {json.dumps(tags)}\n[[keyframes]]\ntime = 0\nstroke = true\n')
+    code, out, _ = _run(capsys, "library", "list", "--dir", str(user))
+    assert code == 0
+    lines = out.splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("hello_all "))
+    header = next(line for line in lines if line.startswith("NAME "))
+    tags_at, from_at = header.index("TAGS"), header.index("FROM")
+    more = [x for x in lines[at + 1:at + 6] if x.startswith(" ")]
+    column = [lines[at][tags_at:from_at]] + [x[tags_at:] for x in more]
+    assert [t.strip() for t in ",".join(column).split(",") if t.strip()] == tags
+    assert lines[at][from_at:].startswith(str(user)) and "..." not in "\n".join(column)
+    assert max(len(line) for line in lines) <= 80 + len(str(user))

@@ -60,7 +60,7 @@ WRITERS = {
 }
 # Folder outputs: the file inside the folder that the command writes.
 FOLDER_WRITERS = {
-    "say": ("hello_000.wav", lambda i, d: ["say", i["script"], "-o", str(d)], b"RIFF"),
+    "say": ("hello_001.wav", lambda i, d: ["say", i["script"], "-o", str(d)], b"RIFF"),
     "library add": ("mine.toml", lambda i, d: ["library", "add", "mine", "--from", i["motion"], "--frames", "0:8",
                                                "--to", str(d), "--force"], b"name"),
 }
@@ -162,7 +162,7 @@ def test_dash_writes_binary_to_a_pipe_and_refuses_a_terminal(inputs, tmp_path):
         assert "poses_0" in z.files
     leader, follower = pty.openpty()
     try:
-        r = _run_cli(argv + ["--utterance", "0"], stdout=follower, stderr=subprocess.PIPE, text=True, timeout=120)
+        r = _run_cli(argv + ["--utterance", "1"], stdout=follower, stderr=subprocess.PIPE, text=True, timeout=120)
     finally:
         os.close(follower)
         os.close(leader)

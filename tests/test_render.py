@@ -235,7 +235,9 @@ def test_cli_render_writes_gif_and_sheet(tmp_path, motion_file, capsys):
 
 
 @pytest.mark.parametrize("argv_tail, code, message", [
-    (["--utterance", "5"], 2, "no utterance 5"),
+    (["--utterance", "5"], 2, "no utterance 5: the motion has 2 (1..2)"),
+    (["--utterance", "3"], 2, "no utterance 3: the motion has 2 (1..2)"),
+    (["--utterance", "0"], 2, "--utterance: 0: utterances count from 1 (the first is --utterance 1)"),
     (["--utterance", "-1"], 2, "--utterance"),
     (["--size", "big"], 2, "--size"),
     (["--size", "4x4"], 2, "--size"),

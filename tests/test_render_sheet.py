@@ -214,6 +214,27 @@ def test_a_long_row_wraps(tmp_path, mannequin, tracks):
     assert all(p.box[2] <= im.width and p.box[3] <= im.height for p in info["panels"])
 
 
+def test_a_one_picture_sheet_shows_its_whole_title(tmp_path, mannequin, tracks):
+    """One picture is as narrow as a sheet gets: its title goes on more lines, never cut short."""
+    from dataclasses import replace
+
+    from PIL import Image
+
+    from renders.animate import render_sheet
+
+    guide = tracks[0]
+    one = replace(guide, controls=[next(k for k in guide.controls if k.kind == "pose")])
+    title = "tavern_npc_with_a_long_name.sgt · three-quarter view"
+    short = render_sheet([one], tmp_path / "short.png", size=SIZE, title="t", mannequin=mannequin)
+    info = render_sheet([one], tmp_path / "long.png", size=SIZE, title=title, mannequin=mannequin)
+    assert short["title"] == ["t"] and len(info["title"]) > 1
+    assert "".join(info["title"]).replace(" ", "") == title.replace(" ", "")  # every character, none cut
+    assert info["width"] == SIZE[0] and info["height"] > short["height"]  # the title's lines get room
+    ink = np.asarray(Image.open(tmp_path / "long.png").convert("L"))[: info["height"] - short["height"] + 20] < 128
+    rows = np.flatnonzero(ink.any(axis=1))
+    assert len(rows) and np.any(np.diff(rows) > 1)  # ink on more than one line of the title band
+
+
 # -- command line ------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
@@ -236,7 +257,7 @@ def test_cli_sheet_of_strokes_from_a_view(tmp_path, motion_file, capsys):
     assert Image.open(out).size == (128, 64) and Image.open(sheet).width == 3 * 64
     assert main(["render", str(motion_file), "-o", str(out), "--sheet", str(sheet), "--size", "64",
                  "--sheet-at", "even", "--speaker", "robot"]) == 0
-    assert "8 frames of 1 row" in capsys.readouterr().err
+    assert "8 evenly spaced frames of 1 row" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("tail, message", [(["--view", "back"], "--view"), (["--sheet-at", "words"], "--sheet-at"),
@@ -281,3 +302,30 @@ def test_library_sheet_usage_errors(tmp_path, capsys, tail):
     assert rc == 2 and "Traceback" not in err
     assert tail[0] in err.strip().splitlines()[-1]  # argparse's usage, then one line that says what
     assert not (tmp_path / "x.png").exists()
+
+
+def _saved(tmp_path, script: str):
+    from dsl import compile_text
+    from model.generate import generate
+
+    path = tmp_path / "take.json"
+    generate(compile_text(script, timing="estimate").plan, engine="keyframe").save(path)
+    return path
+
+
+@pytest.mark.parametrize("script, summary", [
+    ("guide: Hello [pose:wave] there, my friend.\n", "1 stroke of 1 row"),
+    ("guide: Hello there, my friend, and welcome.\n", "8 evenly spaced frames (no marked gestures) of 1 row"),
+    ("guide: Hello [pose:wave] there.\nrobot: Hello there, my friend.\n",
+     "1 stroke and 8 evenly spaced frames (robot: no marked gestures) of 2 rows"),
+])
+def test_cli_sheet_says_what_its_pictures_are(tmp_path, capsys, script, summary):
+    """A sheet's summary counts with the noun's number, and never calls evenly spaced frames
+    (a row without marks) strokes."""
+    from sgt_tui.cli import main
+
+    motion = _saved(tmp_path, script)
+    assert main(["render", str(motion), "-o", str(tmp_path / "o.gif"), "--sheet", str(tmp_path / "o.png"),
+                 "--size", "64"]) == 0
+    (line,) = [x for x in capsys.readouterr().err.splitlines() if x.startswith(f"wrote {tmp_path / 'o.png'}:")]
+    assert line.startswith(f"wrote {tmp_path / 'o.png'}: {summary}, ")

@@ -65,7 +65,7 @@ ACTIONS: tuple[Act, ...] = (
         ("render", False)),
     Act("ctrl+r", "job", "", "Render GIF of script", "render the whole script to a GIF", ("render", True)),
     Act("ctrl+t", "cancel_job", "", "Cancel job", "cancel the job asked for last: the last queued, else the running one"),
-    Act("ctrl+o", "next_engine", "", "Next engine", "switch the generation engine: neural, matching, keyframe, rules"),
+    Act("ctrl+o", "next_engine", "", "Next engine", "switch the generation engine: " + ", ".join(ENGINE_ORDER)),
     Act("ctrl+q", "quit", "quit", "Quit", "leave the editor (asks about unsaved changes)"),
     Act("ctrl+p", "command_palette", "", "Command palette", "search every action by name"),
 )
@@ -74,6 +74,13 @@ ACTIONS: tuple[Act, ...] = (
 FOOTER_ORDER = ("ctrl+s", "f1", "f2", "f3", "f4", "f5", "ctrl+g", "f9", "ctrl+q")
 #: The editor's own actions (they act on the main screen only; dialogs have their own keys).
 ACTION_NAMES = frozenset(a.name for a in ACTIONS) - {"command_palette"}
+
+#: The keys of the text, preview and timeline themselves, as the keys screen (f1) lists them after
+#: the actions. An action's binding takes its key first (``priority``), so none of these is one
+#: (the text area's own f6, select the line, is the editor's suggest gestures).
+TEXT_KEYS = ("preview/timeline (tab to focus): space play, ←→ frame, shift+←→ second",
+             "text: shift+arrows select, f7 all, ctrl+x/c/v cut/copy/paste,",
+             "      home/end line start/end, ctrl+home/ctrl+end start/end of the script")
 
 
 def bindings() -> list[Binding]:

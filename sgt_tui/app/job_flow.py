@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from core import rules
+from core.counting import plural
 from core.motion import MotionFileError, load_motion
 from core.skeleton import FPS
 from model.weights import DEFAULT_WEIGHTS
@@ -90,7 +91,7 @@ class JobFlow:
             if 0 <= index < len(job.keys):
                 app.takes.add(job.keys[index], job.request.engine, clip)
         if job.op == "render":
-            app.say(f"wrote {display_name(Path(result.gif))} ({result.gif_frames} frames)")
+            app.say(f"wrote {display_name(Path(result.gif))} ({plural(result.gif_frames, 'frame')})")
         else:
             app.say(f"{job.label}: done, {result.frames / FPS:.1f} s of motion")
         if app.current is not None and app.takes.has(app.current.key):

@@ -28,6 +28,7 @@ from textual.screen import Screen
 from textual.widgets import Footer, TextArea
 from textual.widgets.text_area import Selection
 
+from core.counting import number
 from core.diagnostics import Diagnostic, summary
 from library.words import WordRulesError, load_word_rules
 from model.engines import DEFAULT_ENGINE
@@ -256,7 +257,7 @@ class EditorApp(App):
         elif a is not None:
             parts.append(summary(a.diagnostics) if a.diagnostics else "ok")
             if self.current is not None and a.utterances:
-                parts.append(f"utt {self.current.index + 1}/{len(a.utterances)}")
+                parts.append(f"utt {number(self.current.index)}/{len(a.utterances)}")
         parts.append(f"engine {self.engine}" + ("" if weights_exist(self.weights) or self.engine != "neural"
                                                   else " (no weights)"))
         if self.disk_warned:

@@ -22,10 +22,12 @@ from textual.widgets import Button, Input, OptionList, Static
 from textual.widgets.option_list import Option
 
 from core.controls import STYLE_LIMIT, STYLE_NAMES
+from core.counting import plural
 from core.diagnostics import Diagnostic, Fix
 from core.skeleton import positions_from_pose
 from dsl.presets import BUILTIN_PRESETS
 from renders.terminal import figure_points
+from sgt_tui.app.actions import TEXT_KEYS
 from sgt_tui.app.panels import PreviewPanel
 from sgt_tui.editor.edits import pose_tag
 from sgt_tui.editor.player import Player
@@ -236,7 +238,7 @@ class LibraryScreen(ModalScreen):
         preview.refresh()
         stroke = f"stroke at frame {clip.stroke_frame}" if clip.stroke_frame is not None else "no stroke"
         info.update(f"{self.tag()}\n{g.description}\ntags: {', '.join(g.tags) or '-'}\n"
-                    f"{clip.n_frames} frames ({clip.duration:.2f} s), {stroke}")
+                    f"{plural(clip.n_frames, 'frame')} ({clip.duration:.2f} s), {stroke}")
 
     def action_speed(self, speed: int) -> None:
         self.speed = speed
@@ -355,9 +357,7 @@ class KeysScreen(ModalScreen):
             yield Static("Keys · q or esc closes · ctrl+p: command palette", id="dialog-title", markup=False)
             width = max(len(k) for k, _, _ in self.rows)
             lines = [f"{k:<{width}}  {title}: {help_}" for k, title, help_ in self.rows]
-            lines += ["", "preview/timeline (tab to focus): space play, ←→ frame, shift+←→ second",
-                      "text: shift+arrows select, f6 line, f7 all, ctrl+x/c/v cut/copy/paste,",
-                      "      home/end line start/end, ctrl+home/ctrl+end start/end of the script"]
+            lines += ["", *TEXT_KEYS]
             yield OptionList(*[Option(Content(t)) for t in lines], id="keys-list")
 
 

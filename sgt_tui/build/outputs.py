@@ -4,8 +4,8 @@ Layout: the outputs of a script sit at its path relative to the deepest folder t
 every PATH of the build (a folder PATH holds itself; a file PATH is held by its folder), with
 its extension replaced: ``sgt build game -o out`` writes ``game/act1/intro.sgt``'s motion to
 ``out/act1/intro.json``, its ``--bvh`` to ``out/act1/intro.bvh``, its ``--glb`` to
-``out/act1/intro.glb`` and its ``--wav`` speech to ``out/act1/intro_000.wav``,
-``intro_001.wav``, ... (one per utterance, named as ``sgt say`` names them).
+``out/act1/intro.glb`` and its ``--wav`` speech to ``out/act1/intro_001.wav``,
+``intro_002.wav``, ... (one per utterance, counted from 1, named as ``sgt say`` names them).
 
 Every file is written, read back and removed under ``OUT`` by :class:`core.fileio.Inside`:
 atomically, and never through a symbolic link (a link in ``OUT`` where an output goes, or on
@@ -31,6 +31,7 @@ import stat
 import time
 from pathlib import Path
 
+from core.counting import speech_file
 from core.fileio import Inside, OutputError
 from core.reading import loads_json
 
@@ -72,7 +73,7 @@ def stem(rel: str) -> str:
 
 
 def wav_name(rel: str, index: int) -> str:
-    return f"{stem(rel)}_{index:03d}.wav"
+    return speech_file(stem(rel), index)
 
 
 def planned(rel: str, speakers: list, indices: list[int], exports: tuple[str, ...]) -> list[str]:

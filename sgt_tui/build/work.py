@@ -15,6 +15,7 @@ import sys
 
 from dataclasses import dataclass, field
 
+from core.counting import number
 from sgt_tui.build.cache import Entry
 from sgt_tui.build.keys import Settings
 
@@ -111,5 +112,5 @@ def run_task(task: Task, weights: str | None = None, database: str | None = None
     missing = sorted(set(task.keys) - set(entries))
     if missing:  # compile_file skips an utterance whose speech failed and reports it
         errors = [d.to_dict() for d in take.diagnostics if d.is_error]
-        return TaskResult(task.number, entries, errors, f"no motion for utterance {missing[0]}")
+        return TaskResult(task.number, entries, errors, f"no motion for utterance {number(missing[0])}")
     return TaskResult(task.number, entries)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from core.counting import number, plural
+
 HELP = "write the word times the aligner finds in a script's recordings, as timings files to review"
 DESCRIPTION = """\
 For every utterance of the script FILE spoken from a recording (@audio REC, without
@@ -33,7 +35,7 @@ def register(sub) -> None:
     p.add_argument("--format", choices=tuple(TIMINGS_SUFFIX), default="json",
                    help="json: a list of {word, start, end} (default); textgrid: a Praat TextGrid with a 'words' tier")
     p.add_argument("--utterance", type=utterance_number, action="append", metavar="N",
-                   help="only utterance N (0-based; repeatable)")
+                   help="only utterance N (the first is 1; repeatable)")
     p.add_argument("--force", action="store_true", help="replace timings files that exist")
     p.set_defaults(run=run)
 
@@ -71,10 +73,10 @@ def run(args) -> int:
     todo = [u for u in chosen if u.audio is not None and u.audio.timings is None]
     for u in chosen:
         if u.audio is not None and u.audio.timings is not None:
-            print(f"[{u.index}] line {u.line}: timed by {u.audio.timings}: skipped", file=sys.stderr)
+            print(f"[{number(u.index)}] line {u.line}: timed by {u.audio.timings}: skipped", file=sys.stderr)
     if not todo:
         if args.utterance:
-            raise UsageError(f"no utterance of {', '.join(map(str, args.utterance))} is spoken from a recording "
+            raise UsageError(f"no utterance of {', '.join(str(number(i)) for i in args.utterance)} is spoken from a recording "
                              "without timings=: nothing to align")
         print(f"{shown(path)} has no recording without timings= to align (@audio FILE before an utterance)", file=sys.stderr)
         return 0
@@ -83,7 +85,7 @@ def run(args) -> int:
     for u in todo:
         target = timings_path(u.audio.path, args.format, out_dir)
         if target in targets:
-            raise UsageError(f"utterances {targets[target].index} and {u.index} would both write {target}: "
+            raise UsageError(f"utterances {number(targets[target].index)} and {number(u.index)} would both write {target}: "
                              "give them recordings of other names, or use --utterance")
         check_timings_target(target)  # a link there: refused with one line, --force or not
         if os.path.lexists(target) and not args.force:
@@ -96,23 +98,23 @@ def run(args) -> int:
         try:
             text, times, rejection = aligner_timings(u.audio.path, u.text, u.word_spans, args.format)
         except SpeechError as exc:
-            print(f"[{u.index}] line {u.line}: {exc.message}", file=sys.stderr)
+            print(f"[{number(u.index)}] line {u.line}: {exc.message}", file=sys.stderr)
             failed += 1
             continue
         try:
             write_timings_file(target, text, replace=args.force)
         except OutputExists:
-            print(f"[{u.index}] line {u.line}: {target} appeared while the recording was aligned: not replaced "
+            print(f"[{number(u.index)}] line {u.line}: {target} appeared while the recording was aligned: not replaced "
                   "(add --force to replace it)", file=sys.stderr)
             failed += 1
             continue
         except OutputError as exc:
-            print(f"[{u.index}] line {u.line}: {exc}", file=sys.stderr)
+            print(f"[{number(u.index)}] line {u.line}: {exc}", file=sys.stderr)
             failed += 1
             continue
         named = shown_from(target.resolve(), path)
-        print(f"[{u.index}] line {u.line}: wrote {shown(target)}: {len(times)} words, "
-              f"{times[0][0]:.2f}-{times[-1][1]:.2f} s" if times else f"[{u.index}] line {u.line}: wrote {shown(target)}")
+        print(f"[{number(u.index)}] line {u.line}: wrote {shown(target)}: {plural(len(times), 'word')}, "
+              f"{times[0][0]:.2f}-{times[-1][1]:.2f} s" if times else f"[{number(u.index)}] line {u.line}: wrote {shown(target)}")
         if rejection is None:
             print("    the check accepts this transcript (no timings file is needed; with one, its times are used as written)")
         else:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import plural
+
 HELP = "build every script under PATHS into OUT (incremental, cached, parallel)"
 DESCRIPTION = """\
 Build every .sgt script under PATHS (folders are searched recursively) into the folder
@@ -110,7 +112,7 @@ def run(args) -> int:
     if not args.quiet or report.failed:
         ok = report.scripts - len(report.failed)
         failed = f", {len(report.failed)} failed ({', '.join(report.failed[:5])}{', ...' if len(report.failed) > 5 else ''})" if report.failed else ""
-        print(f"built {ok} of {report.scripts} script{'s' if report.scripts != 1 else ''} into {out}{failed}: "
-              f"{report.generated} utterance{'s' if report.generated != 1 else ''} generated, {report.cached} cached, "
-              f"{report.up_to_date} script{'s' if report.up_to_date != 1 else ''} up to date", file=sys.stderr)
+        print(f"built {ok} of {plural(report.scripts, 'script')} into {out}{failed}: "
+              f"{plural(report.generated, 'utterance')} generated, {report.cached} cached, "
+              f"{plural(report.up_to_date, 'script')} up to date", file=sys.stderr)
     return 1 if report.failed else 0

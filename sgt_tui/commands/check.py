@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import plural
+
 HELP = "check scripts and report every problem (file:line:col)"
 DESCRIPTION = """\
 Check .sgt scripts and report every problem in one run: syntax, unknown gestures,
@@ -78,7 +80,7 @@ def _check(args) -> int:
                 print_diagnostics(result.diagnostics, sources, stream=sys.stdout, max_per_file=limit, summarise=False)
             elif not args.quiet:
                 n = len(result.script.utterances)
-                print(f"{path}: ok ({n} utterance{'s' if n != 1 else ''})")
+                print(f"{path}: ok ({plural(n, 'utterance')})")
     if args.format == "json":
         print_diagnostics(all_diags, sources, "json", max_per_file=limit)
     elif all_diags:

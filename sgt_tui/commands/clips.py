@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from core.counting import no_utterance, number, plural
 from sgt_tui.commands.common import existing_file, print_diagnostics
 from sgt_tui.errors import InputError, UsageError
 
@@ -39,13 +40,13 @@ def generate_script(path: Path, *, engine: str | None = None, utterances=None, s
                 print_diagnostics(exc.diagnostics, exc.sources)
                 raise InputError(str(exc), printed=True) from None
             raise InputError(str(exc)) from None
-        print(f"{len(found)} gesture{'s' if len(found) != 1 else ''} chosen from the words "
+        print(f"{plural(len(found), 'gesture')} chosen from the words "
               f"({', '.join(sorted({s.gesture for s in found})) or 'none'})", file=sys.stderr)
     try:
         take = generate(path, source=source, engine=engine, utterances=utterances, seed=seed, options=options,
                         progress=ProgressBar(label))
     except NoSuchUtterance as exc:
-        raise UsageError(f"{path}: {exc}") from None
+        raise UsageError(f"{path}: {exc.for_people()}") from None
     except GenerateError as exc:
         if exc.diagnostics:
             print_diagnostics(exc.diagnostics, {str(path): exc.source})
@@ -56,11 +57,24 @@ def generate_script(path: Path, *, engine: str | None = None, utterances=None, s
 
 
 def load_performance(path_text: str, utterance: int | None = None, *, engine: str | None = None,
-                     seed: int | None = None, options=None, tracks: bool = True):
+                     seed: int | None = None, options=None, tracks: bool = True, speaker: str | None = None):
     """A :class:`core.motion.MotionFile` of a motion file or a script (generated): its
-    utterances, its speakers' tracks and the script. With ``utterance`` only that one, and
-    no tracks; ``tracks=False`` does not build a script's tracks."""
-    path = existing_file(path_text)
+    utterances, its speakers' tracks and the script. With ``utterance`` (an index) only that
+    one, and no tracks; ``tracks=False`` does not build a script's tracks. ``speaker`` with
+    ``utterance`` (``--speaker`` and ``--utterance``) must be that utterance's speaker."""
+    take = _load(existing_file(path_text), utterance, engine, seed, options, tracks)
+    if speaker is not None and utterance is not None:
+        from renders.clips import speaker_name  # lazy: numpy
+
+        who = speaker_name(take.clips[0].speaker)
+        if who != speaker:
+            n = number(utterance)
+            raise UsageError(f"--speaker {speaker} and --utterance {n} disagree: utterance {n} is {who}'s; "
+                             f"drop --speaker, or give --speaker {who}")
+    return take
+
+
+def _load(path: Path, utterance, engine, seed, options, tracks: bool):
     suffix = path.suffix.lower()
     if suffix in SCRIPT_SUFFIXES:
         from core.motion import MotionFile  # lazy: numpy
@@ -73,7 +87,6 @@ def load_performance(path_text: str, utterance: int | None = None, *, engine: st
     if suffix not in MOTION_SUFFIXES:
         raise UsageError(f"{path}: unknown input type '{suffix or '(none)'}' (use .json, .npz or .sgt)")
     from core.motion import MotionFile, MotionFileError, load_motion_file  # lazy: numpy
-    from renders.clips import pick  # lazy: numpy
 
     try:
         whole = load_motion_file(path)
@@ -83,7 +96,6 @@ def load_performance(path_text: str, utterance: int | None = None, *, engine: st
         raise InputError(f"{path}: no utterances")
     if utterance is None:
         return whole
-    try:
-        return MotionFile(pick(whole.clips, utterance), [], whole.source, whole.version, whole.engine)
-    except IndexError as exc:
-        raise UsageError(f"{path}: {exc}") from None
+    if not 0 <= utterance < len(whole.clips):
+        raise UsageError(f"{path}: {no_utterance(utterance, range(len(whole.clips)), what='the motion')}")
+    return MotionFile([whole.clips[utterance]], [], whole.source, whole.version, whole.engine)

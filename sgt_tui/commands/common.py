@@ -26,6 +26,7 @@ import os
 import sys
 from pathlib import Path
 
+from core.counting import index_of, no_utterance, plural
 from core.fileio import check_not_input, check_output, check_output_folder
 from core.seeds import SEED_MAX
 from model.engines import DEFAULT_ENGINE, ENGINES, EVAL_ENGINES  # noqa: F401  (EVAL_ENGINES: for the commands)
@@ -58,14 +59,15 @@ def seed(text: str) -> int:
 
 
 def utterance_number(text: str) -> int:
-    """``--utterance``: 0 or more (whether the script has it is checked once it is read)."""
+    """``--utterance N``: 1 or more, as people count utterances (:mod:`core.counting`); returns
+    the utterance's 0-based index (whether the script has it is checked once it is read)."""
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a whole number") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{value}: utterances are numbered from 0")
-    return value
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value}: utterances count from 1 (the first is --utterance 1)")
+    return index_of(value)
 
 
 def positive_int(text: str) -> int:
@@ -197,11 +199,12 @@ def database_option(path: str | None, engine: str | None) -> str | None:
 
 
 def check_utterances(script, requested) -> None:
-    """Usage error when a requested utterance number is not in the script."""
+    """Usage error when a requested utterance (an index, as :func:`utterance_number` gives it)
+    is not in the script; the message counts from 1."""
     if requested and script.header is not None:
-        problem = script.missing_utterance(requested)
-        if problem:
-            raise UsageError(problem)
+        missing = script.missing_utterance(requested)
+        if missing is not None:
+            raise UsageError(no_utterance(missing, [u.index for u in script.utterances]))
 
 
 # -- outputs ---------------------------------------------------------------------------------
@@ -345,7 +348,7 @@ def print_diagnostics(diags, sources: dict[str, str], fmt: str = "text", stream=
         shown, left = cap(diags, max_per_file)
         stream.write(format_text(shown, sources, color=use_color(stream)) + "\n")
         for file, n in left.items():
-            stream.write(f"{file}: {n} more problem{'s' if n != 1 else ''} not shown (--max-errors 0 shows all)\n")
+            stream.write(f"{file}: {plural(n, 'more problem')} not shown (--max-errors 0 shows all)\n")
         if summarise:
             stream.write(summary(diags) + "\n")
 

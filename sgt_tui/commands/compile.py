@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import plural
+
 HELP = "compile a script into a timing and control plan"
 DESCRIPTION = """\
 Compile a script: synthesize (or read) the speech, time every word, and turn the
@@ -23,7 +25,7 @@ def register(sub) -> None:
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
     p.add_argument("-o", "--output", metavar="PLAN", help="write the plan JSON here (default, or '-': standard output)")
     p.add_argument("--npz", metavar="FILE", help="also write the control arrays as .npz ('-': standard output, not a terminal)")
-    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
+    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (the first is 1; repeatable)")
     p.add_argument("--estimate", action="store_true", help="estimate word times from the text instead of synthesizing speech")
     p.add_argument("--format", choices=("text", "json"), default="text", help="diagnostics format (default text, on stderr)")
     p.add_argument("--max-errors", type=int, metavar="N", default=None,
@@ -78,5 +80,6 @@ def run(args) -> int:
         seconds = sum(u.duration for u in plan.utterances)
         n_ctl = sum(len(u.controls) for u in plan.utterances)
         extra = f" and {shown(npz_out)}" if npz_out is not None else ""
-        print(f"wrote {args.output}{extra}: {len(plan.utterances)} utterances, {seconds:.1f}s, {frames} frames, {n_ctl} controls", file=sys.stderr)
+        print(f"wrote {args.output}{extra}: {plural(len(plan.utterances), 'utterance')}, {seconds:.1f}s, "
+              f"{plural(frames, 'frame')}, {plural(n_ctl, 'control')}", file=sys.stderr)
     return exit_code(diags)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import plural
+
 HELP = "what changed between two versions of scripts: utterances, gestures, styles, timing"
 DESCRIPTION = """\
 Compare two versions of .sgt scripts and say, utterance by utterance, what the characters
@@ -113,6 +115,6 @@ def run(args) -> int:
 
         made = render_changes(pairs, diffs, Path(args.render), engine=args.engine, size=parse_size(args.size),
                               video=args.video)
-        print(f"wrote {len(made)} before/after render{'s' if len(made) != 1 else ''} into {args.render}", file=sys.stderr)
+        print(f"wrote {plural(len(made), 'before/after render')} into {args.render}", file=sys.stderr)
     differs = any(d.changed for d in diffs)
     return 1 if args.exit_code and differs else 0

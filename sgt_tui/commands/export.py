@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import plural
+
 HELP = "export motion as BVH, CSV, JSON, NPZ or glTF, for sgt's skeleton or another rig"
 DESCRIPTION = """\
 Export a motion file (or a script, generated first) by the output's extension, or
@@ -17,8 +19,9 @@ Export a motion file (or a script, generated first) by the output's extension, o
   .npz   sgt motion file, binary
   .glb   glTF 2.0 binary: skeleton, skinned mannequin, animation (15 fps); with a face,
          the mannequin's head with 52 ARKit morph targets, animated (--rig sgt)
-  .vrma  VRM Animation (the .glb of --rig vrm); with a face, VRM expression tracks
-         (aa ih ou ee oh, blinks, happy angry sad relaxed surprised, look up/down/left/right)
+  .vrma  VRM Animation (--rig vrm; its .glb is a plain glTF of the VRM skeleton); with a
+         face, VRM expression tracks (aa ih ou ee oh, blinks, happy angry sad relaxed
+         surprised, look up/down/left/right)
 
 The face (lip sync, blinks, gaze, expressions) alone, with --face or by the name:
   .livelink.csv   --face livelink: Unreal's Live Link Face recording (Timecode,
@@ -41,8 +44,9 @@ tracks; every other format holds one speaker's track: with several speakers, one
 speaker (take.bvh -> take.guide.bvh, take.visitor.bvh; take.livelink.csv ->
 take.guide.livelink.csv) or, with --speaker NAME, one. A
 sidecar OUT.timeline.json (take.bvh.timeline.json) says where each utterance starts in the
-files (frames and seconds) and where its audio starts; CSV rows also name the utterance playing. With
---utterance N, only that utterance's own motion is written. Motion files from before the
+files (frames and seconds) and where its audio starts; CSV rows also name the utterance playing
+(the timeline's "index" and the CSV's column count from 0). With --utterance N (the first is
+1), only that utterance's own motion is written; --speaker with it must be its speaker. Motion files from before the
 performance clock (version 1) have no tracks: their utterances are joined one after
 another. '-o -' writes to standard output (JSON unless --format says otherwise). Formats
 are documented in docs/formats.md."""
@@ -72,7 +76,7 @@ def register(sub) -> None:
     p.add_argument("--format", choices=FORMATS, help="output format (default: from OUT's extension)")
     p.add_argument("--rig", choices=tuple(RIG_OUTPUTS), metavar="NAME",
                    help="target skeleton or robot: " + ", ".join(RIG_OUTPUTS) + " (default: sgt)")
-    p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (0-based)")
+    p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (the first is 1)")
     p.add_argument("--speaker", metavar="NAME", help="only this speaker's track (one file)")
     p.add_argument("--face", choices=tuple(FACE_KINDS),
                    help="write the face instead of the body: livelink (Live Link Face .csv) or arkit (.csv, .npz, .json); "
@@ -99,8 +103,6 @@ def run(args) -> int:
     rig = args.rig or ("vrm" if fmt == "vrma" else "sgt")
     if fmt not in RIG_OUTPUTS[rig]:
         raise UsageError(f"-o {args.output}: --rig {rig} writes {', '.join('.' + f for f in RIG_OUTPUTS[rig])}, not .{fmt}")
-    if args.speaker is not None and args.utterance is not None:
-        raise UsageError("--speaker and --utterance: give one (an utterance has one speaker)")
     binary = fmt in ("npz", "glb", "vrma")
     inputs = inputs_of(args.input)
     out = output_file(args.output, binary=binary, inputs=inputs)
@@ -113,7 +115,7 @@ def run(args) -> int:
         if Path(sidecar).parent.is_dir():  # (a folder still to be made holds no link)
             with Inside(Path(sidecar).parent) as folder:
                 folder.check(Path(sidecar).name)
-    take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
+    take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed, speaker=args.speaker)
 
     from core.motion import save_motion
     from renders.clips import concat_clips, speaker_name, track_clip, utterance_frames
@@ -127,7 +129,7 @@ def run(args) -> int:
         clips = [c for c in clips if speaker_name(c.speaker) == args.speaker]
     if face is None and rig == "sgt" and fmt in ("json", "npz"):
         save_motion(out, clips, format=fmt, tracks=tracks, source=take.source, engine=take.engine)
-        print(f"wrote {shown(out)}: {len(clips)} utterance(s), {len(tracks)} track(s)", file=sys.stderr)
+        print(f"wrote {shown(out)}: {plural(len(clips), 'utterance')}, {plural(len(tracks), 'track')}", file=sys.stderr)
         return 0
     if not tracks:  # one utterance, or a version 1 file: the utterances one after another
         outputs = [(out, concat_clips(clips), utterance_frames(sum(c.n_frames for c in clips), clips, joined=True))]
@@ -148,7 +150,8 @@ def run(args) -> int:
     for target, clip, frames in outputs:
         own = [u for u in dict.fromkeys(frames) if u is not None]
         note = _write(target, clip, rig, fmt, frames, face)
-        print(f"wrote {shown(target)}: {len(own)} utterance(s), {clip.n_frames} frames" + (f"; {note}" if note else ""),
+        print(f"wrote {shown(target)}: {plural(len(own), 'utterance')}, {plural(clip.n_frames, 'frame')}"
+              + (f"; {note}" if note else ""),
               file=sys.stderr)
     if sidecar is not None:
         _write_timeline(sidecar, clips, [(o[0], o[1].speaker) for o in outputs], bool(tracks))

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import plural
+
 HELP = "rewrite scripts in the canonical layout (--check for CI, --stdin for editors)"
 DESCRIPTION = """\
 Rewrite .sgt scripts in place in one canonical layout: tags without inner padding and
@@ -51,7 +53,7 @@ def run(args) -> int:
         changed += result[1]
     if not args.quiet or changed:
         verb = "would be reformatted" if args.check else "reformatted"
-        print(f"{changed} of {len(files)} file{'s' if len(files) != 1 else ''} {verb}", file=sys.stderr)
+        print(f"{changed} of {plural(len(files), 'file')} {verb}", file=sys.stderr)
     return status
 
 

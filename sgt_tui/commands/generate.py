@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import plural
+
 HELP = "generate motion for a script (automatic gestures + your controls)"
 DESCRIPTION = """\
 Generate upper-body motion for every utterance of a script: automatic gestures from
@@ -33,7 +35,7 @@ def register(sub) -> None:
                    help="motion file to write (.json or .npz; '-': JSON on standard output)")
     p.add_argument("--format", choices=("json", "npz"), help="output format (default: from OUT's extension)")
     p.add_argument("--engine", choices=ENGINE_CHOICES, default=None, help=ENGINE_HELP)
-    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
+    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (the first is 1; repeatable)")
     add_seed_option(p, "random seed (default: the script's @seed); another seed, another take")
     add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
@@ -68,6 +70,6 @@ def run(args) -> int:
                            auto_gestures=args.auto_gestures)
     take.save(out, format=fmt)
     frames = take.plan.n_frames
-    print(f"wrote {shown(out)}: {len(take.clips)} utterances, {len(take.tracks)} speaker track(s), "
-          f"{frames} frames ({frames / FPS:.1f}s)", file=sys.stderr)
+    print(f"wrote {shown(out)}: {plural(len(take.clips), 'utterance')}, {plural(len(take.tracks), 'speaker track')}, "
+          f"{plural(frames, 'frame')} ({frames / FPS:.1f}s)", file=sys.stderr)
     return 0

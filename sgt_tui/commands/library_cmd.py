@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import math
 
+from core.counting import no_utterance, plural
+
 HELP = "list, inspect and extend the gesture library"
 
 
 def register(subparsers) -> None:
+    from sgt_tui.commands.common import utterance_number
+
     p = subparsers.add_parser("library", help=HELP, description=HELP.capitalize() + ".")
     sub = p.add_subparsers(dest="library_command", metavar="SUBCOMMAND")
 
@@ -45,7 +49,8 @@ def register(subparsers) -> None:
     ad.add_argument("--frames", required=True, metavar="A:B",
                     help="the span, B exclusive: the file's own frame numbers (a take's, at its own rate) "
                          "or seconds (1.5s:3s)")
-    ad.add_argument("--utterance", type=int, default=0, metavar="N")
+    ad.add_argument("--utterance", type=utterance_number, metavar="N",
+                    help="the motion file's utterance N (the first is 1; default: 1)")
     ad.add_argument("--to", metavar="DIR", help="gesture folder (default: first configured)")
     ad.add_argument("--description", default="")
     ad.add_argument("--tags", default="", help="comma-separated tags")
@@ -82,6 +87,24 @@ def _origin(g) -> str:
     return "built-in" if g.origin == "built-in" else g.origin
 
 
+#: The width of ``library list``'s tags column; longer lists go on, whole, on the next lines.
+TAGS_WIDTH = 30
+
+
+def _tag_lines(tags) -> list[str]:
+    """``tags`` joined with ", " in lines of at most :data:`TAGS_WIDTH` characters (a longer
+    tag on a line of its own), every tag whole."""
+    lines: list[str] = []
+    for tag in tags:
+        if lines and len(lines[-1]) + len(tag) + 3 <= TAGS_WIDTH:  # (room for the comma that may follow)
+            lines[-1] += f", {tag}"
+        else:
+            if lines:
+                lines[-1] += ","
+            lines.append(tag)
+    return lines or [""]
+
+
 def _list(args) -> int:
     import json
 
@@ -104,22 +127,22 @@ def _list(args) -> int:
         print("no gestures" + (f" tagged {', '.join(args.tag)}" if args.tag else ""))
     else:
         width = max(14, max(len(g.name) for g in gestures))
-        print(f"{'NAME':<{width}}  {'SECS':>4}  {'TAGS':<30}  FROM")
+        print(f"{'NAME':<{width}}  {'SECS':>4}  {'TAGS':<{TAGS_WIDTH}}  FROM")
         for g in gestures:
-            tags = ", ".join(g.tags)
-            if len(tags) > 30:
-                tags = tags[:27] + "..."
             src = _origin(g)
             if g.overrides:
                 src += " (overrides)"
-            print(f"{g.name:<{width}}  {g.duration:>4.1f}  {tags:<30}  {src}")
-        print(f"{len(gestures)} gesture{'s' if len(gestures) != 1 else ''}")
+            first, *more = _tag_lines(g.tags)
+            print(f"{g.name:<{width}}  {g.duration:>4.1f}  {first:<{TAGS_WIDTH}}  {src}")
+            for line in more:  # every tag shown: the rest on lines of their own
+                print(f"{'':<{width}}  {'':>4}  {line}")
+        print(plural(len(gestures), "gesture"))
         for g in gestures:
             if g.overrides:
                 print(f"  {g.name}: {g.path} overrides {g.overrides}")
     if lib.problems:
         print()
-        print(f"{len(lib.problems)} problem{'s' if len(lib.problems) != 1 else ''}:")
+        print(f"{plural(len(lib.problems), 'problem')}:")
         for p in lib.problems:
             print(f"  {p}")
     return 0
@@ -244,7 +267,7 @@ def _sheet(args) -> int:
                                     progress=ProgressBar("sheet"))
     finally:
         m.close()
-    print(f"wrote {shown(out)}: {len(info['names'])} gestures ({', '.join(info['views'])}), "
+    print(f"wrote {shown(out)}: {plural(len(info['names']), 'gesture')} ({', '.join(info['views'])}), "
           f"{info['width']}x{info['height']}", file=sys.stderr)
     return 0
 
@@ -379,9 +402,10 @@ def _from_motion_file(args, source):
         clips = load_motion(source)
     except MotionFileError as exc:
         raise InputError(str(exc)) from None
-    if not 0 <= args.utterance < len(clips):
-        raise UsageError(f"utterance {args.utterance} does not exist ({args.source} has {len(clips)}: 0..{len(clips) - 1})")
-    poses, hands = clips[args.utterance].poses, clips[args.utterance].hands
+    index = 0 if args.utterance is None else args.utterance  # the first by default
+    if not 0 <= index < len(clips):
+        raise UsageError(f"{args.source}: {no_utterance(index, range(len(clips)), what='the motion')}")
+    poses, hands = clips[index].poses, clips[index].hands
     a, b = _parse_span(args.frames, len(poses))
     stroke = _stroke(args, a, b, FPS)
     return poses[a:b], hands.take(slice(a, b)), None if stroke is None else stroke - a, a, b
@@ -398,7 +422,7 @@ def _from_take(args, source, map_file):
     from model.training.loaders import Bvh, LoaderError, MappingError, bvh_to_poses, read_bvh
     from sgt_tui.errors import InputError, UsageError
 
-    if args.utterance:
+    if args.utterance is not None:
         raise UsageError("--utterance is for motion files; a take is one recording")
     bvh = source.suffix.lower() == ".bvh"
     if bvh and args.animation is not None:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import number, plural
+
 HELP = "render motion (or a script) to a preview GIF or an MP4 with sound, and a contact sheet"
 DESCRIPTION = """\
 Render a motion file (.json/.npz written by sgt) or a script (.sgt, generated first)
@@ -57,7 +59,7 @@ def register(sub) -> None:
                    help="a close-up of the face in each picture's corner: auto (default: where the head is small), on, off")
     p.add_argument("--compare", metavar="MOTION", help="render this second take side by side")
     p.add_argument("--size", metavar="WxH", default="320x320", help="frame size in pixels, WxH or N (default 320x320)")
-    p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (0-based)")
+    p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (the first is 1)")
     p.add_argument("--speaker", metavar="NAME", help="only this speaker's track")
     add_script_options(p)
     p.set_defaults(run=run)
@@ -116,7 +118,7 @@ def run(args) -> int:
     sheet_out = output_file(args.sheet, "--sheet", binary=True, inputs=inputs) if args.sheet is not None else None
     if sheet_out is not None and args.output != STDOUT and (args.sheet == args.output or same_file(args.sheet, args.output)):
         raise UsageError(f"-o and --sheet name one file ({args.sheet}): the sheet would overwrite the animation")
-    take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
+    take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed, speaker=args.speaker)
     clips, labels, tints = _panel_clips(take, args.speaker, args.input)
     rows = labels or tuple(speaker_name(c.speaker) for c in clips)  # the sheet's rows
     if args.compare:
@@ -159,18 +161,34 @@ def run(args) -> int:
                               progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints,
                               face_inset=args.face_inset)
             sound = ""
-        print(f"wrote {shown(out)}: {info['frames']} frames, {info['duration_s']:.2f} s, "
+        print(f"wrote {shown(out)}: {plural(info['frames'], 'frame')}, {info['duration_s']:.2f} s, "
               f"{info['width']}x{info['height']}, {info['bytes'] / 1024:.0f} KiB"
               f"{', ' + sound if sound else ''} ({info['platform']})", file=sys.stderr)
         if sheet_out is not None:
             s = render_sheet(clips, sheet_out, labels=rows, size=size, at=args.sheet_at, view=args.view, tints=tints,
                              title=f"{Path(args.input).name} · {args.view} view", mannequin=m, face_inset=args.face_inset)
-            what = "strokes" if args.sheet_at == "strokes" else "frames"
-            print(f"wrote {shown(sheet_out)}: {len(s['frames'])} {what} of {len(clips)} "
-                  f"{'row' if len(clips) == 1 else 'rows'}, {s['width']}x{s['height']}", file=sys.stderr)
+            print(f"wrote {shown(sheet_out)}: {sheet_summary(s['rows'], args.sheet_at)}, {s['width']}x{s['height']}",
+                  file=sys.stderr)
     finally:
         m.close()
     return 0
+
+
+def sheet_summary(rows: list[dict], at: str) -> str:
+    """What a sheet shows, from :func:`renders.animate.render_sheet`'s rows: ``5 strokes of 2
+    rows``; ``8 evenly spaced frames (no marked gestures) of 1 row`` for a row without pose
+    controls (``at`` "strokes"); both, naming the rows without, when they are mixed."""
+
+    strokes = sum(r["pictures"] for r in rows if r["at"] == "strokes")
+    even = [r for r in rows if r["at"] == "even"]
+    parts = [plural(strokes, "stroke")] if strokes or not even else []
+    if even:
+        parts.append(plural(sum(r["pictures"] for r in even), "evenly spaced frame"))
+    what = " and ".join(parts)
+    if at == "strokes" and even:
+        who = "" if len(even) == len(rows) else ", ".join(r["label"] for r in even) + ": "
+        what += f" ({who}no marked gestures)"
+    return f"{what} of {plural(len(rows), 'row')}"
 
 
 def _panel_clips(take, speaker: str | None, name: str):
@@ -252,7 +270,7 @@ def script_of(take, name: str, within=None):
 
 
 def _speech_files(take, name: str, within=None) -> dict:
-    """Utterance number -> its speech audio, from the script the take was generated from
+    """Utterance index -> its speech audio, from the script the take was generated from
     (:func:`script_of`, compiled again; its speech is cached), checked against the take."""
     from dsl.compiler import compile_file
     from sgt_tui.commands.common import print_diagnostics
@@ -268,6 +286,6 @@ def _speech_files(take, name: str, within=None) -> dict:
     for c in take.clips:
         u = planned.get(c.index)
         if u is None or u.text != c.text or u.n_frames != c.n_frames or abs(u.audio_offset - c.audio_offset) > 1e-3:
-            raise InputError(f"{source} has changed since {name} was generated (utterance {c.index}: "
+            raise InputError(f"{source} has changed since {name} was generated (utterance {number(c.index)}: "
                              f"{c.text!r}); generate the take again")
     return {c.index: planned[c.index].audio_path for c in take.clips}

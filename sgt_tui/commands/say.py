@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import argparse
 
+from core.counting import number, speech_file
+
 HELP = "synthesize the speech and print the word timing table"
 DESCRIPTION = """\
 Speak every utterance of a script with espeak-ng (or read its @audio recording),
-write one WAV per utterance, and print each word with its start and end time.
-Results are cached by content, so running it again is instant.
+write one WAV per utterance (STEM_001.wav for the first), and print each word with its
+start and end time under the utterance's number ([1] for the first; --json's "index"
+counts from 0). Results are cached by content, so running it again is instant.
 
 --mix OUT.wav also writes the whole performance as one WAV: every utterance's speech at
 its place on the performance clock (the gaps of @gap between lines), so that its sample
@@ -21,7 +24,7 @@ def register(sub) -> None:
     p = sub.add_parser("say", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt)")
     p.add_argument("-o", "--out-dir", metavar="DIR", help="folder for the WAV files (default: ./STEM_speech; created if missing)")
-    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (0-based; repeatable)")
+    p.add_argument("--utterance", type=utterance_number, action="append", metavar="N", help="only utterance N (the first is 1; repeatable)")
     p.add_argument("--json", action="store_true", help="print the words as JSON instead of a table")
     p.add_argument("--mix", metavar="OUT.wav", help="also write the whole performance as one WAV, on the motion's clock ('-': standard output)")
     p.set_defaults(run=run)
@@ -65,7 +68,7 @@ def run(args) -> int:
     folder = Inside(out_dir, create=True) if args.out_dir is None else None
     try:
         for u in result.plan.utterances:
-            wav = out_dir / f"{path.stem}_{u.index:03d}.wav"
+            wav = out_dir / speech_file(path.stem, u.index)
             if u.audio_path is not None and Path(u.audio_path).resolve() != wav.resolve():
                 data = Path(u.audio_path).read_bytes()
                 if folder is not None:
@@ -100,7 +103,7 @@ def run(args) -> int:
         # what is spoken, after who speaks it: a line without a speaker says so, so that a name
         # it speaks ('guide:[pose:nod] Yes.' says "guide") never reads as its speaker
         who = f"{r['speaker']}: " if r["speaker"] else "(no speaker) "
-        print(f"[{r['index']}] {who}{r['text']}")
+        print(f"[{number(r['index'])}] {who}{r['text']}")
         print(f"    {r['audio']}  ({r['duration']:.2f}s, starts at {r['start']:.2f}s in the performance)")
         print(f"    {'word':<20} {'start':>7} {'end':>7}")
         for w in r["words"]:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from core.counting import plural
+
 HELP = "suggest gestures from the words where the script has no mark, as a script to review"
 DESCRIPTION = """\
 Where the author left no mark, put the library gestures the words call for: counting
@@ -79,6 +81,6 @@ def run(args) -> int:
         atomic_write(out, text.encode("utf-8"))
     where = "" if target == STDOUT else f" into {target}"
     lines = len({s.line for s in found})
-    print(f"{len(found)} gesture{'s' if len(found) != 1 else ''} suggested on {lines} line{'s' if lines != 1 else ''}"
+    print(f"{plural(len(found), 'gesture')} suggested on {plural(lines, 'line')}"
           f"{where}", file=sys.stderr)
     return 0

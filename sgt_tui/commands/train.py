@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from core.counting import plural
+
 HELP = "train the gesture generator on a corpus"
 DESCRIPTION = """\
 Train the controllable generator (SGToolkit Eq. 7: Huber pose term, adversarial term,
@@ -154,10 +156,10 @@ def _user_data(root):
     if clips is None:
         return None
     if len(clips) < 2:
-        print(f"sgt train: error: {root} has {len(clips)} take(s); at least 2 are needed (one for validation)", file=sys.stderr)
+        print(f"sgt train: error: {root} has {plural(len(clips), 'take')}; at least 2 are needed (one for validation)", file=sys.stderr)
         return None
     n_val = max(1, len(clips) // 10)
-    print(f"{len(clips)} takes from {root}: {len(clips) - n_val} for training, {n_val} for validation", file=sys.stderr)
+    print(f"{plural(len(clips), 'take')} from {root}: {len(clips) - n_val} for training, {n_val} for validation", file=sys.stderr)
     return clips[:-n_val], clips[-n_val:]
 
 
@@ -220,19 +222,19 @@ def _build_database(args) -> int:
         clips = _user_takes(root)
         if clips is None:
             return 1
-        source = f"{len(clips)} take(s) of {root} (all of them: a database needs no validation split)"
+        source = f"{plural(len(clips), 'take')} of {root} (all of them: a database needs no validation split)"
     else:
         corpus = Path(args.corpus)
         output_file(str(out), "-o", inputs=[p for p in corpus.iterdir() if p.is_file()] if corpus.is_dir() else [corpus])
         clips = _corpus_split(corpus, "train")
-        source = f"the {len(clips)} train-split take(s) of {corpus}"
+        source = f"the {plural(len(clips), 'train-split take')} of {corpus}"
     from model.training import matching_db
 
     usable = [matching_db.gives_segments(len(c["poses"])) for c in clips]
     short = [c for c, ok in zip(clips, usable) if not ok]
     for c in short:
         n = len(c["poses"])
-        print(f"sgt train: warning: take '{c['id']}' is {n / FPS:.2f} s ({n} frames), shorter than a segment "
+        print(f"sgt train: warning: take '{c['id']}' is {n / FPS:.2f} s ({plural(n, 'frame')}), shorter than a segment "
               f"({matching_db.min_frames()} frames): left out", file=sys.stderr)
     clips = [c for c, ok in zip(clips, usable) if ok]
     if not clips:
@@ -245,7 +247,7 @@ def _build_database(args) -> int:
     else:
         meta.update(split="train", corpus=corpus.name)
     digest = matching_db.write(out, arrays, meta)
-    print(f"wrote {shown(out)}: {meta['takes']} take{'s' if meta['takes'] != 1 else ''}, {meta['frames']} frames ({meta['frames'] / FPS / 60:.1f} min), "
+    print(f"wrote {shown(out)}: {plural(meta['takes'], 'take')}, {plural(meta['frames'], 'frame')} ({meta['frames'] / FPS / 60:.1f} min), "
           f"{meta['candidates']} candidate segments, {_size(out.stat().st_size)}, sha256 {digest}, "
           f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
     print(f"use it: sgt generate FILE -o OUT.json --engine matching --database {shown(out)}", file=sys.stderr)

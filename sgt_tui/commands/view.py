@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from core.counting import plural
+
 HELP = "watch a take in 3D in a web browser (three.js), with its speech; reloads when the script is saved"
 DESCRIPTION = """\
 Serve a web page that shows a take in 3D: every speaker, orbit and zoom, front, side,
@@ -104,7 +106,7 @@ def run(args) -> int:
     try:
         print(f"sgt view: {address}" + (f" (token required: open {address}#token=TOKEN)" if config.token else ""),
               file=sys.stderr)
-        print(f"  {len(viewer.slots)} take{'s' if len(viewer.slots) != 1 else ''} of {path}; reloads when "
+        print(f"  {plural(len(viewer.slots), 'take')} of {path}; reloads when "
               f"{'its files change' if viewer.folder or path.suffix.lower() != '.sgt' else 'the script is saved'}; ctrl+c "
               f"stops. Over SSH: ssh -L {port}:127.0.0.1:{port} THIS_HOST, then open the address on your machine.",
               file=sys.stderr)

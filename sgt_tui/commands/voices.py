@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from core.counting import plural
+
 HELP = "list the speech voices for @voice"
 DESCRIPTION = """\
 List the voices of the installed espeak-ng: the names '@voice' accepts (a language
@@ -43,6 +45,6 @@ def run(args) -> int:
     width = max([4] + [len(n) for n, _ in table])
     for name, desc in table:
         print(f"{name:<{width}}  {desc}")
-    print(f"{len(table)} {what}{'s' if len(table) != 1 else ''}" + (f" matching '{args.filter}'" if args.filter else "")
+    print(plural(len(table), what) + (f" matching '{args.filter}'" if args.filter else "")
           + (" (add one to a voice: @voice en-us+NAME)" if args.variants else ""))
     return 0

@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from core import rules
+from core.counting import plural
 from core.diagnostics import ERROR, WARNING, Diagnostic, sort_key
 from core.skeleton import FPS
 from dsl.compiler import INTERRUPTION_CODES, compile_file, interruption_diagnostics
@@ -372,5 +373,5 @@ def goto_line(answer: str, analysis: Analysis | None, line_count: int) -> int:
             raise ValueError(f"there is no utterance {n}: the script has {len(analysis.utterances)}")
         return analysis.utterances[n - 1].line
     if n > line_count:
-        raise ValueError(f"there is no line {n}: the script has {line_count} lines")
+        raise ValueError(f"there is no line {n}: the script has {plural(line_count, 'line')}")
     return n

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 from core.controls import STYLE_LIMIT, STYLE_NAMES
+from core.counting import plural
 from core.diagnostics import Fix, TextEdit
 from dsl.lines import split_statements, strip_comment
 from dsl.suggest import suggest
@@ -298,4 +299,4 @@ def suggest_gestures(doc: Document, info, library, rules) -> Action:
     action = apply_fix(doc, fix)
     names = ", ".join(f"{s.gesture} on '{s.word}'" for s in found)
     return Action("suggest gestures", action.replacements, cursor=action.cursor,
-                  message=f"{len(found)} gesture{'s' if len(found) != 1 else ''} suggested: {names} (ctrl+z takes them back)")
+                  message=f"{plural(len(found), 'gesture')} suggested: {names} (ctrl+z takes them back)")

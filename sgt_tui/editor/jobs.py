@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from core.counting import number
 from core.diagnostics import Diagnostic
 from sgt_tui.editor.protocol import PHASES, Done, Failed, JobRequest, JobResult, Progress, decode_event, encode_request
 
@@ -94,13 +95,13 @@ def plan_job(op: str, analysis, row: int, *, path: Path, source: str, engine: st
     info = analysis.utterance_at(row + 1)
     bad = [u for u in analysis.utterances if u.errors] if whole else ([info] if info.errors else [])
     if bad:
-        raise JobRefused(f"utterance {bad[0].index + 1} has errors: fix them first (F2 lists problems)")
-    what = "script" if whole else f"utterance {info.index + 1}"
+        raise JobRefused(f"utterance {number(bad[0].index)} has errors: fix them first (F2 lists problems)")
+    what = "script" if whole else f"utterance {number(info.index)}"
     take = _take_name(path, "all" if whole else info.key)
     request = JobRequest(op, str(path), source, engine=engine, weights=weights,
                          utterances=None if whole else (info.index,), out=str(cache / f"{take}-{engine}.npz"))
     if op == "render":
-        gif = path.with_name(f"{path.stem}.gif" if whole else f"{path.stem}.u{info.index + 1}.gif")
+        gif = path.with_name(f"{path.stem}.gif" if whole else f"{path.stem}.u{number(info.index)}.gif")
         request = dataclasses.replace(request, gif=str(gif), size=tuple(gif_size))
     label = f"{'gif' if op == 'render' else 'generate'} {what} ({engine})"
     return JobPlan(request, label, tuple(u.key for u in analysis.utterances))

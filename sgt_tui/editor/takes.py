@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.counting import number
 from core.motion import MotionClip
 from core.skeleton import positions_from_pose
 from model import keyframe
@@ -54,7 +55,7 @@ class Takes:
         if info is None:
             return View(None, "", None, "timeline", "no utterance yet: type one, e.g.  guide: Hello! [pose:wave]",
                         "write an utterance to see it move")
-        title = f"utterance {info.index + 1} (line {info.line})"
+        title = f"utterance {number(info.index)} (line {info.line})"
         found = self.generated.get(info.key)
         if found is not None:
             engine, clip = found
@@ -65,7 +66,7 @@ class Takes:
             data = from_plan(info.plan)
             return View(self._draft(info), "draft · ^g generates", data,
                         f"{title} · {data.duration:.1f} s · estimated timing")
-        return View(None, "", None, title, f"utterance {info.index + 1} has errors: fix them to see its timeline",
+        return View(None, "", None, title, f"utterance {number(info.index)} has errors: fix them to see its timeline",
                     "fix errors to preview")
 
     def _draft(self, info) -> np.ndarray:

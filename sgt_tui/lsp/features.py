@@ -13,6 +13,7 @@ from lsprotocol import types as lsp
 from pygls.uris import to_fs_path
 
 from core.controls import STYLE_NAMES
+from core.counting import number, plural
 from core.face import EXPRESSIONS, LOOK_DIRECTIONS
 from core.reading import read_bytes
 from dsl.directives import NAME_RE as PRESET_NAME_RE
@@ -130,12 +131,12 @@ def _speakers(doc: Document, workspace: Workspace | None) -> list[tuple[str, str
     for o in occurrences(doc.text):
         if o.kind == "speaker" and not doc.line(o.row).startswith("@"):  # its lines, not its directives
             here[o.name] = here.get(o.name, 0) + 1
-    out = [(name, f"speaker in this script ({n} line{'s' if n != 1 else ''})")
+    out = [(name, f"speaker in this script ({plural(n, 'line')})")
            for name, n in sorted(here.items(), key=lambda kv: -kv[1])]
     if workspace is None:
         return out
     elsewhere = workspace.speakers()
-    out += [(name, f"speaker in the workspace ({n} line{'s' if n != 1 else ''})")
+    out += [(name, f"speaker in the workspace ({plural(n, 'line')})")
             for name, n in sorted(elsewhere.items(), key=lambda kv: -kv[1]) if name not in here]
     return out
 
@@ -323,9 +324,9 @@ def _hover_text(doc: Document, t: Target, timing) -> str | None:
         header = analysis.header
         lines = sum(1 for u in analysis.utterances if u.speaker == t.name)
         if header is None:
-            return f"**{t.name}**: {lines} line{'s' if lines != 1 else ''}"
+            return f"**{t.name}**: {plural(lines, 'line')}"
         v = header.voice_for(t.name)
-        return f"**{t.name}**: {lines} line{'s' if lines != 1 else ''} · voice {v.name}, rate {v.rate}, pitch {v.pitch}"
+        return f"**{t.name}**: {plural(lines, 'line')} · voice {v.name}, rate {v.rate}, pitch {v.pitch}"
     if t.kind == "word":
         return _word_hover(doc, t, timing)
     return None
@@ -338,7 +339,7 @@ def _word_hover(doc: Document, t: Target, timing) -> str | None:
         return None
     w = plan.words[t.index]
     how = "speech timing" if real else "estimated from the text (preview the utterance for its real speech timing)"
-    return (f"**{w.word}** (word {t.index + 1} of utterance {info.index + 1}): {w.start:.2f}-{w.end:.2f} s "
+    return (f"**{w.word}** (word {t.index + 1} of utterance {number(info.index)}): {w.start:.2f}-{w.end:.2f} s "
             f"from the utterance's first frame · {how}")
 
 

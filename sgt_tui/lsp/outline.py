@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from lsprotocol import types as lsp
 
+from core.counting import number, plural
 from dsl.lines import strip_comment
 from sgt_tui.editor.highlight import line_spans
 from sgt_tui.lsp.documents import Document, units
@@ -30,7 +31,7 @@ def symbols(doc: Document) -> list[lsp.DocumentSymbol]:
                     for o in presets]
         first, last = directives[0], directives[-1]
         out.append(lsp.DocumentSymbol("header", lsp.SymbolKind.Namespace, doc.range(first, 0, len(doc.line(last)), last),
-                                      doc.range(first, 0, len(doc.line(first))), detail=f"{len(directives)} directives",
+                                      doc.range(first, 0, len(doc.line(first))), detail=plural(len(directives), "directive"),
                                       children=children))
     by_speaker: dict[str, list] = {}
     for info in infos:
@@ -40,14 +41,14 @@ def symbols(doc: Document) -> list[lsp.DocumentSymbol]:
         for info in group:
             row, last = info.line - 1, info.last_line - 1
             text = info.utterance.display if info.utterance is not None else strip_comment(doc.line(row)).strip()
-            name = f"{info.index + 1}. {text[:60] or '(silent)'}"
+            name = f"{number(info.index)}. {text[:60] or '(silent)'}"
             children.append(lsp.DocumentSymbol(name, lsp.SymbolKind.String, doc.range(row, 0, len(doc.line(last)), last),
                                                doc.range(row, 0, len(doc.line(row)))))
         first, final = group[0].line - 1, group[-1].last_line - 1
         sel_len = len(speaker) if speaker else len(doc.line(first))
         out.append(lsp.DocumentSymbol(speaker or "(no speaker)", lsp.SymbolKind.Class,
                                       doc.range(first, 0, len(doc.line(final)), final), doc.range(first, 0, sel_len),
-                                      detail=f"{len(group)} utterance{'s' if len(group) != 1 else ''}", children=children))
+                                      detail=plural(len(group), "utterance"), children=children))
     return out
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import threading
 
+from core.counting import number
 from core.paths import cache_dir
 from model.engines import DEFAULT_ENGINE
 from sgt_tui.editor.jobs import DONE, JobRefused, JobRunner, plan_job
@@ -45,7 +46,7 @@ class Previews:
         except JobRefused as exc:
             raise PreviewFailed(str(exc)) from None
         info = analysis.utterance_at(row + 1)
-        gif = cache_dir("lsp") / "previews" / f"{doc.path.stem}.u{info.index + 1}.gif"
+        gif = cache_dir("lsp") / "previews" / f"{doc.path.stem}.u{number(info.index)}.gif"
         gif.parent.mkdir(parents=True, exist_ok=True)
         if self._runner is None:
             self._runner = JobRunner(self._on_event, log_path=cache_dir("lsp") / "worker.log")
@@ -59,7 +60,7 @@ class Previews:
             raise PreviewFailed(job.message + (f": {problems}" if problems else ""))
         if job.result.timing not in (None, "estimate"):
             self.timing.learn(doc, info)
-        return {"gif": str(gif), "utterance": info.index + 1, "frames": job.result.gif_frames, "engine": engine}
+        return {"gif": str(gif), "utterance": number(info.index), "frames": job.result.gif_frames, "engine": engine}
 
     def shutdown(self) -> None:
         if self._runner is not None:

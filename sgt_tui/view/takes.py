@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from core import cancel
+from core.counting import speech_file
 from core.diagnostics import format_text, summary
 from core.fileio import LinkRefused, resolved_inside
 from core.motion import MotionFile, MotionFileError, load_motion_file
@@ -136,7 +137,7 @@ class MotionSource(Source):
         clips = motion.clips
         if any(c.audio_offset is None for c in clips):
             return None, "a motion file from before the performance clock has no speech (generate it again)"
-        wavs = {c.index: self.path.with_name(f"{self.path.stem}_{c.index:03d}.wav") for c in clips if c.index is not None}
+        wavs = {c.index: self.path.with_name(speech_file(self.path.stem, c.index)) for c in clips if c.index is not None}
         if self.folder is not None:
             wavs = {i: p for i, p in wavs.items() if _inside(self.folder, p)}
         if motion.tracks and len(wavs) == len(clips) and all(p.is_file() for p in wavs.values()):
