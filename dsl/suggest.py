@@ -12,7 +12,7 @@ Three steps for each utterance of an analysed script (:func:`suggest`):
    (:mod:`library.words`, the user's to extend) for it whose context fits and whose gesture the
    library has; a word the table does not have, an adjective, verb or adverb, gets the gesture of
    a table word it shares a sense with in WordNet (:class:`Neighbours`: "enormous" finds "big",
-   "awful" finds "terrible"), counting only the word's commonest senses (:data:`TEXT_SENSES`) and
+   "awful" finds "bad"), counting only the word's commonest senses (:data:`TEXT_SENSES`) and
    the table word's (:data:`SEED_SENSES`), thresholds measured on the development half of
    tests/data/suggest_dev.txt. Where the table has the word, the table decides.
 3. **Restraint**: no suggestion within two words of any mark the author wrote, nor of the same
@@ -54,11 +54,13 @@ SAME_MEANING = 8
 TEXT_SENSES = 1
 SEED_SENSES = 2
 #: The kinds whose words reach their gesture through WordNet neighbours (pointing, counting,
-#: greetings and questions are closed lists: a neighbour of "left" or "two" is not a direction
-#: or a count), and the parts of speech that do.
-OPEN_KINDS = {"size": "a", "evaluation": "a", "change": "v", "union": "vr", "separation": "var", "shape": "n",
-              "calming": "vr", "celebration": "vn", "emphasis": "ar", "uncertainty": "r", "cognition": "v",
-              "politeness": "a", "time": "r"}
+#: greetings, questions and politeness are closed lists: a neighbour of "left" or "two" is not a
+#: direction or a count, one of "proud" is "arrogant"; emphasis too: the neighbours of
+#: "important" are "main", "key", "central", words that classify and stress nothing), and the
+#: parts of speech that do. An adjective similar to a table adjective counts only through the
+#: table word's commonest sense ("bad" as poor, not as "severe" or "intense").
+OPEN_KINDS = {"size": "a", "evaluation": "a", "change": "v", "union": "vr", "separation": "vr", "shape": "n",
+              "calming": "vr", "celebration": "vn", "uncertainty": "r", "cognition": "v", "time": "r"}
 OPEN_POS = ("a", "v", "r", "n")
 _WN_POS = {"ADJ": "a", "VERB": "v", "ADV": "r", "NOUN": "n"}
 _CLEAN = re.compile(r"[^a-z0-9']+")
@@ -105,7 +107,7 @@ class Neighbours:
                         continue
                     for rank, offset in enumerate(entry.senses[:SEED_SENSES]):
                         self._add(pos, offset, rank, word)
-                        if pos == "a":
+                        if pos == "a" and rank == 0:
                             for symbol, other, opos in lexicon.synset(offset, pos).pointers:
                                 if symbol == "&":
                                     self._add(opos, other, rank + 1, word)
