@@ -291,7 +291,7 @@ def _idiom_negation(toks: list[Token], i: int) -> str | None:
     w = toks[i].word
     nxt = toks[i + 1].word if i + 1 < len(toks) else None
     prev = toks[i - 1].word if i > 0 else None
-    if w == "no" and nxt in ("problem", "worries", "doubt", "matter", "longer", "wonder"):
+    if w == "no" and nxt in ("problem", "worries", "doubt", "matter", "longer", "wonder", "rush", "hurry"):
         return f"'no {nxt}' is an idiom"
     if w == "not" and nxt in ("only", "just", "yet", "to"):
         return f"'not {nxt}' negates no statement"
@@ -358,8 +358,6 @@ def reading(toks: list[Token], i: int, lexicon=None) -> Reading:
                       and _idiom_negation(toks, j) is None), None)
         if first is not None:
             return _no(i, f"the sentence's negation is already on '{toks[first].word}'")
-    if i >= 2 and toks[i - 1].word == "and" and toks[i - 2].word == w:
-        return _no(i, f"'{w} and {w}': the gesture is on the first, the repetition goes on with it")
     for rule in _RULES:
         r = rule(toks, i, lexicon)
         if r is not None:
@@ -404,6 +402,8 @@ def _idioms(toks, i, lex):
         return _as(i, "wait", f"'{p} {w}' asks the listener to wait", "command")
     if w == "hold" and (n == "on" or p == "please" or t.pause) and t.tag != "NOUN":
         return _as(i, "wait", f"'{w}{' on' if n == 'on' else ''}' asks the listener to wait", "command")
+    if w == "there's" and n not in ("the", "my", "your", "our", "his", "her", "their", "that"):
+        return _no(i, f"'there's {n or ''}'".rstrip() + ": 'there' introduces, it points nowhere")
     if w == "thank" and n == "you":
         return None
     if w == "you" and p in ("thank", "see", "mind"):
@@ -825,7 +825,9 @@ def _roles(toks, i, lex):
         if pw in ("them", "they") and nw in ("lived", "together") or (pw == "you" and t.pause):
             return None
         return _no(i, f"'{pw or ''} all {nw or ''}'".replace("' all", "'all").replace(" '", "'") + ": an idiom, no whole")
-    if w in ("every", "each") and n is not None and _is_time(lex, nw):
+    if w == "must":
+        return _no(i, "'must' as a modal: an obligation or a guess, the stress falls on what follows")
+    if w in ("every", "each", "all") and n is not None and n.tag == "NOUN" and _is_time(lex, nw):
         return _no(i, f"'{w} {nw}': how often, not the whole of anything")
     if w in ("every", "everything", "everyone", "everybody", "whole", "entire") and t.condition:
         return _no(i, f"'{w}' in a condition")
