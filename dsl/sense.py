@@ -71,6 +71,10 @@ SPATIAL = frozenset(["side", "hand", "wing", "door", "doors", "window", "windows
 SIZE_WORDS = frozenset(["big", "huge", "large", "enormous", "giant", "gigantic", "massive", "vast", "immense", "tall", "small", "tiny", "little", "minuscule"])
 #: Nouns an ordinal counts as an item of a list ("the second step") rather than a place in a row.
 LIST_ITEMS = frozenset(["step", "steps", "stage", "stages", "phase", "point", "points", "thing", "things", "reason", "reasons", "option", "options", "rule", "rules", "question", "questions", "part", "lesson", "idea", "ideas", "problem", "problems", "example", "examples", "way", "method", "principle", "factor", "sign", "tip", "task", "goal", "choice", "feature", "advantage", "benefit", "item", "bag", "rule"])
+#: The kinds of noun (WordNet's lexicographer files) an ordinal counts off as items ("the second
+#: guest", "the first cause", "the third chapter"); before the others (things, places, times,
+#: amounts: "the second staircase", "the first day", "the second half") it is a place in a row.
+COUNTED = frozenset(["noun.person", "noun.event", "noun.feeling", "noun.cognition", "noun.communication", "noun.motive"])
 #: Nouns a quantity is ("prices went up": a rise, not a place above).
 QUANTITY = frozenset(["price", "prices", "fee", "fees", "cost", "costs", "rate", "rates", "number", "numbers", "sales", "profit", "profits", "temperature", "temperatures", "speed", "level", "levels", "value", "values", "balance", "bill", "bills", "rent", "tax", "taxes", "score", "scores", "population", "demand", "supply", "income", "salary", "wages", "count", "total", "amount", "share", "shares", "stock", "stocks", "unemployment", "inflation", "pressure", "volume"])
 #: Words of the closed classes: never the noun an adjective stands before ("the giant was ...").
@@ -287,7 +291,7 @@ def _idiom_negation(toks: list[Token], i: int) -> str | None:
     w = toks[i].word
     nxt = toks[i + 1].word if i + 1 < len(toks) else None
     prev = toks[i - 1].word if i > 0 else None
-    if w == "no" and nxt in ("problem", "worries", "doubt", "matter", "longer", "wonder"):
+    if w == "no" and nxt in ("problem", "worries", "doubt", "matter", "longer", "wonder", "rush", "hurry"):
         return f"'no {nxt}' is an idiom"
     if w == "not" and nxt in ("only", "just", "yet", "to"):
         return f"'not {nxt}' negates no statement"
@@ -398,6 +402,8 @@ def _idioms(toks, i, lex):
         return _as(i, "wait", f"'{p} {w}' asks the listener to wait", "command")
     if w == "hold" and (n == "on" or p == "please" or t.pause) and t.tag != "NOUN":
         return _as(i, "wait", f"'{w}{' on' if n == 'on' else ''}' asks the listener to wait", "command")
+    if w == "there's" and n not in ("the", "my", "your", "our", "his", "her", "their", "that"):
+        return _no(i, f"'there's {n or ''}'".rstrip() + ": 'there' introduces, it points nowhere")
     if w == "thank" and n == "you":
         return None
     if w == "you" and p in ("thank", "see", "mind"):
@@ -573,7 +579,7 @@ def _counting(toks, i, lex):
             return _no(i, f"'{w}' as 'when' or an idiom, not a count")
         return _as(i, w, f"'{w}': how many times", "counting")
     if w == "both":
-        if n is not None and n.tag in ("NOUN", "ADJ") or pw in ("of",) or nw == "of":
+        if n is not None and n.tag in ("NOUN", "ADJ") or pw in ("of",) or nw == "of" or nw in DET - {"no"}:
             return _as(i, w, f"'both {nw}': two of them", "counting")
         return _no(i, "'both' without a noun to count")
     if w in ("pair", "couple"):
@@ -587,7 +593,9 @@ def _counting(toks, i, lex):
             return _no(i, "'second' as a unit of time")
         noun = _noun_after(toks, i)
         if pw in ("the", "my", "your", "our", "its", "their", "his", "her", "in") and noun is not None:
-            if noun.word in LIST_ITEMS or noun.lemma in LIST_ITEMS:
+            after = _next(toks, toks.index(noun))
+            if noun.word in LIST_ITEMS or noun.lemma in LIST_ITEMS or (
+                    _lexname(lex, noun.lemma or noun.word) in COUNTED and not (after is not None and after.word == "of")):
                 return _as(i, w, f"'{w} {noun.word}': an item of a list", "counting")
             return _no(i, f"'{w} {noun.word}': a place in a row or a time, not an item counted off")
         if nw == "of" and pw == "the":
@@ -625,7 +633,7 @@ def _counting(toks, i, lex):
         return _no(i, "'one' as a pronoun")
     if pw in ("the", "these", "those", "its", "our", "your", "their", "my") and n is not None and n.tag in ("NOUN", "ADJ"):
         return _no(i, f"'{pw} {w} {nw}': a group already known, not counted off")
-    if p is not None and p.tag == "NOUN" and p.word not in QUANTITY and not p.start:
+    if p is not None and p.tag == "NOUN" and p.word not in QUANTITY and not p.start and not p.word.endswith("'s"):
         return _no(i, f"'{pw} {w}': a name or a number, not a count")
     if p is not None and p.tag == "NOUN" and p.start:
         return _no(i, f"'{pw} {w}': a name, not a count")
@@ -743,6 +751,8 @@ def _roles(toks, i, lex):
         if pw in ("to",):
             return _as(i, "remember", f"'to {w}': keep it in mind", "cognition")
         return None
+    if lemma in ("stop", "wait", "halt") and t.tag == "NOUN":
+        return _no(i, f"'{w}' as a noun (a place, a pause): nobody is asked to stop")
     if lemma == "stop" and w != "stop":
         return _no(i, f"'{w}' tells of stopping, it does not ask for it")
     if lemma == "meet" and not (t.start or pw in ("please", "let's", "and")):
@@ -815,6 +825,10 @@ def _roles(toks, i, lex):
         if pw in ("them", "they") and nw in ("lived", "together") or (pw == "you" and t.pause):
             return None
         return _no(i, f"'{pw or ''} all {nw or ''}'".replace("' all", "'all").replace(" '", "'") + ": an idiom, no whole")
+    if w == "must":
+        return _no(i, "'must' as a modal: an obligation or a guess, the stress falls on what follows")
+    if w in ("every", "each", "all") and n is not None and n.tag == "NOUN" and _is_time(lex, nw):
+        return _no(i, f"'{w} {nw}': how often, not the whole of anything")
     if w in ("every", "everything", "everyone", "everybody", "whole", "entire") and t.condition:
         return _no(i, f"'{w}' in a condition")
     if w in ("lost",) and t.tag == "VERB" and nw == "everything":

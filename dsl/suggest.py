@@ -12,16 +12,19 @@ Three steps for each utterance of an analysed script (:func:`suggest`):
    (:mod:`library.words`, the user's to extend) for it whose context fits and whose gesture the
    library has; a word the table does not have, an adjective, verb or adverb, gets the gesture of
    a table word it shares a sense with in WordNet (:class:`Neighbours`: "enormous" finds "big",
-   "awful" finds "terrible"), counting only the word's commonest senses (:data:`TEXT_SENSES`) and
+   "awful" finds "bad"), counting only the word's commonest senses (:data:`TEXT_SENSES`) and
    the table word's (:data:`SEED_SENSES`), thresholds measured on the development half of
    tests/data/suggest_dev.txt. Where the table has the word, the table decides.
 3. **Restraint**: no suggestion within two words of any mark the author wrote, nor of the same
    meaning as an author's mark in the same sentence or within :data:`SAME_MEANING` words of it
-   (the same gesture, or gestures one table entry lists together); none within two words of
-   another suggestion (counting words excepted: "one, two, three" chains); at most one mark per
-   :data:`WORDS_PER_MARK` words of the utterance, the author's included; when more words call
-   for one, the kinds of :data:`PRIORITY` come first, then the earlier word; a count in a sentence
-   that joins things together yields to the joining ("two teams as one, together").
+   (the same gesture, or gestures one table entry lists together); none next to another
+   suggestion (counting words excepted: "one, two, three" chains), none within two words of one
+   of the same meaning ("Hello, and welcome": one greeting); at most one mark per
+   :data:`WORDS_PER_MARK` words of the utterance, the author's included; pointing at a person
+   (:data:`SOFT`), which the same word calls for in one sentence and not the next, keeps wider
+   bounds (:data:`SPACING_SOFT`, :data:`WORDS_PER_SOFT`); when more words call for one, the
+   kinds of :data:`PRIORITY` come first, then the earlier word; a count in a sentence that joins
+   things together yields to the joining ("two teams as one, together").
 
 Each :class:`Suggestion` says which word called it, what that word means there and where its
 gesture came from (``sgt suggest --explain``). :func:`apply_suggestions` inserts them into the
@@ -42,10 +45,17 @@ PRIORITY = ("counting", "direction", "negation", "question", "greeting", "farewe
             "union", "separation", "shape", "time", "command", "celebration", "politeness", "calming",
             "uncertainty", "cognition", "affirmation", "exchange", "invitation", "contrast", "emphasis", "totality",
             "deixis")
-#: The fewest words between two marks (counting words excepted).
-SPACING = 3
-#: At most one mark per this many words of an utterance.
-WORDS_PER_MARK = 3
+#: The fewest words between two marks (counting words excepted), and at most one mark per this
+#: many words of an utterance, the author's included: a gesture the words call for (a count, a
+#: direction, a size, a negation, ...) takes a stroke of the hands, two words apart suffice.
+SPACING = 2
+WORDS_PER_MARK = 2
+#: Pointing at a person ("we", "I", "you") is the optional kind: the same word calls for it in one
+#: sentence and not the next, so it keeps the wider bounds (this many words apart, one per this
+#: many words) and yields to the gestures the words call for.
+SOFT = frozenset({"deixis"})
+SPACING_SOFT = 3
+WORDS_PER_SOFT = 3
 #: No suggestion of the same meaning as an author's mark within this many words of it (nor in its sentence).
 SAME_MEANING = 8
 #: A word outside the table reaches a table word's gesture through one of its commonest senses
@@ -54,11 +64,13 @@ SAME_MEANING = 8
 TEXT_SENSES = 1
 SEED_SENSES = 2
 #: The kinds whose words reach their gesture through WordNet neighbours (pointing, counting,
-#: greetings and questions are closed lists: a neighbour of "left" or "two" is not a direction
-#: or a count), and the parts of speech that do.
-OPEN_KINDS = {"size": "a", "evaluation": "a", "change": "v", "union": "vr", "separation": "var", "shape": "n",
-              "calming": "vr", "celebration": "vn", "emphasis": "ar", "uncertainty": "r", "cognition": "v",
-              "politeness": "a", "time": "r"}
+#: greetings, questions and politeness are closed lists: a neighbour of "left" or "two" is not a
+#: direction or a count, one of "proud" is "arrogant"; emphasis too: the neighbours of
+#: "important" are "main", "key", "central", words that classify and stress nothing), and the
+#: parts of speech that do. An adjective similar to a table adjective counts only through the
+#: table word's commonest sense ("bad" as poor, not as "severe" or "intense").
+OPEN_KINDS = {"size": "a", "evaluation": "a", "change": "v", "union": "vr", "separation": "vr", "shape": "n",
+              "calming": "vr", "celebration": "vn", "uncertainty": "r", "cognition": "v", "time": "r"}
 OPEN_POS = ("a", "v", "r", "n")
 _WN_POS = {"ADJ": "a", "VERB": "v", "ADV": "r", "NOUN": "n"}
 _CLEAN = re.compile(r"[^a-z0-9']+")
@@ -105,7 +117,7 @@ class Neighbours:
                         continue
                     for rank, offset in enumerate(entry.senses[:SEED_SENSES]):
                         self._add(pos, offset, rank, word)
-                        if pos == "a":
+                        if pos == "a" and rank == 0:
                             for symbol, other, opos in lexicon.synset(offset, pos).pointers:
                                 if symbol == "&":
                                     self._add(opos, other, rank + 1, word)
@@ -218,7 +230,7 @@ def suggest(script, library, rules, lexicon=...) -> list[Suggestion]:
         marked = {j for j, _ in marks}
         candidates = []
         for i, tok in enumerate(toks):
-            if any(abs(i - j) < SPACING for j in marked):
+            if any(abs(i - j) < SPACING_SOFT for j in marked):
                 continue
             reading = sense.reading(toks, i, lexicon)
             before = toks[i - 1].word if i > 0 else None
@@ -235,20 +247,25 @@ def suggest(script, library, rules, lexicon=...) -> list[Suggestion]:
         joined = {toks[c[1]].sentence for c in candidates if c[3] == "union"}
         # "the two teams work together": the number counts the parties joined, the joining is the gesture
         candidates = [c for c in candidates if not (c[3] == "counting" and toks[c[1]].sentence in joined)]
-        room = max(0, n // WORDS_PER_MARK - len(marked)) if n >= WORDS_PER_MARK else (0 if marked else 1)
         chosen: list[tuple] = []
-        used = 0
         for c in sorted(candidates, key=lambda c: (c[0], c[1])):
             _, i, gesture, kind, _, _ = c
             counting = kind == "counting"
-            chained = counting and any(o[3] == "counting" and abs(i - o[1]) < SPACING for o in chosen)
+            soft = kind in SOFT
+            per, gap = (WORDS_PER_SOFT, SPACING_SOFT) if soft else (WORDS_PER_MARK, SPACING)
+            chained = counting and any(o[3] == "counting" and abs(i - o[1]) < gap for o in chosen)
+            used = len(marked) + sum(1 for o in chosen if not o[6])
+            room = max(1, n // per) if not marked else n // per
             if used >= room and not chained:
                 continue
-            if any(abs(i - o[1]) < SPACING and not (counting and o[3] == "counting") for o in chosen):
+            if any(abs(i - o[1]) < max(gap, SPACING_SOFT if o[3] in SOFT else SPACING) and not (counting and o[3] == "counting")
+                   for o in chosen):
                 continue
-            chosen.append(c)
-            used += not chained
-        for _, i, gesture, kind, meaning, via in sorted(chosen, key=lambda c: c[1]):
+            same = meanings.get(gesture, frozenset({gesture}))
+            if not counting and any(o[2] in same and abs(i - o[1]) < SPACING_SOFT for o in chosen):
+                continue  # "Hello, and welcome": one greeting is enough
+            chosen.append((*c, chained))
+        for _, i, gesture, kind, meaning, via, _ in sorted(chosen, key=lambda c: c[1]):
             where = u.words[i].where
             out.append(Suggestion(u.index, where.line, where.col, gesture, u.words[i].text, kind, meaning, via))
     return out

@@ -3,6 +3,7 @@ the README and docs/library.md).
 
     python scripts/suggest_check.py              # the test half of the fresh set: the figures
     python scripts/suggest_check.py --set dev    # the development half (the one rules are tuned on)
+    python scripts/suggest_check.py --set val    # tests/data/suggest_val.txt, a second development set
     python scripts/suggest_check.py --set old    # tests/data/suggest_labels.txt, the first set (regression)
     python scripts/suggest_check.py --list       # and every miss, wrong and spurious suggestion
     python scripts/suggest_check.py --sweep      # the WordNet thresholds, measured on the development half
@@ -17,9 +18,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from suggest_eval import DEV, LABELS, TEST, evaluate, read_labels, report  # noqa: E402
+from suggest_eval import DEV, LABELS, TEST, VAL, evaluate, read_labels, report
 
-SETS = {"test": TEST, "dev": DEV, "old": LABELS}
+SETS = {"test": TEST, "dev": DEV, "val": VAL, "old": LABELS}
 
 
 def sweep() -> None:

@@ -15,6 +15,8 @@ LABELS = DATA / "suggest_labels.txt"
 #: The fresh set, split once: tune on DEV only; TEST gives the figures.
 DEV = DATA / "suggest_dev.txt"
 TEST = DATA / "suggest_test.txt"
+#: A second development set, labelled before the suggester ran on it: a rule tuned on DEV is checked here too.
+VAL = DATA / "suggest_val.txt"
 _CLEAN = re.compile(r"[^a-z0-9']+")
 
 
@@ -52,7 +54,7 @@ def evaluate(labels=None) -> dict:
         (u,) = script.utterances
         words = [_CLEAN.sub("", w.text.lower()) for w in u.words]
 
-        def key(i):
+        def key(i, words=words):
             return (words[i], words[: i + 1].count(words[i]))
 
         got = {key(i): s for s in suggest(script, lib, rules)
