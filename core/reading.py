@@ -35,6 +35,7 @@ LIMITS = {
     "timings": 32 * MiB,
     "gesture spec": 1 * MiB,
     "configuration": 1 * MiB,
+    "markup": 8 * MiB,  # a BML or SSML file (sgt import): text and tags, a few kB an utterance
     "motion file": 1024 * MiB,
     "motion capture": 512 * MiB,  # a BVH take: 10 minutes at 120 fps with 75 joints is about 150 MiB
     "audio": 1024 * MiB,  # a training take's recording: an hour of 48 kHz 16-bit stereo is 660 MiB

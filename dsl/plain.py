@@ -30,6 +30,12 @@ def plain_script(text: str, *, speaker: str = "agent", voice: str | None = None,
                  pitch: int | None = None, style: dict[str, float] | None = None) -> str:
     """A script that speaks ``text`` as one utterance of ``speaker``; ``style`` (element -> value)
     applies to the whole utterance. Raises ValueError for a speaker name the language rejects."""
+    return utterance_script(escape(text), speaker=speaker, voice=voice, rate=rate, pitch=pitch, style=style)
+
+
+def utterance_script(body: str, *, speaker: str = "agent", voice: str | None = None, rate: int | None = None,
+                     pitch: int | None = None, style: dict[str, float] | None = None) -> str:
+    """:func:`plain_script` for a ``body`` already written in the language (marks kept)."""
     if not SPEAKER_RE.fullmatch(f"{speaker}:") or speaker != speaker.strip():
         raise ValueError(f"'{speaker}' is not a speaker name: use letters, digits, '_' and '-', not starting with a digit")
     lines = []
@@ -39,7 +45,6 @@ def plain_script(text: str, *, speaker: str = "agent", voice: str | None = None,
         lines.append(f"@rate {rate}")
     if pitch is not None:
         lines.append(f"@pitch {pitch}")
-    body = escape(text)
     if style:
         body = "<" + " ".join(f"{name}:{value:+g}" for name, value in style.items()) + ">" + body
     lines.append(f"{speaker}: {body}")

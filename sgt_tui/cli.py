@@ -20,7 +20,7 @@ from core.interrupts import caused_by_interrupt, noting_interrupts
 from sgt_tui.errors import InputError, UsageError
 
 #: Subcommand modules, in the order ``sgt --help`` lists them.
-COMMANDS = ("check", "fmt", "compile", "explain", "say", "align", "voices", "library_cmd", "generate", "build", "train", "render", "export", "corpus",
+COMMANDS = ("check", "fmt", "compile", "explain", "say", "align", "voices", "library_cmd", "generate", "build", "train", "render", "export", "import_cmd", "play_nao", "corpus",
             "eval", "edit", "lsp", "serve", "diff", "view", "suggest")
 
 EPILOG = """\

@@ -30,6 +30,10 @@ The face (lip sync, blinks, gaze, expressions) alone, with --face or by the name
   .arkit.npz      the same as arrays (weights, names, gaze, time, utterance)
   .arkit.json     the same as JSON, a frame per line
 
+The behaviour of a script, not its motion:
+  .bml   --format bml: BML per utterance (speech with <sync> points at the marks, <gesture>,
+         <gaze>, <faceLexeme>) for a realizer such as Greta; read back by 'sgt import'
+
 --rig NAME retargets to another skeleton or robot:
   sgt     sgt's own joints (default)            .bvh .glb (.csv .json .npz as above)
   vrm     VRM humanoid bone names, T-pose       .glb .vrma .bvh
@@ -51,7 +55,7 @@ performance clock (version 1) have no tracks: their utterances are joined one af
 another. '-o -' writes to standard output (JSON unless --format says otherwise). Formats
 are documented in docs/formats.md."""
 
-FORMATS = ("bvh", "csv", "json", "npz", "glb", "vrma")
+FORMATS = ("bvh", "csv", "json", "npz", "glb", "vrma", "bml")
 #: The face's files (renders.face_export.FACE_KINDS; spelled out here so that --help imports no numpy).
 FACE_KINDS = {"livelink": ("csv",), "arkit": ("csv", "npz", "json")}
 #: What each --rig writes (renders.rigs owns the rigs; tests keep the names in step).
@@ -72,7 +76,7 @@ def register(sub) -> None:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("input", metavar="MOTION", help="motion file (.json/.npz) or script (.sgt)")
     p.add_argument("-o", "--output", metavar="OUT", required=True,
-                   help="output file: .bvh, .csv, .json, .npz, .glb or .vrma ('-': standard output, JSON unless --format)")
+                   help="output file: .bvh, .csv, .json, .npz, .glb, .vrma or .bml ('-': standard output, JSON unless --format)")
     p.add_argument("--format", choices=FORMATS, help="output format (default: from OUT's extension)")
     p.add_argument("--rig", choices=tuple(RIG_OUTPUTS), metavar="NAME",
                    help="target skeleton or robot: " + ", ".join(RIG_OUTPUTS) + " (default: sgt)")
@@ -93,6 +97,8 @@ def run(args) -> int:
     from sgt_tui.errors import InputError, UsageError
 
     fmt = output_format(args.output, args.format, FORMATS, what="export")
+    if fmt == "bml":
+        return _export_bml(args)
     face = face_kind(args.output, args.face)
     if face is not None:
         if args.rig is not None:
@@ -157,6 +163,37 @@ def run(args) -> int:
         _write_timeline(sidecar, clips, [(o[0], o[1].speaker) for o in outputs], bool(tracks))
         print(f"wrote {shown(sidecar)}: where each utterance and its audio start", file=sys.stderr)
     return 0
+
+
+def _export_bml(args) -> int:
+    """``--format bml``: the script's behaviour (its marks on its words), from a script only."""
+    from pathlib import Path
+
+    from core.fileio import atomic_write_text
+    from dsl.bml import write_bml
+    from dsl.compiler import compile_file
+    from sgt_tui.commands.common import exit_code, inputs_of, output_file, print_diagnostics, shown
+    from sgt_tui.errors import UsageError
+    from sgt_tui.progress import ProgressBar
+
+    for option in ("rig", "face", "speaker", "utterance"):
+        if getattr(args, option) is not None:
+            raise UsageError(f"--{option} and BML: a BML file holds every utterance of the script; drop --{option}")
+    if Path(args.input).suffix.lower() != ".sgt":
+        raise UsageError(f"{args.input}: BML is written from a script (.sgt), whose marks stand on words; "
+                         "a motion file has no words to put them on")
+    out = output_file(args.output, inputs=inputs_of(args.input))
+    result = compile_file(args.input, progress=ProgressBar("speech"))
+    print_diagnostics(result.diagnostics, {args.input: result.script.source})
+    if result.plan is None:
+        return exit_code(result.diagnostics) or 1
+    from library import load_library  # (the script's gestures, for their classes)
+
+    text, notes = write_bml(result.script, result.plan, load_library(extra_dirs=result.script.header.library_dirs))
+    atomic_write_text(out, text)
+    print(f"wrote {shown(out)}: {len(result.plan.utterances)} BML block(s)"
+          + (f"; left out: {', '.join(notes)}" if notes else ""), file=sys.stderr)
+    return exit_code(result.diagnostics)
 
 
 def face_kind(output: str, chosen: str | None) -> str | None:

@@ -18,7 +18,7 @@ from dsl.plain import file_references
 from model.generate import GenerateError, NoSuchUtterance, check_motion_size, generate
 from model.neural import Options
 from sgt_tui.serve.config import ServeConfig
-from sgt_tui.serve.requests import REQUEST_FILE, GenerateRequest, RequestError, refused_paths, text_script
+from sgt_tui.serve.requests import REQUEST_FILE, GenerateRequest, RequestError, refused_paths, ssml_script, text_script
 
 log = logging.getLogger("sgt.serve")
 
@@ -73,7 +73,10 @@ def generate_request(config: ServeConfig, req: GenerateRequest, library, upload:
 
 def _generate_request(config: ServeConfig, req: GenerateRequest, library, upload: dict | None) -> dict:
     if upload is None:
-        source = req.script if req.script is not None else text_script(req, req.text)
+        if req.ssml is not None:
+            source = ssml_script(req, req.ssml, library)
+        else:
+            source = req.script if req.script is not None else text_script(req, req.text)
         if req.script is not None:
             refused = refused_paths(source, config.allow)
             if refused:

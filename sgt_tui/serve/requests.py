@@ -17,7 +17,11 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from core import rules
 from core.controls import STYLE_LIMIT
 from core.seeds import SEED_MAX
-from dsl.plain import file_references, plain_script
+from dsl.markup import MarkMap, script_text
+from dsl.plain import file_references, plain_script, utterance_script
+from dsl.ssml import ssml_utterance
+from dsl.xmlread import XmlError, parse_xml
+from library import load_library
 from model.engines import DEFAULT_ENGINE, ENGINES
 
 #: The name diagnostics give a request's script.
@@ -64,6 +68,7 @@ class GenerateRequest(TextSettings):
 
     script: str | None = Field(None, max_length=1_000_000, description="an .sgt script")
     text: str | None = Field(None, max_length=1_000_000, description="plain text, spoken as is")
+    ssml: str | None = Field(None, max_length=1_000_000, description="SSML: <speak> text, <mark name=GESTURE/>, <break>")
     seed: int | None = Field(None, ge=0, le=SEED_MAX)
     engine: Literal[tuple(ENGINES)] = DEFAULT_ENGINE  # type: ignore[valid-type]
     timing: Literal["speech", "estimate"] = "speech"
@@ -73,14 +78,14 @@ class GenerateRequest(TextSettings):
 
     @model_validator(mode="after")
     def _one_source(self):
-        if (self.script is None) == (self.text is None):
-            raise ValueError("give exactly one of 'script' (an .sgt script) and 'text' (plain text)")
+        if sum(x is not None for x in (self.script, self.text, self.ssml)) != 1:
+            raise ValueError("give exactly one of 'script' (an .sgt script), 'text' (plain text) and 'ssml' (SSML)")
         if self.script is not None:
             given = [k for k in ("voice", "rate", "pitch", "style") if getattr(self, k) is not None]
             if given or "speaker" in self.model_fields_set:
                 raise ValueError(f"{', '.join(given or ['speaker'])} apply to 'text'; a script sets them itself "
                                  "(@voice, @rate, @pitch, <style> tags)")
-        if self.text is not None and self.utterances is not None:
+        if self.script is None and self.utterances is not None:
             raise ValueError("'utterances' picks utterances of a script; a text is one utterance")
         return self
 
@@ -106,6 +111,28 @@ def text_script(req: TextSettings, text: str, audio: str | None = None, timings:
     audio_line = f"@audio {audio}" + (f" timings={timings}" if timings else "")
     *header, utterance = script.rstrip("\n").split("\n")
     return "\n".join([*header, audio_line, utterance]) + "\n"
+
+
+def ssml_script(req: TextSettings, ssml: str, library) -> str:
+    """The script for an SSML text (:mod:`dsl.ssml`): its marks as gestures, its breaks as pauses.
+    What cannot be mapped, or XML with a DTD or entities, is a 422 that lists each problem."""
+    try:
+        root = parse_xml(ssml)
+    except XmlError as exc:
+        raise RequestError(422, f"ssml:{exc.line}:{exc.col}: {exc.message}") from None
+    if library is None:
+        library = load_library()
+    utterance, problems = ssml_utterance(root, "ssml", MarkMap(), library)
+    body, found = script_text([utterance], req.speaker)
+    errors = [str(p) for p in problems + found if not p.warning]
+    if errors:
+        raise RequestError(422, "; ".join(errors))
+    text = body.split(": ", 1)[1].rstrip("\n")
+    try:
+        return utterance_script(text, speaker=req.speaker, voice=req.voice, rate=req.rate, pitch=req.pitch,
+                                style=req.style.values() if req.style else None)
+    except ValueError as exc:
+        raise RequestError(422, str(exc)) from None
 
 
 def refused_paths(source: str, allow: tuple[Path, ...]) -> list:
