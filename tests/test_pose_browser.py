@@ -68,7 +68,7 @@ def _angle(a, b) -> float:
 def browser():
     if CHROMIUM is None:
         pytest.skip("headless Chromium is not installed (apt-get install chromium)")
-    b = Browser()
+    b = Browser(1100, 760)
     yield b
     b.close()
 
@@ -124,6 +124,7 @@ def test_a_gesture_posed_in_the_page_is_saved_put_at_a_word_and_played_in_the_ta
         time.sleep(0.3)
         st = pose_state(browser)
         assert [k["label"] for k in st["gesture"]["keyframes"]] == ["start", "stroke", "retract"] and st["key"] == 1
+        assert browser.js("document.getElementById('pose-word').selectedIndex") == 0  # "choose a word", none chosen yet
         type_into(browser, "#pose-name", NAME)
         browser.wait(f"sgtView.pose.state().gesture.name === '{NAME}'", 10, "the name typed")
 
@@ -161,7 +162,6 @@ def test_a_gesture_posed_in_the_page_is_saved_put_at_a_word_and_played_in_the_ta
         wrist = handle(browser, "right_wrist")
         drag(browser, wrist, (wrist[0] - 30, wrist[1] - 70))
         browser.wait("sgtView.pose.state().handsReady", 10)
-        shot(browser, "view-pose.png")
 
         posed = pose_state(browser)["gesture"]
         assert [k["label"] for k in posed["keyframes"]] == ["prepare", "stroke", "retract"]
@@ -172,6 +172,11 @@ def test_a_gesture_posed_in_the_page_is_saved_put_at_a_word_and_played_in_the_ta
         path = folder / "gestures" / f"{NAME}.toml"
         assert path.is_file() and saved["saved"]["sha256"] == hashlib.sha256(path.read_bytes()).hexdigest()
         assert not list((folder / "gestures").glob(".*")), "a temporary file was left"
+        browser.key(".", "Period", 190)  # the stroke again, its TOML shown
+        browser.wait("sgtView.pose.state().key === 1 && sgtView.pose.state().handsReady", 10, "the stroke keyframe")
+        browser.click("#pose-text summary")
+        time.sleep(0.3)
+        shot(browser, "view-pose.png")
 
         # sgt library show reads back the keyframes saved, exactly, and they are the ones posed (to the last digits)
         shown = sgt("library", "show", NAME, "--dir", str(folder / "gestures"), "--json")

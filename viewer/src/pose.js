@@ -288,6 +288,7 @@ export class PoseEditor {
   _changed() {
     if (!this.gesture) return;
     this._show(this.current.pose);
+    if (this.active && this.gizmoWhat && !this.gizmoStart) this._attachGizmo(this.gizmoWhat); // the rings where the joint is now
     this._fillPanel();
     this.d.redraw();
   }
@@ -741,7 +742,7 @@ export class PoseEditor {
     const words = take && take.script && !this.previewing ? take.words : [];
     el.word.replaceChildren(new Option('choose a word (click one in the timeline)', ''),
       ...words.map((w, i) => new Option(`${w.utterance}: ${w.word} (${w.start.toFixed(2)} s)`, String(i))));
-    const chosen = this.wordChoice && words.findIndex((w) => w.utterance === this.wordChoice.utterance && w.n === this.wordChoice.n);
+    const chosen = this.wordChoice ? words.findIndex((w) => w.utterance === this.wordChoice.utterance && w.n === this.wordChoice.n) : -1;
     el.word.value = chosen >= 0 ? String(chosen) : '';
     const canWord = !!(take && take.script) && !this.previewing;
     el.context.disabled = !canWord;
