@@ -28,13 +28,6 @@ _._send_handler_result
 _.report_server_error
 
 # -- used outside the scanned code -------------------------------------------------------------
-# core/ik.py is the reference the page's posing (viewer/src/ik.js, its twin in JavaScript) is
-# checked against, function by function (tests/test_pose_ik.py).
-_.solve_arm
-_.set_head
-_.set_torso
-_.set_shoulder
-_.twist_palm
 # The documented command that retrains the shipped FGD extractor (fgd.load's fix message,
 # docs/metrics.md); tests/test_evaluate.py runs it on a tiny corpus.
 _.train_default_extractor

@@ -33,9 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from core.fileio import Inside, OutputExists
-from core.hands import PALMS, REST_PALM, REST_SHAPE, SHAPES
+from core.hands import PALMS, REST_PALM, REST_SHAPE, SHAPES, HandTrack, hand_positions
 from core.reading import LIMITS
-from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, POSE_DIM, mirror_name, mirror_pose
+from core.skeleton import BONE_INDEX, BONE_NAMES, N_BONES, POSE_DIM, mirror_name, mirror_pose, positions_from_pose
 from library.extract import _num, _toml_str
 from library.spec import (
     LIMB_OF,
@@ -76,6 +76,13 @@ class GestureExists(DraftError):
 
 class FileChanged(DraftError):
     """:func:`save` over a file that is not the one its reader saw (its SHA-256 differs)."""
+
+
+def joints_of(pose, hands: dict[str, str]) -> tuple[np.ndarray, np.ndarray]:
+    """One pose's joints (10, 3) and its hands' joints (2, 20, 3), the hands by name (:data:`HAND_ORDER`)."""
+    positions = positions_from_pose(np.asarray(pose, np.float64))
+    track = HandTrack.constant(1, (hands["left_hand"], hands["right_hand"]), (hands["left_palm"], hands["right_palm"]))
+    return positions, hand_positions(positions[None], track)[0]
 
 
 def rest_pose() -> np.ndarray:

@@ -124,3 +124,34 @@ def test_no_word_there_is_one_line():
         insert_mark(SCRIPTS[0], 3, 2, "nod")
     with pytest.raises(MarkError, match="no utterance"):
         word_position(SCRIPTS[0], 5, 0)
+
+
+def test_the_editors_pose_session_moves_in_screen_axes_keeps_limits_and_undoes(tmp_path):
+    from core.skeleton import BONE_LENGTHS, BONES, JOINT_INDEX, positions_from_pose
+    from sgt_tui.editor.posing import STEP, PoseSession, screen_axes
+
+    s = PoseSession()
+    wrist = positions_from_pose(s.current.pose)[JOINT_INDEX["right_wrist"]]
+    assert s.move(0, 3, 0)
+    moved = positions_from_pose(s.current.pose)
+    assert np.allclose(moved[JOINT_INDEX["right_wrist"]], wrist + 3 * STEP * screen_axes()[1], atol=1e-12)  # up on the screen
+    for p, c in BONES:
+        assert abs(np.linalg.norm(moved[JOINT_INDEX[c]] - moved[JOINT_INDEX[p]]) - BONE_LENGTHS[c]) < 1e-6
+    for _ in range(200):  # far past the arm's reach: it stops there
+        s.move(1, 0, 0)
+    x = positions_from_pose(s.current.pose)
+    assert np.linalg.norm(x[JOINT_INDEX["right_wrist"]] - x[JOINT_INDEX["right_shoulder"]]) <= ik.reach("right")[1] + 1e-12
+    stretched = s.current.pose.copy()
+    assert s.undo() and not np.array_equal(s.current.pose, stretched) and s.redo() and np.array_equal(s.current.pose, stretched)
+    s.select(4)  # the head
+    for _ in range(40):
+        s.move(1, 0, 0)
+    assert ik.head_angles(s.current.pose)[0] == pytest.approx(ik.HEAD_LIMITS["yaw"][1])
+    assert s.add_key() and len(s.draft.keys) == 4 and s.key == 2 and s.current.label == "hold"
+    assert s.mirror() and s.draft.driven() == ("head", "left_arm")
+    s.rename("mine")
+    first = s.save(tmp_path)
+    s.move(0, 1, 0)
+    first.path.write_text(first.path.read_text() + "# by hand\n")
+    with pytest.raises(FileChanged):
+        s.save(tmp_path, replace=True)

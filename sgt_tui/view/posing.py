@@ -29,7 +29,7 @@ from fastapi import Request
 from fastapi.responses import JSONResponse
 
 from core.fileio import Inside, LinkRefused, OutputError
-from core.hands import PALMS, SHAPES, HandTrack, hand_positions
+from core.hands import PALMS, SHAPES, hand_positions
 from core.ik import elbow_flexion, head_angles, shoulder_angles, swivel
 from core.reading import LIMITS, InputFileError, loads_json, read_bytes
 from core.skeleton import POSE_DIM, positions_from_pose
@@ -44,6 +44,7 @@ from library.posing import (
     DraftError,
     FileChanged,
     GestureExists,
+    joints_of,
     new_draft,
     rest_pose,
     save,
@@ -102,9 +103,7 @@ def frame_answer(body: dict) -> dict:
     if not isinstance(hands, dict) or any(not isinstance(hands.get(k), str) or hands[k] not in (SHAPES if k.endswith("_hand") else PALMS)
                                           for k in HAND_ORDER):
         raise PoseError(422, f"hands must name {', '.join(HAND_ORDER)} (shapes: {', '.join(SHAPES)}; palms: {', '.join(PALMS)})")
-    positions = positions_from_pose(pose)
-    track = HandTrack.constant(1, (hands["left_hand"], hands["right_hand"]), (hands["left_palm"], hands["right_palm"]))
-    joints = hand_positions(positions[None], track)[0]
+    positions, joints = joints_of(pose, hands)
     angles = {side: {"flexion": elbow_flexion(pose, side), "swivel": swivel(pose, side),
                      "shoulder": list(shoulder_angles(pose, side))} for side in ("left", "right")}
     return {"positions": _flat(positions), "hands": _flat(joints), "angles": {**angles, "head": list(head_angles(pose))}}
