@@ -229,3 +229,20 @@ def test_the_bundle_is_built_from_the_committed_sources_with_their_licences():
         assert f"{package} {version} (MIT)" in licences
     assert licences.count("Permission is hereby granted, free of charge") >= 3
     assert not list((ROOT / "sgt_tui" / "view").rglob("node_modules"))
+
+
+def test_sgt_serves_page_poses_without_writing_files():
+    """Under sgt serve the pose editor computes (with the service's token) and never writes: it has no save route."""
+    auth = {"Authorization": f"Bearer {TOKEN}"}
+    with TestClient(create_app(checked(ServeConfig(token=TOKEN))), raise_server_exceptions=False) as c:
+        assert c.get("/v1/pose/info").status_code == 401
+        info = c.get("/v1/pose/info", headers=auth).json()
+        assert info["can_write"] is False and "wave" in info["gestures"] and len(info["rest"]) == 27
+        wave = c.get("/v1/pose/gesture", params={"name": "wave"}, headers=auth).json()["gesture"]
+        preview = c.post("/v1/pose/preview", json={"gesture": wave}, headers=auth).json()
+        assert preview["text"].startswith('name = "wave"') and preview["frames"] == 27 and preview["stroke_frame"] == 9
+        mirrored = c.post("/v1/pose/mirror", json={"gesture": wave}, headers=auth).json()["gesture"]
+        assert mirrored["driven"] == ["left_arm"]
+        assert c.post("/v1/pose/save", json={"gesture": wave}, headers=auth).status_code in (404, 405)
+        bad = c.post("/v1/pose/preview", json={"gesture": {**wave, "name": "Bad Name"}}, headers=auth)
+        assert bad.status_code == 422 and "\n" not in bad.json()["error"]

@@ -175,7 +175,8 @@ class Browser:
 
 
 class View:
-    """`sgt view ARGS` in its own process; ``url`` is the address it printed."""
+    """`sgt view ARGS` in its own process; ``url`` is the address it printed without its fragment, ``address`` with it
+    (the run's edit token: `#edit=...`)."""
 
     def __init__(self, *args: str) -> None:
         self.proc = subprocess.Popen([sys.executable, "-m", "sgt_tui", "view", *args], cwd=ROOT, stdout=subprocess.DEVNULL,
@@ -193,7 +194,8 @@ class View:
                 pytest.fail(f"sgt view printed no address: {''.join(said)}")
             said.append(line)
             if line.startswith("sgt view: http://"):
-                self.url = line.split()[2]
+                self.address = line.split()[2]  # with the run's edit token (#edit=...): the page may write
+                self.url = self.address.split("#")[0]
                 return
 
     def stop(self) -> str:

@@ -58,6 +58,8 @@ ACTIONS: tuple[Act, ...] = (
     Act("alt+right", "move_pose", "", "Pose to next word", "move the pose control at the cursor to the next word", (1,)),
     Act("f6", "suggest", "", "Suggest gestures", "put the gestures the words of the utterance at the cursor call for "
         "where it has no mark (as sgt suggest; one undo takes them back)"),
+    Act("f12", "pose", "", "Pose a gesture", "make a gesture with the keys: move joints (by inverse kinematics), keyframes, "
+        "hands; save it into the script's @library folder and insert it at the cursor"),
     Act("f5", "play", "play", "Play / pause", "play or pause the motion preview (15 fps)"),
     Act("ctrl+g", "job", "gen", "Generate utterance", "generate motion for the utterance at the cursor", ("generate", False)),
     Act("f8", "job", "", "Generate script", "generate motion for the whole script", ("generate", True)),

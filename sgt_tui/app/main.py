@@ -36,6 +36,7 @@ from sgt_tui.app.actions import ACTION_NAMES, ACTIONS, ENGINE_ORDER, EditorComma
 from sgt_tui.app.file_flow import FileFlow
 from sgt_tui.app.job_flow import JobFlow, weights_exist
 from sgt_tui.app.panels import JobBar, MessageLine, PreviewPanel, StatusLine, TimelinePanel
+from sgt_tui.app.pose_screen import PoseScreen
 from sgt_tui.app.screens import SEVERITY_MARK, AskScreen, KeysScreen, LibraryScreen, Picked, ProblemsScreen, StyleScreen
 from sgt_tui.app.script_area import ScriptArea
 from sgt_tui.app.services import (
@@ -371,6 +372,13 @@ class EditorApp(App):
             self.say("the motion library is empty", "warning")
             return
         self.push_screen(LibraryScreen(a.library), self.insert_pose)
+
+    def action_pose(self) -> None:
+        a = self.ready_analysis()
+        if a is None:
+            return
+        folders = list(a.header.library_dirs) if a.header is not None else []
+        self.push_screen(PoseScreen(a.library, folders, self.player.current()), self.insert_pose)
 
     def action_style(self) -> None:
         a = self.ready_analysis()

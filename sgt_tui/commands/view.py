@@ -25,7 +25,15 @@ HOST and open http://127.0.0.1:8700/ here). --host exposes it, and then a token 
 required (--token or SGT_SERVE_TOKEN, as sgt serve): open http://HOST:PORT/#token=TOKEN
 (the page keeps the token; the part after # never leaves the browser). Other web pages
 cannot use it: a request must name it as its Host (a loopback name or --host, with its
-port, or a name given with --allow-host; else 421) and come from no other origin (403)."""
+port, or a name given with --allow-host; else 421) and come from no other origin (403).
+
+The page's Pose panel makes a gesture by hand: drag a wrist (the arm follows at its
+bone lengths), an elbow, a shoulder or the neck; turn the head and the forearm with
+their rings; pick hand shapes and palms; keyframes on a small timeline; play it alone or
+in the take at a word. Save writes the gesture (the TOML of library/gestures) into the
+script's @library folder (or a new one it adds), and Use at this word puts [pose:NAME]
+before the word in the script. Writes need this run's edit token, in the address
+printed (#edit=...)."""
 
 
 def register(sub) -> None:
@@ -36,6 +44,7 @@ def register(sub) -> None:
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=non_negative_int, default=0, help="port (default 0: a free one, printed)")
     p.add_argument("--token", help="require this token (default: $SGT_SERVE_TOKEN; required with --host)")
+    p.add_argument("--gesture", metavar="NAME", help="open the pose editor on this gesture (of the library the script sees)")
     add_allow_host_option(p)
     from sgt_tui.commands.render import add_script_options
 
@@ -70,6 +79,9 @@ def run(args) -> int:
     if not path.is_dir() and path.suffix.lower() not in (".sgt", ".json", ".npz"):
         raise UsageError(f"{path}: unknown input type '{path.suffix or '(none)'}' (use .sgt, .json, .npz or a build folder)")
 
+    import secrets
+
+    from sgt_tui.view.posing import Poser
     from sgt_tui.view.takes import Viewer, ViewError
 
     try:
@@ -78,6 +90,12 @@ def run(args) -> int:
         raise InputError(str(exc)) from None
     if not viewer.slots:
         raise InputError(f"{path}: no motion files in this folder (sgt build -o {path} makes them)")
+    script = path if not path.is_dir() and path.suffix.lower() == ".sgt" else None
+    edit = secrets.token_urlsafe(18)  # this run's: the page's writes (a gesture, a mark in the script) need it
+    poser = Poser(script, edit, start=args.gesture, engine=args.engine, seed=args.seed, changed=viewer.touch)
+    if args.gesture is not None and args.gesture not in poser.library():
+        hint = poser.library().suggest(args.gesture)
+        raise UsageError(f"--gesture {args.gesture}: no such gesture" + (f"; did you mean '{hint}'?" if hint else ""))
     try:
         viewer.take(0)  # the first take before listening: a script with errors stops here
     except ViewError as exc:
@@ -97,15 +115,15 @@ def run(args) -> int:
     port = sock.getsockname()[1]
     host = f"[{config.host}]" if ":" in config.host else config.host
     address = f"http://{host}:{port}/"
-    server = ViewServer(uvicorn.Config(create_view_app(viewer, config), log_level="warning", timeout_graceful_shutdown=1,
+    server = ViewServer(uvicorn.Config(create_view_app(viewer, config, poser), log_level="warning", timeout_graceful_shutdown=1,
                                        http=protocol(config.header_timeout, connection_limit()),
                                        timeout_keep_alive=KEEP_ALIVE, backlog=BACKLOG, loop="asyncio"), viewer)
     # From here ctrl+c stops the server and raises nothing: before uvicorn runs too, where a
     # KeyboardInterrupt could land in an import (and CPython then ends by SIGINT, whatever caught it).
     previous = signal.signal(signal.SIGINT, server.handle_exit)
     try:
-        print(f"sgt view: {address}" + (f" (token required: open {address}#token=TOKEN)" if config.token else ""),
-              file=sys.stderr)
+        print(f"sgt view: {address}#edit={edit}" + (f" (token required: open {address}#edit={edit}&token=TOKEN)"
+                                                    if config.token else ""), file=sys.stderr)
         print(f"  {plural(len(viewer.slots), 'take')} of {path}; reloads when "
               f"{'its files change' if viewer.folder or path.suffix.lower() != '.sgt' else 'the script is saved'}; ctrl+c "
               f"stops. Over SSH: ssh -L {port}:127.0.0.1:{port} THIS_HOST, then open the address on your machine.",

@@ -17,10 +17,12 @@ left out: the gaze turns the pupils) and the gaze per eye, for the page's copy o
 
 from __future__ import annotations
 
+import base64
+
 import numpy as np
 
 from core.face import ARKIT_INDEX, ARKIT_NAMES, FaceTrack
-from core.hands import hand_positions
+from core.hands import PALMS, SHAPE_ANGLES, SHAPES, SIDES, HandTrack, hand_positions, palm_direction
 from core.motion import MotionFile
 from core.skeleton import FPS, JOINTS
 from core.words import shift_words
@@ -58,6 +60,17 @@ def face_of(face: FaceTrack | None) -> dict | None:
             "gaze": np.round(face.gaze.astype(np.float64), FaceTrack.DECIMALS["gaze"]).reshape(-1).tolist()}
 
 
+def hand_names(hands: HandTrack) -> list[int]:
+    """Per frame, the hands by the names the gesture specs use: the nearest shape
+    (:data:`core.hands.SHAPES`, by number) and palm (:data:`core.hands.PALMS`) of the left hand,
+    then of the right (4 numbers a frame, flattened): where the pose editor starts from a frame."""
+    shapes = np.stack([SHAPE_ANGLES[n] for n in SHAPES]).astype(np.float64)  # (S, 5, 4)
+    shape = np.abs(hands.fingers.astype(np.float64)[:, :, None] - shapes).sum(axis=(-1, -2)).argmin(axis=-1)  # (T, 2)
+    palms = np.stack([[palm_direction(n, side) for n in PALMS] for side in SIDES])  # (2, P, 3)
+    palm = np.einsum("tsk,spk->tsp", hands.palm.astype(np.float64), palms).argmax(axis=-1)  # (T, 2)
+    return np.stack([shape[:, 0], palm[:, 0], shape[:, 1], palm[:, 1]], axis=1).reshape(-1).tolist()
+
+
 def figures(motion: MotionFile) -> list:
     """The clips the page draws, one per speaker on the performance clock (a motion file from
     before the clock: its utterances one after another, one figure)."""
@@ -85,7 +98,8 @@ def page_take(motion: MotionFile, name: str) -> dict:
     speakers = []
     for i, clip in enumerate(shown):
         hands = hand_positions(clip.positions, clip.hands)
-        speaker = {"name": names[i], "tint": list(speaker_tint(i)), "positions": _flat(clip.positions), "hands": _flat(hands)}
+        speaker = {"name": names[i], "tint": list(speaker_tint(i)), "positions": _flat(clip.positions), "hands": _flat(hands),
+                   "hand_names": hand_names(clip.hands)}
         face = face_of(clip.face)
         if face is not None:
             speaker["face"] = face
@@ -100,8 +114,8 @@ def page_take(motion: MotionFile, name: str) -> dict:
                            "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6)})
         # the words' times as sgt render captions them (renders.clips), not rounded: the page's
         # caption rule (viewer/src/caption.js) then picks the word sgt render does at every frame
-        words += [{"word": w.word, "start": w.start, "end": w.end, "speaker": who, "utterance": index}
-                  for w in shift_words(c.words, c.start if motion.tracks else start)]
+        words += [{"word": w.word, "start": w.start, "end": w.end, "speaker": who, "utterance": index, "n": n}
+                  for n, w in enumerate(shift_words(c.words, c.start if motion.tracks else start))]
         for k in c.controls:
             stroke = None if k.stroke_frame is None else first + k.stroke_frame
             controls.append({"kind": k.kind, "name": k.name, "label": _label(k.kind, k.name, k.options or {}),
@@ -111,7 +125,8 @@ def page_take(motion: MotionFile, name: str) -> dict:
                              "word": None if k.word_frame is None else round((first + k.word_frame) / FPS, 6)})
     return {"format": FORMAT, "version": VERSION, "name": name, "fps": FPS, "frames": n_frames,
             "duration": round(n_frames / FPS, 6), "joints": list(JOINTS), "speakers": speakers,
-            "utterances": utterances, "words": words, "controls": controls, "scene": scene()}
+            "utterances": utterances, "words": words, "controls": controls, "scene": scene(),
+            "shapes": list(SHAPES), "palms": list(PALMS)}
 
 
 def scene() -> dict:
@@ -129,6 +144,11 @@ def scene() -> dict:
             "views": {name: {"azimuth": v.azimuth, "elevation": v.elevation, "distance": v.distance, "on_head": v.on_head}
                       for name, v in VIEWS.items()},
             "lights": lights, "ambient": list(AMBIENT), "background": list(BACKGROUND)}
+
+
+def data_url(kind: str, data: bytes) -> str:
+    """``data`` inside a ``data:`` URL of media type ``kind`` (a take made for one answer)."""
+    return f"data:{kind};base64,{base64.b64encode(data).decode('ascii')}"
 
 
 def wav_of(samples, rate) -> bytes | None:

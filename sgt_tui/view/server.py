@@ -8,6 +8,7 @@
 | ``/api/take?take=K`` | take K's document (:func:`sgt_tui.view.page.page_take`) with its ``id``, ``audio`` and ``vrma`` URLs |
 | ``/api/audio.wav?take=K`` | its speech on the performance clock (404 without speech) |
 | ``/api/vrma?take=K&speaker=S`` | speaker S's motion as VRM Animation |
+| ``/api/pose/...`` | the pose editor's (:mod:`sgt_tui.view.posing`): its writes need the edit token too |
 
 With a token (``--token``, required for a non-loopback ``--host``, as ``sgt serve`` has it),
 ``/api/`` answers 401 unless the request sends ``Authorization: Bearer TOKEN``; the page takes
@@ -40,6 +41,7 @@ from sgt_tui.serve.app import authorized, error
 from sgt_tui.serve.config import ServeConfig
 from sgt_tui.serve.origin import SameOrigin
 from sgt_tui.view.assets import asset, index_html
+from sgt_tui.view.posing import Poser, add_view_routes
 from sgt_tui.view.takes import STOPPING, Viewer, ViewError
 
 log = logging.getLogger("sgt.view")
@@ -139,7 +141,7 @@ class TokenGuard:
         return await self.app(scope, receive, send)
 
 
-def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
+def create_view_app(viewer: Viewer, config: ServeConfig, poser: Poser | None = None) -> FastAPI:
     app = FastAPI(title="sgt view", docs_url=None, redoc_url=None, openapi_url=None)
     app.add_middleware(TokenGuard, config=config)
     app.add_middleware(SameOrigin, config=config)  # added last: the outermost, before the token
@@ -239,6 +241,9 @@ def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
         if not 0 <= speaker < len(loaded.doc["speakers"]):
             return error(404, f"no speaker {speaker}")
         return Response(loaded.vrma_of(speaker), media_type="model/gltf-binary", headers={"Cache-Control": "no-store"})
+
+    if poser is not None:
+        add_view_routes(app, poser, unless_stopping)
 
     @app.exception_handler(Exception)
     async def unexpected(request: Request, exc: Exception):

@@ -5,6 +5,10 @@ token, as ``/healthz`` is); in it a client types a script, which ``POST /v1/view
 ``POST /v1/generate`` does (the same body, refusals, allow-list, limits, queue and timeout, and
 the token), answering with the page's document (:func:`sgt_tui.view.page.page_take`): the
 speech and each speaker's VRM Animation come inside it as ``data:`` URLs.
+
+The page's pose editor works here too (``/v1/pose/...``: :mod:`sgt_tui.view.posing`'s questions,
+in the service's queue and with its token), on the service's library; the service writes no
+file: the page offers the gesture's TOML to download or copy instead.
 """
 
 from __future__ import annotations
@@ -14,15 +18,17 @@ import json
 import tempfile
 from pathlib import Path
 
+from fastapi import Request
 from fastapi.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
 
 from core.motion import load_motion_file
 from renders.audio_mix import mix
 from sgt_tui.serve.config import ServeConfig
 from sgt_tui.serve.jobs import generate_request
-from sgt_tui.serve.requests import GenerateRequest
+from sgt_tui.serve.requests import GenerateRequest, RequestError
 from sgt_tui.view.assets import asset, index_html
-from sgt_tui.view.page import page_take, vrma_bytes, wav_of
+from sgt_tui.view.page import data_url, page_take, vrma_bytes, wav_of
+from sgt_tui.view.posing import PoseError, frame_answer, gesture_answer, json_body, mirror_answer, preview_answer, refusal, vocabulary
 
 #: Paths under this prefix are the page's own files, served without the token.
 PAGE = "/view/"
@@ -30,10 +36,6 @@ PAGE = "/view/"
 
 def is_page(path: str) -> bool:
     return path == PAGE.rstrip("/") or path.startswith(PAGE)
-
-
-def data_url(kind: str, data: bytes) -> str:
-    return f"data:{kind};base64,{base64.b64encode(data).decode('ascii')}"
 
 
 def view_job(config: ServeConfig, req: GenerateRequest, library) -> dict:
@@ -82,3 +84,33 @@ def add_view(app, config: ServeConfig, work, state: dict) -> None:
             return JSONResponse({"error": f"the script is {len(text)} characters; this service takes at most {config.max_text}"},
                                 status_code=413)
         return await work(view_job, config, body, state["library"])
+
+    def refused(work, *args):
+        """``work(*args)`` with its :class:`PoseError` as the service's refusal (its status, its line)."""
+        try:
+            return work(*args)
+        except PoseError as exc:
+            raise RequestError(exc.status, str(exc)) from None
+
+    @app.get("/v1/pose/info", summary="What the page's pose editor needs: the rest pose, hands, labels, gestures")
+    async def pose_info():
+        return vocabulary(state["library"].names(), folders=[], script=None, can_write=False, start=None, new_folder=None)
+
+    @app.get("/v1/pose/gesture", summary="A gesture of the library as the pose editor starts from it")
+    async def pose_gesture(name: str):
+        return await work(refused, gesture_answer, state["library"], name)
+
+    for path, compute in (("frame", frame_answer), ("preview", preview_answer), ("mirror", mirror_answer)):
+        app.add_api_route(f"/v1/pose/{path}", _compute_route(work, refused, compute), methods=["POST"],
+                          summary=f"The pose editor's {path} (docs/view.md)")
+
+
+def _compute_route(work, refused, compute):
+    async def route(request: Request):
+        try:
+            body = await json_body(request)
+        except PoseError as exc:
+            return refusal(exc)
+        return await work(refused, compute, body)
+
+    return route

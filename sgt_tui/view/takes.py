@@ -19,6 +19,7 @@ its next loop point) and stops the watching.
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import threading
@@ -32,6 +33,7 @@ from core.diagnostics import format_text, summary
 from core.fileio import LinkRefused, resolved_inside
 from core.motion import MotionFile, MotionFileError, load_motion_file
 from core.reading import InputFileError, loads_json, read_bytes
+from dsl.lines import decode_source, utf16_order
 from model.generate import GenerateError, generate
 from renders.audio_mix import mix
 from sgt_tui.commands.common import inputs_of
@@ -66,6 +68,7 @@ class Loaded:
     note: str = ""
     warnings: str = ""
     vrma: dict = field(default_factory=dict)  # speaker number -> VRM Animation bytes, made when asked
+    script: ScriptText | None = None  # a script's take: the text it was generated from
 
     def vrma_of(self, speaker: int) -> bytes:
         if speaker not in self.vrma:
@@ -95,19 +98,55 @@ class ScriptSource(Source):
 
     def load(self) -> Loaded:
         try:
-            take = generate(self.path, engine=self.engine, seed=self.seed)
-        except GenerateError as exc:
-            details = format_text(exc.diagnostics, {str(self.path): exc.source}) if exc.diagnostics else ""
-            raise ViewError(f"{self.path}: {summary(exc.diagnostics)}" if exc.diagnostics else str(exc), details) from None
+            data = read_bytes(self.path, "script")
         except InputFileError as exc:
             raise ViewError(f"{self.path}: {exc.reason}") from None
-        if not take.clips:
-            raise ViewError(f"{self.path}: no utterances (a script with only a header makes no motion)")
-        motion = MotionFile(take.clips, take.tracks, str(self.path), engine=take.engine)
-        plan = take.plan
-        samples, rate = mix([(u.audio_path, u.start + u.audio_offset) for u in plan.utterances], plan.n_frames)
-        warnings = format_text(take.diagnostics, {str(self.path): take.source}) if take.diagnostics else ""
-        return Loaded(motion, page_take(motion, self.name), wav_of(samples, rate), warnings=warnings)
+        except OSError as exc:
+            raise ViewError(f"{self.path}: {(exc.strerror or str(exc)).lower()}") from None
+        text, bad = decode_source(data)
+        script = None if bad is not None or utf16_order(data) is not None else ScriptText(data, text)
+        return script_take(self.path, self.name, script.text if script else None, self.engine, self.seed, script=script)
+
+
+@dataclass(frozen=True)
+class ScriptText:
+    """The script a take was generated from: its bytes' SHA-256 (what the page's writes compare
+    with the file on disk) and its text (a byte-order mark left out, as the language reads it)."""
+
+    data: bytes
+    text: str
+
+    @property
+    def sha256(self) -> str:
+        return hashlib.sha256(self.data).hexdigest()
+
+    @property
+    def bom(self) -> bytes:
+        return self.data[:3] if self.data.startswith(b"\xef\xbb\xbf") else b""
+
+
+def script_take(path: Path, name: str, text: str | None, engine: str | None, seed: int | None, *,
+                script: ScriptText | None = None, library=None) -> Loaded:
+    """The take of the script ``path`` (its text ``text``, else the file's), generated with
+    ``library`` (default: the script's own), as the page shows it; ``script``: what it was read
+    as (the page may then edit it)."""
+    try:
+        take = generate(path, source=text, engine=engine, seed=seed, library=library)
+    except GenerateError as exc:
+        details = format_text(exc.diagnostics, {str(path): exc.source}) if exc.diagnostics else ""
+        raise ViewError(f"{path}: {summary(exc.diagnostics)}" if exc.diagnostics else str(exc), details) from None
+    except InputFileError as exc:
+        raise ViewError(f"{path}: {exc.reason}") from None
+    if not take.clips:
+        raise ViewError(f"{path}: no utterances (a script with only a header makes no motion)")
+    motion = MotionFile(take.clips, take.tracks, str(path), engine=take.engine)
+    plan = take.plan
+    samples, rate = mix([(u.audio_path, u.start + u.audio_offset) for u in plan.utterances], plan.n_frames)
+    warnings = format_text(take.diagnostics, {str(path): take.source}) if take.diagnostics else ""
+    doc = page_take(motion, name)
+    if script is not None:
+        doc["script"] = {"name": path.name, "sha256": script.sha256}
+    return Loaded(motion, doc, wav_of(samples, rate), warnings=warnings, script=script)
 
 
 class MotionSource(Source):
@@ -311,6 +350,13 @@ class Viewer:
                 if loaded is not None:
                     slot.loaded, slot.id = loaded, slot.id + 1
                 self.version += 1
+
+    def touch(self) -> None:
+        """Load every take again at the next look (a gesture a script uses was saved)."""
+        with self._lock:
+            for slot in self.slots:
+                if slot.loaded is not None or slot.error:
+                    slot.stamp = ()
 
     # -- watching ---------------------------------------------------------------------------
 

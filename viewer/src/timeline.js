@@ -70,6 +70,7 @@ export class Timeline {
       rows += 1;
       take.words.filter((wd) => wd.speaker === name).forEach((wd) => {
         const el = this._item(words, 'tl-word', wd.start, wd.end, wd.word, wd.start, `${wd.word} · ${wd.start.toFixed(2)}-${wd.end.toFixed(2)} s`);
+        el.dataset.word = String(take.words.indexOf(wd)); // the pose editor's "at this word"
         this.words.push([wd, el]);
       });
       const own = take.controls.filter((k) => k.speaker === name);
