@@ -16,8 +16,9 @@ motion: the ``sgt`` commands and the editor's worker all call it.
 Engines share one interface: ``generate(inputs: EngineInputs, *, seed) -> (T, 27)``, where
 :class:`EngineInputs` carries the per-frame controls, the timed words and the speech audio.
 Engines: ``neural`` (the controllable generator, default), ``matching`` (motion matching over a
-database of the training takes, :mod:`model.matching`), ``keyframe`` (SGToolkit's MANUAL
-condition) and ``rules`` (the procedural teacher).
+database of the training takes, :mod:`model.matching`), ``flow`` (a flow-matching network that
+samples takes, :mod:`model.flow`), ``keyframe`` (SGToolkit's MANUAL condition) and ``rules``
+(the procedural teacher).
 """
 
 from __future__ import annotations
@@ -48,12 +49,13 @@ from model.weights import WeightsError
 ENGINES = {
     "neural": "model.neural",  # the controllable generator (shipped weights)
     "matching": "model.matching",  # motion matching over the training takes (shipped database)
+    "flow": "model.flow",  # flow matching: a network that samples takes (shipped weights model/weights/flow.pt)
     "keyframe": "model.keyframe",  # SGToolkit's MANUAL condition: splines through the pose controls
     "rules": "model.teacher",  # the rule-based teacher of the procedural corpus
 }
 DEFAULT_ENGINE = "neural"
 #: Engines that start an utterance from its speaker's listening motion (seed poses).
-SEEDED_ENGINES = ("neural", "matching")
+SEEDED_ENGINES = ("neural", "matching", "flow")
 
 
 @dataclass
@@ -143,9 +145,9 @@ def engine_function(name: str, options=None) -> Callable:
     if name not in ENGINES:
         raise GenerateError(f"unknown engine '{name}': choose one of {', '.join(ENGINES)}")
     fn = importlib.import_module(ENGINES[name]).generate
-    if name == "neural":
-        try:  # fail early, with the fix, when the weights are missing or unusable
-            load_runner(getattr(options, "weights", None))
+    if name in ("neural", "flow"):
+        try:  # fail early, with the fix, when the weights are missing, unusable or of the other network
+            load_runner(getattr(options, "weights", None), name)
         except WeightsError as exc:
             raise GenerateError(str(exc)) from None
         return partial(fn, options=options)

@@ -32,7 +32,7 @@ import numpy as np
 from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
-from model import keyframe, matching, neural, postprocess
+from model import flow, keyframe, matching, neural, postprocess
 from model.runtime import TorchRunner
 from model.style import style as style_of
 from model.teacher import teach
@@ -61,9 +61,22 @@ class MatchingModel:
         self.takes = takes
 
 
+class FlowModel:
+    """The flow engine's network as :func:`condition_motions` runs it (:func:`model.flow.run_windows`,
+    then the post-processing of :func:`_neural`): ``runner`` a runner of its weights."""
+
+    def __init__(self, runner) -> None:
+        self.runner = runner
+
+
 def _generate(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
-    """One clip's motion by the engine ``model`` stands for: a :class:`MatchingModel` or a
-    runner of the network (:func:`_neural`). ``smoothing=None``: the engine's default."""
+    """One clip's motion by the engine ``model`` stands for: a :class:`MatchingModel`, a
+    :class:`FlowModel` or a runner of the network (:func:`_neural`). ``smoothing=None``: the
+    engine's default."""
+    if isinstance(model, FlowModel):
+        raw = flow.run_windows(model.runner, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
+        return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing or "one_euro", blend=blend,
+                                  style=arrays.style, style_mask=arrays.style_mask)
     if isinstance(model, MatchingModel):
         take = matching.draw_take(model.db, seed) if model.takes else None
         raw = matching.match(model.db, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed, take)

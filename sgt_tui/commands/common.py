@@ -37,9 +37,9 @@ SMOOTHING_CHOICES = ("one_euro", "moving_average", "none")
 
 #: ``--engine`` choices: the names of ``model.generate.ENGINES`` (a test checks), spelt out here
 #: for the same reason.
-ENGINE_CHOICES = ("neural", "matching", "keyframe", "rules")
+ENGINE_CHOICES = ("neural", "matching", "flow", "keyframe", "rules")
 #: ``sgt eval --engine`` choices: the engines whose model rows it measures.
-EVAL_ENGINES = ("neural", "matching")
+EVAL_ENGINES = ("neural", "matching", "flow")
 
 #: The output name that means standard output.
 STDOUT = "-"

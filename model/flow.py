@@ -1,0 +1,85 @@
+"""The ``flow`` engine: the flow-matching sampler of :mod:`model.flow_net` run over any length of speech.
+
+Where the ``neural`` engine's regressor averages the takes its teacher could make, this engine
+samples one: each window of :data:`WINDOW` frames starts from Gaussian noise drawn from the
+seed (a seed is one take) and flows to poses in the few steps its weights were trained for.
+
+Long speech goes in windows that overlap by :data:`SEED` frames (SGToolkit appendix A.1): the
+last :data:`SEED` frames a window made are the next window's seed poses, fed to the network as
+pose controls, which it keeps exactly (:meth:`model.flow_net.FlowNet.predict` puts controlled
+frames in), so the next window continues them without a jump and the output switches windows
+right after the seed. Unlike :func:`model.neural.run_windows` there is no cross-fade: two
+samples of the same speech differ (that is the point of sampling), and a fade between them would
+average their strokes away over half of every hop.
+
+After the network, the neural engine's post-processing (:func:`model.postprocess.finish`):
+the zero-phase 1-euro filter, ``follow_speed``, the pause hold and the exact pose-control
+blend. The flow draws no training take's posture (:mod:`model.take_posture`): its samples
+carry their own holds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.controls import network_pose_controls
+from core.skeleton import POSE_DIM
+from model import postprocess
+from model.features import speech_inputs
+from model.neural import SEED, WINDOW, Options, use_threads
+from model.runtime import as_runner, load_runner
+
+#: Frames a window adds after its seed poses.
+HOP = WINDOW - SEED
+
+
+def load(weights: str | None = None):
+    """The flow network's runner for a weights file (None: the shipped ``model/weights/flow.pt``);
+    raises :class:`~model.weights.WeightsError` for a missing file or one of another kind."""
+    return load_runner(weights, "flow")
+
+
+def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
+    """Sliding-window sampling: (T, 27) poses before post-processing. ``model`` is a runner of
+    :mod:`model.runtime` or a :class:`model.flow_net.FlowNet`; each window's noise is the next
+    (WINDOW, 27) normal numbers of the seed's random stream (fewer frames use its first rows)."""
+    runner = as_runner(model)
+    t_count = arrays.n_frames
+    out = np.zeros((t_count, POSE_DIM), np.float32)
+    rng = np.random.default_rng(seed)
+    start = 0
+    while True:
+        end = min(start + WINDOW, t_count)
+        pose = arrays.pose[start:end].copy()
+        mask = network_pose_controls(pose, arrays.pose_mask[start:end], None if arrays.bone_mask is None
+                                     else arrays.bone_mask[start:end])[1].copy()
+        k = 0
+        if start > 0:  # seed poses from the previous window where the user asked for nothing
+            k = min(SEED, end - start)
+            free = mask[:k] < 0.5
+            pose[:k][free] = out[start : start + k][free]
+            mask[:k][free] = 1.0
+        z = rng.standard_normal((WINDOW, runner.noise_dim)).astype(np.float32)[: end - start]
+        y = runner.run_window(audio[start:end], ids[start:end], onsets[start:end], pose, mask, arrays.style[start:end],
+                              arrays.style_mask[start:end], z)
+        out[start + k : end] = y[k:]
+        if end >= t_count:
+            break
+        start += HOP
+    return out
+
+
+def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.ndarray:
+    """Poses (T, 27) for one utterance (an :class:`~model.generate.EngineInputs`). ``options``
+    are the neural engine's (:class:`model.neural.Options`; ``weights``: a flow weights file;
+    ``take_posture`` does not apply)."""
+    opts = options or Options()
+    runner = load(opts.weights)
+    use_threads(opts.threads)
+    n = inputs.n_frames
+    audio, ids, onsets = speech_inputs(inputs, n)
+    arrays = postprocess.seeded_controls(inputs)
+    raw = run_windows(runner, audio, ids, onsets, arrays, seed)
+    return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
+                              blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words,
+                              style=arrays.style, style_mask=arrays.style_mask)
