@@ -5,12 +5,12 @@ shipped weights (the weights trained on per-utterance z-scored audio features ge
 hardest in digital silence: 0.45 m/s at the peak of a `[pause 2s]` against 0.15 m/s while
 speaking). This script compiles a script (by default one utterance with a `[pause 2s]`
 mid-sentence and a `[pause 4s]` between two sentences: a long gap), generates ``--seeds``
-takes with the neural engine (or ``--engine matching``, the matching engine, ``--engine rules``, the teacher, or ``--engine stream``, the
+takes with the neural engine (or ``--engine matching``, the matching engine, ``--engine flow``, the flow engine, ``--engine rules``, the teacher, or ``--engine stream``, the
 streaming service's generator fed the utterance's timed words) and prints, over the takes,
 the median, mean and peak of the wrists' speed (the mean of both wrists, m/s; frame t's speed
 is the step into it) on frames inside a pause and on frames inside a word:
 
-    python scripts/pause_check.py [FILE.sgt] [--weights FILE] [--seeds N] [--engine neural|matching|rules|stream] [--json FILE]
+    python scripts/pause_check.py [FILE.sgt] [--weights FILE] [--seeds N] [--engine neural|matching|flow|rules|stream] [--json FILE]
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ def summary(values: np.ndarray) -> dict:
 def measure(path: Path, *, seeds: int = 5, weights=None, engine: str = "neural") -> dict:
     """Pause and speech wrist-speed summaries over every utterance with a pause and ``seeds`` takes."""
     from dsl.compiler import compile_file
-    from model import matching, neural, teacher
+    from model import flow, matching, neural, teacher
     from model.generate import EngineInputs
 
     result = compile_file(path)
@@ -78,6 +78,8 @@ def measure(path: Path, *, seeds: int = 5, weights=None, engine: str = "neural")
                 poses = neural.generate(inputs, seed=seed, options=neural.Options(weights=weights))
             elif engine == "matching":
                 poses = matching.generate(inputs, seed=seed)
+            elif engine == "flow":  # weights: flow weights (default the shipped model/weights/flow.pt)
+                poses = flow.generate(inputs, seed=seed, options=neural.Options(weights=weights))
             elif engine == "stream":
                 poses = streamed(inputs.words, seed, weights)
             else:
@@ -106,7 +108,7 @@ def main() -> int:
     ap.add_argument("script", nargs="?", help="a .sgt script with [pause] tags (default: the built-in one above)")
     ap.add_argument("--weights", help="generator weights (default: the shipped ones)")
     ap.add_argument("--seeds", type=int, default=5, help="takes (default 5)")
-    ap.add_argument("--engine", choices=("neural", "matching", "rules", "stream"), default="neural")
+    ap.add_argument("--engine", choices=("neural", "matching", "flow", "rules", "stream"), default="neural")
     ap.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:

@@ -26,7 +26,7 @@ shipped model (or ``--weights``) generates ``--seeds`` takes and the script repo
 - the beat alignment of the motion with the speech onsets (docs/metrics.md), and the same
   motion against the onsets of another set's recording (``BA shuffled``, the chance level).
 
-    python scripts/real_speech_check.py [--weights FILE] [--out DIR] [--seeds N] [--engine neural|matching|rules] [--json FILE]
+    python scripts/real_speech_check.py [--weights FILE] [--out DIR] [--seeds N] [--engine neural|matching|flow|rules] [--json FILE]
 """
 
 from __future__ import annotations
@@ -158,7 +158,7 @@ def main() -> int:
     ap.add_argument("--weights", help="generator weights (default: the shipped ones)")
     ap.add_argument("--out", default="out/real_speech", help="working folder (default out/real_speech)")
     ap.add_argument("--seeds", type=int, default=5, help="takes per condition (default 5)")
-    ap.add_argument("--engine", choices=("neural", "matching", "rules"), default="neural")
+    ap.add_argument("--engine", choices=("neural", "matching", "flow", "rules"), default="neural")
     ap.add_argument("--json", metavar="FILE", help="also write every row and the human-speech summary as JSON")
     args = ap.parse_args()
     sets = recording_sets()
@@ -168,7 +168,7 @@ def main() -> int:
     from core.controls import ControlArrays
     from core.skeleton import FPS, frame_count
     from core.words import TimedWord
-    from model import matching, neural, teacher
+    from model import flow, matching, neural, teacher
     from model.features import audio_features, load_audio
     from model.generate import EngineInputs
 
@@ -195,6 +195,8 @@ def main() -> int:
                 poses = neural.generate(inputs, seed=seed, options=neural.Options(weights=args.weights))
             elif args.engine == "matching":
                 poses = matching.generate(inputs, seed=seed)
+            elif args.engine == "flow":  # --weights: flow weights (default the shipped model/weights/flow.pt)
+                poses = flow.generate(inputs, seed=seed, options=neural.Options(weights=args.weights))
             else:
                 poses = teacher.generate(inputs, seed=seed)
             results.append(measure(poses, feats, speaking, silent, other))
