@@ -12,10 +12,13 @@ right after the seed. Unlike :func:`model.neural.run_windows` there is no cross-
 samples of the same speech differ (that is the point of sampling), and a fade between them would
 average their strokes away over half of every hop.
 
-After the network, the neural engine's post-processing (:func:`model.postprocess.finish`):
-the zero-phase 1-euro filter, ``follow_speed``, the pause hold and the exact pose-control
-blend. The flow draws no training take's posture (:mod:`model.take_posture`): its samples
-carry their own holds.
+The sampled strokes are then re-timed onto the speech as the matching engine re-times its
+takes (:func:`beats_on_speech`: each stroke end within 4 frames of an accent or a syllable
+onset moves onto it, :func:`model.matching.snap_beats`; no bone faster than the teacher's limit
+after it), and the neural engine's post-processing follows (:func:`model.postprocess.finish`):
+the zero-phase 1-euro filter, ``follow_speed``, the pause hold and the exact pose-control blend.
+The flow draws no training take's posture (:mod:`model.take_posture`): its samples carry their
+own holds.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ import numpy as np
 
 from core.controls import network_pose_controls
 from core.skeleton import POSE_DIM
-from model import postprocess
+from model import matching, postprocess
 from model.features import speech_inputs
 from model.neural import SEED, WINDOW, Options, use_threads
 from model.runtime import as_runner, load_runner
@@ -69,6 +72,20 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
     return out
 
 
+def beats_on_speech(poses: np.ndarray, audio, ids, onsets) -> np.ndarray:
+    """``poses`` with their stroke ends moved onto the speech's accents and syllable onsets
+    (:func:`model.matching.snap_beats`, the matching engine's targets), then no bone turning
+    faster than :data:`model.postprocess.MAX_STEP_DEG` a frame."""
+    accents = matching.accents(np.asarray(audio, np.float32)[:, -1], ids, onsets)
+    targets = np.union1d(np.flatnonzero(accents >= matching.ACCENT_MIN), matching.syllable_onsets(audio))
+    return postprocess.limit_velocity(matching.snap_beats(poses, targets), postprocess.MAX_STEP_DEG).astype(np.float32)
+
+
+def motion(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
+    """The engine's motion before post-processing: :func:`run_windows`, then :func:`beats_on_speech`."""
+    return beats_on_speech(run_windows(model, audio, ids, onsets, arrays, seed), audio, ids, onsets)
+
+
 def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.ndarray:
     """Poses (T, 27) for one utterance (an :class:`~model.generate.EngineInputs`). ``options``
     are the neural engine's (:class:`model.neural.Options`; ``weights``: a flow weights file;
@@ -79,7 +96,7 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
     arrays = postprocess.seeded_controls(inputs)
-    raw = run_windows(runner, audio, ids, onsets, arrays, seed)
+    raw = motion(runner, audio, ids, onsets, arrays, seed)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
                               blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words,
                               style=arrays.style, style_mask=arrays.style_mask)

@@ -22,6 +22,7 @@ from core.controls import ControlArrays  # noqa: E402
 from core.skeleton import FPS, POSE_DIM, normalize_pose  # noqa: E402
 from core.words import TimedWord  # noqa: E402
 from model import flow, neural  # noqa: E402
+from model.features import speech_inputs  # noqa: E402
 from model.flow_net import FlowNet  # noqa: E402
 from model.generate import EngineInputs, GenerateError, engine_function  # noqa: E402
 from model.runtime import OnnxRunner, TorchRunner, export_onnx, largest_difference, load_runner, onnx_path  # noqa: E402
@@ -67,13 +68,15 @@ def test_shapes_units_and_one_take_per_seed(weights, frames):
 
 
 def test_the_network_keeps_whole_pose_controls_exactly(weights):
-    """Controlled frames are put into every prediction of the sampler, so the raw output (no
-    smoothing, no blend) already ends on them; the blend keeps them exact after smoothing."""
+    """Controlled frames are put into every prediction of the sampler, so its windows already
+    end on them; the blend keeps them exact after the re-timing and the smoothing."""
     n = 80
     ref = normalize_pose(synthetic_clips(1, frames=n, seed=9)[0]["poses"])  # requests are unit bones
     arrays = ControlArrays.empty(n)
     arrays.set_pose(30, ref[30:40])
-    raw = gen(weights, inputs_for(n, arrays), smoothing="none", blend=False)
+    inp = inputs_for(n, arrays)
+    audio, ids, onsets = speech_inputs(inp, n)
+    raw = flow.run_windows(flow.load(str(weights)), audio, ids, onsets, arrays, 0)
     assert np.abs(raw[30:40] - ref[30:40]).max() < 1e-4
     out = gen(weights, inputs_for(n, arrays))
     assert np.abs(out[30:40] - ref[30:40]).max() < 1e-5
@@ -243,3 +246,41 @@ def stream_with_seed(runner, words, seed):
 
     gen = FlowStreamGenerator(runner, seed=seed)
     return np.concatenate([gen.add_words(words), gen.finish()])
+
+
+def test_sgt_train_engine_flow_then_distil_then_generate(tmp_path, capsys):
+    """The commands users run: `sgt train --engine flow` on their own takes, then distilled
+    (`--teacher`), then `sgt generate --engine flow --weights`; the regressor's options, the
+    other network's weights and a teacher that is not flow weights are one line each."""
+    from sgt_tui.cli import main
+    from tests.test_train_matching import _one_error_line, write_takes
+
+    write_takes(tmp_path / "data", n_takes=3, frames=160)
+    small = ["--epochs", "1", "--steps", "2", "--batch", "4", "--window", "40", "--hidden", "16", "--threads", "1"]
+    assert main(["train", "--engine", "flow", "--data", str(tmp_path / "data"), "-o", str(tmp_path / "flow"), *small]) == 0
+    weights = tmp_path / "flow" / "flow.pt"
+    assert load_weights(weights, "flow")[0].config["hidden"] == 16
+    capsys.readouterr()
+    assert main(["train", "--engine", "flow", "--data", str(tmp_path / "data"), "-o", str(tmp_path / "student"),
+                 "--teacher", str(weights), "--times", "0,0.6", "--substeps", "2", *small[:-4], "--threads", "1"]) == 0
+    student = load_weights(tmp_path / "student" / "flow.pt", "flow")[0]
+    assert student.config["times"] == [0.0, 0.6] and student.config["hidden"] == 16
+    script = tmp_path / "one.sgt"
+    script.write_text("guide: Well here is the thing you asked about.\n")
+    out = tmp_path / "m.json"
+    assert main(["generate", str(script), "-o", str(out), "--engine", "flow", "--weights", str(tmp_path / "student" / "flow.pt")]) == 0
+    assert len(json.loads(out.read_text())["utterances"][0]["poses"]) > 10
+    capsys.readouterr()
+    assert main(["generate", str(script), "-o", str(out), "--engine", "neural", "--weights", str(weights)]) == 1
+    _one_error_line(capsys.readouterr().err, "flow engine's network, not the neural engine's", "--engine flow")
+    assert main(["train", "--engine", "flow", "--data", str(tmp_path / "data"), "-o", str(tmp_path / "x"), "--gan-weight", "2"]) == 2
+    _one_error_line(capsys.readouterr().err, "--gan-weight", "--engine flow")
+    assert main(["train", "--data", str(tmp_path / "data"), "-o", str(tmp_path / "x"), "--times", "0,0.5"]) == 2
+    _one_error_line(capsys.readouterr().err, "--times", "--engine neural")
+    regressor = tmp_path / "generator.pt"
+    from model.net import GestureNet
+
+    save_weights(regressor, GestureNet({"hidden": 16, "word_dim": 8, "layers": 1, "gru": False}))
+    assert main(["train", "--engine", "flow", "--data", str(tmp_path / "data"), "-o", str(tmp_path / "y"),
+                 "--teacher", str(regressor), *small]) == 1
+    _one_error_line(capsys.readouterr().err, "neural engine's network, not the flow engine's")

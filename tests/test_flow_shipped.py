@@ -22,10 +22,15 @@ from model.generate import EngineInputs  # noqa: E402
 from model.runtime import OnnxRunner, TorchRunner, onnx_path, random_window, read_export  # noqa: E402
 from model.training.metrics import group_statistics, joint_speeds  # noqa: E402
 from model.weights import DEFAULT_FLOW_WEIGHTS, file_hash, load_weights  # noqa: E402
-from tests.test_shipped_model import PAUSES, utterances  # noqa: E402, F401  (the example's utterances, as a fixture)
+from tests.test_shipped_model import EXAMPLE, PAUSES  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED_ONNX = onnx_path(DEFAULT_FLOW_WEIGHTS)
+
+
+@pytest.fixture(scope="module")
+def example():
+    return [EngineInputs.from_plan(u) for u in compile_file(EXAMPLE).plan.utterances]
 
 
 def test_shipped_weights_load_with_their_card_and_fit_the_budget():
@@ -48,9 +53,9 @@ def test_shipped_export_is_made_from_the_shipped_weights_and_runs_the_same():
         assert np.abs(torch_runner.run_window(*inputs) - onnx_runner.run_window(*inputs)).max() < 1e-4
 
 
-def test_shipped_flow_follows_pose_controls_moves_and_keeps_one_take_per_seed(utterances):
+def test_shipped_flow_follows_pose_controls_moves_and_keeps_one_take_per_seed(example):
     controlled = 0
-    for inputs in utterances:
+    for inputs in example:
         a = inputs.arrays
         out = flow.generate(inputs, seed=0)
         assert out.shape == (inputs.n_frames, 27) and np.isfinite(out).all()
@@ -64,17 +69,22 @@ def test_shipped_flow_follows_pose_controls_moves_and_keeps_one_take_per_seed(ut
     assert controlled >= 3
 
 
-def test_shipped_flow_joins_its_windows_without_jumps(utterances):
+def test_shipped_flow_joins_its_windows_without_jumps(example):
     """The mean frame-to-frame step at each phase of the hop, over many windows and takes: a
-    join would repeat every HOP frames. The raw sampler output (no filter, no blend)."""
-    inputs = utterances[0]
+    join would repeat every HOP frames. The sampler's own windows (:func:`model.flow.run_windows`,
+    before the re-timing and the post-processing), on the example's first line spoken again and again."""
+    from model.features import speech_inputs
+
+    inputs = example[0]
     n = 12 * flow.HOP + neural.WINDOW
-    words = [w.__class__(w.word, w.start + k * inputs.words[-1].end, w.end + k * inputs.words[-1].end)
-             for k in range(int(np.ceil(n / FPS / inputs.words[-1].end)) + 1) for w in inputs.words]
+    span = inputs.words[-1].end + 0.3
+    words = [type(w)(w.word, w.start + k * span, w.end + k * span) for k in range(int(n / FPS / span) + 1) for w in inputs.words]
     long = EngineInputs(ControlArrays.empty(n), [w for w in words if w.end < n / FPS], None, 0.0)
-    steps = np.stack([np.abs(np.diff(flow.generate(long, seed=s, options=neural.Options(smoothing="none", blend=False)),
-                                     axis=0)).max(axis=1) for s in range(4)])
-    idx = np.arange(neural.WINDOW, steps.shape[1])
+    audio, ids, onsets = speech_inputs(long, n)
+    runner = flow.load()
+    steps = np.stack([np.abs(np.diff(flow.run_windows(runner, audio, ids, onsets, long.arrays, s), axis=0)).max(axis=1)
+                      for s in range(4)])
+    idx = np.arange(neural.WINDOW, steps.shape[1])  # after the first window's own frames
     profile = np.array([steps[:, idx[(idx - neural.SEED) % flow.HOP == k]].mean() for k in range(flow.HOP)])
     assert profile.max() / np.median(profile) < 1.3, profile.round(4)
 

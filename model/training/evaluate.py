@@ -62,7 +62,7 @@ class MatchingModel:
 
 
 class FlowModel:
-    """The flow engine's network as :func:`condition_motions` runs it (:func:`model.flow.run_windows`,
+    """The flow engine's network as :func:`condition_motions` runs it (:func:`model.flow.motion`,
     then the post-processing of :func:`_neural`): ``runner`` a runner of its weights."""
 
     def __init__(self, runner) -> None:
@@ -74,7 +74,7 @@ def _generate(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
     :class:`FlowModel` or a runner of the network (:func:`_neural`). ``smoothing=None``: the
     engine's default."""
     if isinstance(model, FlowModel):
-        raw = flow.run_windows(model.runner, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
+        raw = flow.motion(model.runner, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
         return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing or "one_euro", blend=blend,
                                   style=arrays.style, style_mask=arrays.style_mask)
     if isinstance(model, MatchingModel):

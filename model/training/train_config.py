@@ -67,3 +67,5 @@ class FlowConfig:
     device: str = "auto"
     minutes: float | None = None  # stop after this much wall time (finishing the epoch)
     net: dict = field(default_factory=dict)
+    teacher: str | None = None  # flow weights to distil into a sampler of the steps net["times"] sets (None: train a flow)
+    substeps: int = 4  # with a teacher: its Euler steps for each of the student's

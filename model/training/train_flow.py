@@ -1,4 +1,5 @@
-"""Training the flow engine's network (:mod:`model.flow_net`) on CPU: conditional flow matching.
+"""Training the flow engine's network (:mod:`model.flow_net`) on CPU: conditional flow matching,
+then few-step distillation.
 
 Each step draws windows of the training clips (:class:`model.training.train.Windows`), simulates
 controls from their references as the regressor's training does
@@ -7,6 +8,11 @@ the reference's style with an element dropped, everything dropped on a share of 
 which is also what classifier-free guidance on the style needs), draws noise and flow times
 (logit-normal), and minimises :meth:`model.flow_net.FlowNet.loss`. The weights' exponential
 moving average (``cfg.ema``) is what is validated and shipped.
+
+A flow sampled in a few Euler steps is blurrier than in many. With ``cfg.teacher`` (trained flow
+weights) the run distils instead (:meth:`model.flow_net.FlowNet.distill_loss`): the student
+starts as the teacher and learns, for each of its few sampler steps (``cfg.net["times"]``), to land
+where the teacher lands in ``cfg.substeps`` steps, on the same windows, controls and noise.
 
 Every epoch ends with a checkpoint (``checkpoint.pt``, written atomically: the network, its
 average, the optimiser and the random stream, all readable with ``torch.load(...,
@@ -131,8 +137,18 @@ def train_flow(train_clips, val_clips, out_dir: Path, cfg: FlowConfig, *, resume
 
     data = Windows(train_clips, cfg.window)
     validation = Validation(val_clips, cfg.window, extractor)
-    model = FlowNet(cfg.net)
-    model.set_pose_statistics(*pose_statistics(data.clips))
+    teacher = None
+    if cfg.teacher is not None:  # distillation: the student starts as the teacher, with its own sampler steps
+        from model.weights import load_weights  # lazy: torch
+
+        teacher = load_weights(cfg.teacher, "flow")[0].to(dev)
+        for p in teacher.parameters():
+            p.requires_grad_(False)
+        model = FlowNet({**teacher.config, **cfg.net})
+        model.load_state_dict(teacher.state_dict())
+    else:
+        model = FlowNet(cfg.net)
+        model.set_pose_statistics(*pose_statistics(data.clips))
     model.to(dev)
     ema = copy.deepcopy(model).eval()
     for p in ema.parameters():
@@ -143,7 +159,9 @@ def train_flow(train_clips, val_clips, out_dir: Path, cfg: FlowConfig, *, resume
     config = asdict(cfg)
     if resume and ckpt_path.exists():
         state = torch.load(str(ckpt_path), map_location="cpu", weights_only=True)
-        if state.get("config", {}) | {"minutes": cfg.minutes} != config or len(state.get("rngs", [])) != 1:
+        # settings added since the checkpoint was made: it was made with their defaults
+        state["config"] = {**asdict(FlowConfig()), **state.get("config", {})}
+        if state["config"] | {"minutes": cfg.minutes} != config or len(state.get("rngs", [])) != 1:
             raise ValueError(f"{ckpt_path} was made with {_checkpoint_difference(state, config, 1)}; give the settings "
                              "it was made with to resume it, or start afresh with --fresh (which replaces it), or train "
                              "into another folder")
@@ -168,9 +186,13 @@ def train_flow(train_clips, val_clips, out_dir: Path, cfg: FlowConfig, *, resume
                 ref_style = style_of(ref)
             pose, pmask, sty, smask = simulate_controls(batch["poses"], ref_style.cpu().numpy(), rng, cfg)
             z = torch.as_tensor(rng.standard_normal(ref.shape), dtype=torch.float32, device=dev)
-            t = torch.as_tensor(flow_times(rng, len(ref), cfg), device=dev)
-            loss, _ = model.loss(audio, ids, onsets, torch.as_tensor(pose, device=dev), torch.as_tensor(pmask, device=dev),
-                                 torch.as_tensor(sty, device=dev), torch.as_tensor(smask, device=dev), ref, z, t)
+            controls = (torch.as_tensor(pose, device=dev), torch.as_tensor(pmask, device=dev),
+                        torch.as_tensor(sty, device=dev), torch.as_tensor(smask, device=dev))
+            if teacher is not None:
+                loss, _ = model.distill_loss(teacher, audio, ids, onsets, *controls, z, cfg.substeps)
+            else:
+                t = torch.as_tensor(flow_times(rng, len(ref), cfg), device=dev)
+                loss, _ = model.loss(audio, ids, onsets, *controls, ref, z, t)
             opt.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)

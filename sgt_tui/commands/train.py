@@ -22,9 +22,11 @@ take from the seed's noise rather than regressing the average one; docs/model.md
 engine"): OUT/flow.pt holds the weights of the epoch with the lowest validation FGD, OUT/last.pt
 the last epoch's; the same command resumes it. Of the network's options it takes --epochs,
 --steps, --batch, --threads, --minutes, --window, --hidden, --device, --seed and --fresh (its
-own defaults below); the others are the regressor's and are refused with it. Export it for
-'sgt generate --engine flow --weights OUT/flow.pt' with 'python scripts/export_onnx.py
---weights OUT/flow.pt' (PyTorch runs it meanwhile).
+own defaults below), and its own --times, --teacher and --substeps; the others are the
+regressor's and are refused with it. The shipped flow is two runs: a flow, then that flow
+distilled into 4 sampler steps ('--teacher RUN/last.pt --times 0,0.4,0.7,0.9 --substeps 8').
+Export it for 'sgt generate --engine flow --weights OUT/flow.pt' with 'python
+scripts/export_onnx.py --weights OUT/flow.pt' (PyTorch runs it meanwhile).
 
 --engine matching builds the matching engine's database instead (no network, no
 epochs: seconds to minutes): every take of --data (no validation split: the database
@@ -97,6 +99,13 @@ def register(sub) -> None:
     add("--fresh", action="store_true", help="ignore an existing checkpoint; flow too")
     add("--hidden", type=positive_int, default=128, help="network width (default 128); flow too")
     add("--no-gru", action="store_true", help="convolutions only (faster, see docs/model.md)")
+    add("--teacher", metavar="FLOW.pt",
+        help="flow only: distil these trained flow weights into a sampler of the --times steps instead of training a "
+             "flow (the student starts as the teacher and learns to land where it lands in --substeps steps per step)")
+    add("--times", type=_times, metavar="T0,T1,...",
+        help="flow only: the sampler's time points, from 0 and rising below 1, one network call each "
+             "(default: the teacher's, or 0,0.5,0.8)")
+    add("--substeps", type=positive_int, default=4, help="flow only, with --teacher: the teacher's steps per student step (default 4)")
     add("--smooth", type=non_negative_int, default=5, metavar="TAPS",
         help="taps of the in-network low-pass on free frames, 0 = off (default 5, see docs/model.md)")
     # (dest, flag, default) of each network option: --engine matching refuses them when given, --engine
@@ -105,7 +114,21 @@ def register(sub) -> None:
 
 
 #: The network options that --engine flow takes (the rest are the regressor's loss and architecture).
-FLOW_OPTIONS = ("epochs", "steps", "batch", "threads", "minutes", "window", "device", "seed", "fresh", "hidden")
+FLOW_OPTIONS = ("epochs", "steps", "batch", "threads", "minutes", "window", "device", "seed", "fresh", "hidden", "teacher",
+                "times", "substeps")
+#: The options only --engine flow takes.
+FLOW_ONLY = ("teacher", "times", "substeps")
+
+
+def _times(text: str) -> list[float]:
+    """``--times``: comma-separated flow times, from 0 and rising below 1."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a comma-separated list of numbers") from None
+    if values[0] != 0.0 or any(b <= a for a, b in zip(values, values[1:])) or values[-1] >= 1.0:
+        raise argparse.ArgumentTypeError(f"'{text}': the times must start at 0 and rise below 1 (e.g. 0,0.4,0.7,0.9)")
+    return values
 
 
 def run(args) -> int:
@@ -119,6 +142,12 @@ def run(args) -> int:
         _no_network_options(args)
     elif args.engine == "flow":
         _no_network_options(args, allowed=FLOW_OPTIONS)
+    else:
+        _no_network_options(args, allowed=tuple(dest for dest, _, _ in args.network_options if dest not in FLOW_ONLY))
+    if args.teacher:
+        from sgt_tui.commands.common import existing_file
+
+        args.teacher = str(existing_file(args.teacher))
     if args.data:
         existing_folder(args.data, "--data")
     elif not Path(args.corpus).exists():
@@ -174,13 +203,19 @@ def _train_flow(args, train_clips, val_clips) -> int:
     from sgt_tui.progress import ProgressBar
 
     _engine_defaults(args, FlowConfig)
+    net = {} if args.teacher else {"hidden": args.hidden}  # a student has its teacher's architecture
+    if args.times:
+        net["times"] = args.times
     cfg = FlowConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
-                     window=args.window, seed=args.seed, threads=args.threads, device=args.device,
-                     net={"hidden": args.hidden})
+                     window=args.window, seed=args.seed, threads=args.threads, device=args.device, net=net,
+                     teacher=args.teacher, substeps=args.substeps)
+    from model.weights import WeightsError
+
     try:
         train_flow(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
                    log=lambda s: print(s, file=sys.stderr))
-    except ValueError as exc:  # no clip as long as a window; a checkpoint made with other settings
+    except (ValueError, WeightsError) as exc:  # no clip as long as a window; a checkpoint made with other settings;
+        # a teacher that is not flow weights
         print(f"sgt train: error: {exc}", file=sys.stderr)
         return 1
     out = Path(args.out)
@@ -239,7 +274,7 @@ def _user_takes(root):
 
 def _no_network_options(args, allowed=()) -> None:
     """Usage error when a network option was set with --engine matching (a value other than its
-    default), or with --engine flow one of the regressor's that it does not take (not in ``allowed``)."""
+    default), or with another engine one that its network does not take (not in ``allowed``)."""
     from sgt_tui.errors import UsageError
 
     given = [flag for dest, flag, default in args.network_options if dest not in allowed and getattr(args, dest) != default]
@@ -247,7 +282,7 @@ def _no_network_options(args, allowed=()) -> None:
         s = "s" if len(given) > 1 else ""
         why = ("--engine matching builds a database and has no such setting" if args.engine == "matching" else
                f"--engine {args.engine} trains another network, which has no such setting")
-        owner = "the network's" if args.engine == "matching" else "the neural engine's"
+        owner = {"matching": "the network's", "neural": "the flow engine's"}.get(args.engine, "the neural engine's")
         raise UsageError(f"{', '.join(given)}: {owner} training option{s}; {why}: leave {'them' if s else 'it'} out")
 
 
