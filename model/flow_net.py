@@ -51,15 +51,10 @@ DEFAULT_CONFIG = {
     "times": [0.0, 0.5, 0.8],  # the sampler's time points: one network call each, then t = 1
     "guidance": 1.0,  # classifier-free guidance on the style controls; 1 = off (one pass a step)
     "smooth": 0,  # taps of a binomial low-pass on the sampled free frames; 0 = off
-    "skip": True,  # EDM's skip connection (c_skip x_t + c_out F); False: the network predicts the clean window itself
-    "sampler": "euler",  # "euler": deterministic steps of the flow; "renoise": each step noises the prediction afresh
-    "noise_dim": POSE_DIM,  # noise numbers per frame (a window draws (T, noise_dim)); set from the sampler
+    "noise_dim": POSE_DIM,  # noise numbers per frame (a window draws (T, noise_dim))
 }
 #: Flow times at or above this are left out of training (``c_out`` vanishes at ``t = 1``).
 T_MAX = 0.98
-#: Without the skip connection: the largest weight of a flow time's squared error (1 / c_out^2 grows
-#: without bound towards t = 1, where the clean window is nearly the input).
-MAX_WEIGHT = 100.0
 #: Smallest standard deviation a pose number is scaled by (some bone components hardly move).
 MIN_STD = 0.01
 
@@ -113,10 +108,6 @@ class FlowNet(nn.Module):
         if not cfg["times"] or cfg["times"][0] != 0.0 or any(b <= a for a, b in zip(cfg["times"], cfg["times"][1:])) \
                 or cfg["times"][-1] >= 1.0:
             raise ValueError(f"sampler times must start at 0 and rise below 1, got {cfg['times']}")
-        if cfg["sampler"] not in ("euler", "renoise"):
-            raise ValueError(f"unknown sampler '{cfg['sampler']}' (euler or renoise)")
-        # the renoising sampler draws fresh noise for every step after the first
-        cfg["noise_dim"] = POSE_DIM * (len(cfg["times"]) if cfg["sampler"] == "renoise" else 1)
         self.config = cfg
         h = cfg["hidden"]
         self.word_emb = nn.Embedding(WORD_BUCKETS, cfg["word_dim"])
@@ -154,7 +145,7 @@ class FlowNet(nn.Module):
         (B,), with the whole-pose controls ``target`` put in where ``mask`` (B, T, 1) is 1."""
         c_in, c_skip, c_out = (c[:, None, None] for c in preconditioning(t))
         out = self.denoise(c_in * x_t, t, cond)
-        x_hat = c_skip * x_t + c_out * out if self.config["skip"] else out
+        x_hat = c_skip * x_t + c_out * out
         return mask * target + (1 - mask) * x_hat
 
     def denoise(self, x_in, t, cond):
@@ -166,15 +157,14 @@ class FlowNet(nn.Module):
         return self.head(h.transpose(1, 2))
 
     def forward(self, audio, word_ids, onsets, pose, pose_mask, style, style_mask, z):
-        """Sample poses (B, T, 27) from the noise ``z`` (B, T, noise_dim: 27 numbers per frame and
-        step for the renoising sampler, else 27): all inputs batched (B, T, ...)."""
+        """Sample poses (B, T, 27) from the noise ``z`` (B, T, 27): all inputs batched (B, T, ...)."""
         cond = self.encode(audio, word_ids, onsets, pose, pose_mask, style, style_mask)
         g = float(self.config["guidance"])
         free_cond = self.encode(audio, word_ids, onsets, pose, pose_mask, style, style_mask * 0) if g != 1.0 else None
         mask = pose_mask[..., None]
         target = self.normalise(pose)
         times = self.config["times"]
-        x = z[..., :POSE_DIM]
+        x = z
         for k, t in enumerate(times):
             tt = x.new_full((x.shape[0],), t)
             x_hat = self.predict(x, tt, cond, mask, target)
@@ -182,12 +172,7 @@ class FlowNet(nn.Module):
                 free = self.predict(x, tt, free_cond, mask, target)
                 x_hat = free + g * (x_hat - free)
             t_next = times[k + 1] if k + 1 < len(times) else 1.0
-            if t_next >= 1.0:
-                x = x_hat
-            elif self.config["sampler"] == "renoise":
-                x = t_next * x_hat + (1.0 - t_next) * z[..., (k + 1) * POSE_DIM : (k + 2) * POSE_DIM]
-            else:
-                x = x + (t_next - t) / (1.0 - t) * (x_hat - x)
+            x = x_hat if t_next >= 1.0 else x + (t_next - t) / (1.0 - t) * (x_hat - x)
         taps = int(self.config["smooth"])
         if taps > 1:  # the free frames low-passed, controlled ones kept
             k = torch.tensor([math.comb(taps - 1, i) for i in range(taps)], dtype=x.dtype, device=x.device)
@@ -216,7 +201,7 @@ class FlowNet(nn.Module):
         of this network's sampler steps; at each of its own times this network, given the
         teacher's state there, is trained to predict the clean window whose Euler step lands on
         the teacher's next state (its last step: on the teacher's clean window). The squared
-        landing error over the free frames; returns (loss, this network's last prediction)."""
+        landing error over the free frames."""
         times = self.config["times"]
         ends = [*times[1:], 1.0]
         fine = [a + (b - a) * j / substeps for a, b in zip(times, ends) for j in range(substeps)]
@@ -236,14 +221,13 @@ class FlowNet(nn.Module):
         land = x + step * (x_hat - x)  # where this network's Euler step lands
         free = (1 - mask).repeat(k, 1, 1)
         err = (land - torch.cat(states[1:])) ** 2 * free
-        loss = err.sum() / (free.sum() * POSE_DIM).clamp_min(1)
-        return loss, x_hat[-b:]
+        return err.sum() / (free.sum() * POSE_DIM).clamp_min(1)
 
     def loss(self, audio, word_ids, onsets, pose, pose_mask, style, style_mask, poses, z, t):
         """The flow-matching loss of a batch: ``poses`` (B, T, 27) the references, ``z`` their
         noise, ``t`` (B,) their flow times. The squared error of F against the output that would
         predict the clean window exactly, over the free frames (controlled frames are replaced),
-        which weighs every flow time alike (EDM). Returns (loss, the clean-window prediction)."""
+        which weighs every flow time alike (EDM)."""
         cond = self.encode(audio, word_ids, onsets, pose, pose_mask, style, style_mask)
         x1 = self.normalise(poses)
         tb = t[:, None, None]
@@ -251,11 +235,5 @@ class FlowNet(nn.Module):
         c_in, c_skip, c_out = (c[:, None, None] for c in preconditioning(t))
         out = self.denoise(c_in * x_t, t, cond)
         free = 1 - pose_mask[..., None]
-        if self.config["skip"]:
-            err = (out - (x1 - c_skip * x_t) / c_out) ** 2 * free
-            x_hat = c_skip * x_t + c_out * out
-        else:  # the same weights of the flow times, the largest capped
-            x_hat = out
-            err = (out - x1) ** 2 * free * (1.0 / c_out**2).clamp(max=MAX_WEIGHT)
-        loss = err.sum() / (free.sum() * POSE_DIM).clamp_min(1)
-        return loss, x_hat
+        err = (out - (x1 - c_skip * x_t) / c_out) ** 2 * free
+        return err.sum() / (free.sum() * POSE_DIM).clamp_min(1)

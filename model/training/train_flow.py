@@ -98,8 +98,8 @@ class Validation:
             ref_style = style_of(ref)
             free = model(audio, ids, onsets, zeros_p, zeros_m, zeros_s, zeros_s, z)
             styled = model(audio, ids, onsets, zeros_p, zeros_m, ref_style, torch.ones_like(ref_style), z)
-            loss, _ = model.loss(audio, ids, onsets, zeros_p, zeros_m, zeros_s, zeros_s, ref, z,
-                                 torch.as_tensor(self.t, device=device))
+            loss = model.loss(audio, ids, onsets, zeros_p, zeros_m, zeros_s, zeros_s, ref, z,
+                              torch.as_tensor(self.t, device=device))
         samples = list(free.cpu().numpy())
         refs = list(self.batch["poses"])
         row = {"val_loss": float(loss),
@@ -189,10 +189,10 @@ def train_flow(train_clips, val_clips, out_dir: Path, cfg: FlowConfig, *, resume
             controls = (torch.as_tensor(pose, device=dev), torch.as_tensor(pmask, device=dev),
                         torch.as_tensor(sty, device=dev), torch.as_tensor(smask, device=dev))
             if teacher is not None:
-                loss, _ = model.distill_loss(teacher, audio, ids, onsets, *controls, z, cfg.substeps)
+                loss = model.distill_loss(teacher, audio, ids, onsets, *controls, z, cfg.substeps)
             else:
                 t = torch.as_tensor(flow_times(rng, len(ref), cfg), device=dev)
-                loss, _ = model.loss(audio, ids, onsets, *controls, ref, z, t)
+                loss = model.loss(audio, ids, onsets, *controls, ref, z, t)
             opt.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
