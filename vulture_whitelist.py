@@ -22,6 +22,10 @@ _.theme
 # pygls serialises a completion item the language server fills in when the client resolves it
 # (sgt_tui/lsp/features.py, resolve_gesture).
 _.documentation
+# pygls calls these on the language server's protocol and server (sgt_tui/lsp/server.py: the
+# answer to a request, one line and no traceback; an error outside a request, logged).
+_._send_handler_result
+_.report_server_error
 
 # -- used outside the scanned code -------------------------------------------------------------
 # The documented command that retrains the shipped FGD extractor (fgd.load's fix message,

@@ -44,6 +44,8 @@ from pathlib import Path
 
 from against import add_before_option, env_for, trees
 
+from model.engines import DEFAULT_ENGINE
+
 ROOT = Path(__file__).resolve().parent.parent
 
 WORDS = ("the a shelf river valley merchant apples today we look at how this that over there north south gate "
@@ -220,7 +222,7 @@ def main() -> None:
     ap.add_argument("--utterances", type=int, default=10000)
     ap.add_argument("--per-script", type=int, default=100)
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--engine", default="neural")
+    ap.add_argument("--engine", default=DEFAULT_ENGINE)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--threads", action="store_true", help="measure 1 process x 2 threads against 2 x 1 instead")
     ap.add_argument("--scratch-only", action="store_true", help="only the build from scratch")

@@ -1,6 +1,7 @@
-"""Benchmark: how long `sgt check` takes on a 10,000-line script (target: under 1 s).
+"""Benchmark: how long `sgt check` takes on a 10,000-line script (target: under 1 s), and on
+600 pose marks whose strokes are all late (target: under 2 s).
 
-    python benchmarks/bench_check.py [--lines 10000] [--repeat 5]
+    python benchmarks/bench_check.py [--lines 10000] [--repeat 5] [--late 600]
 
 Builds a script from the shipped examples: each line one of their utterances (pose, style and
 pause marks, escapes, speakers) followed by 2-8 random words, so that about 98% of the lines
@@ -15,7 +16,13 @@ Then times:
 - in-process: parse + static checks (`analyse`), and the whole front end `sgt check` runs
   (`compile_file` with estimated timing: + timing + pose placement and overlap checks),
   both with the garbage collector on as in any program and off as in `sgt check`,
-- `sgt --help`.
+- `sgt --help`,
+- `sgt check` of one line of ``--late`` marks ``[pose:wave x3 hold=10s] hi``: each stroke is
+  late behind the one before (a chain as long as the line), and each late stroke's warning
+  carries a hint found by trying the earlier gesture changed (:func:`dsl.realize.hint`); the
+  same marks one per line of one utterance (continuation lines: the source excerpts are short),
+  and the front end alone in-process (with ``SGT_MAX_SECONDS`` raised: 600 holds of 10 s
+  last longer than the hour a script may last by default).
 Prints the median and min of each. Figures vary with machine load: quote medians.
 """
 
@@ -70,6 +77,13 @@ def with_errors(script: str, every: int = 10, seed: int = 0) -> str:
     return "\n".join(lines) + "\n"
 
 
+def late_strokes(n: int, per_line: bool = False) -> str:
+    """``n`` marks of a waving hand held 10 s, one word apart: every stroke after the first is
+    late (the hand still holds the one before), the chain as long as the marks."""
+    marks = ["[pose:wave x3 hold=10s] hi"] * n
+    return ("\n    ".join(marks) if per_line else " ".join(marks)) + "\n"
+
+
 def timeit(fn, repeat: int, collect: bool = True) -> list[float]:
     times = []
     for _ in range(repeat):
@@ -92,6 +106,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--lines", type=int, default=10000)
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--late", type=int, default=600, help="late-stroke marks (default 600)")
     args = ap.parse_args()
 
     from dsl.compiler import compile_file
@@ -128,6 +143,19 @@ def main() -> int:
             report(f"parse + analyse in-process ({gc_state})", timeit(parse, args.repeat, collect))
             report(f"front end in-process ({gc_state})", timeit(front_end, args.repeat, collect))
         report("`sgt --help` subprocess", timeit(lambda: subprocess.run(sgt + ["--help"], check=True, capture_output=True), args.repeat))
+        # 600 holds of 10 s last 100 minutes: over the hour a script may last (core/limits.py),
+        # which alone would be one error; a longer limit shows every warning, hints included
+        os.environ["SGT_MAX_SECONDS"] = str(max(3600, 20 * args.late))
+        late = Path(tmp) / "late.sgt"
+        late.write_text(late_strokes(args.late), encoding="utf-8")
+        result = compile_file(late, timing="estimate", library=lib)
+        print(f"late strokes: {args.late} marks, {sum(d.code == 'SGT401' for d in result.diagnostics)} late-stroke warnings")
+        del result
+        report(f"`sgt check` subprocess ({args.late} late strokes)", timeit(lambda: subprocess.run(sgt + ["check", str(late)], check=False, capture_output=True), args.repeat))
+        lines = Path(tmp) / "late_lines.sgt"
+        lines.write_text(late_strokes(args.late, per_line=True), encoding="utf-8")
+        report("  same, one mark per line", timeit(lambda: subprocess.run(sgt + ["check", str(lines)], check=False, capture_output=True), args.repeat))
+        report("  front end in-process", timeit(lambda: compile_file(late, timing="estimate", library=lib), args.repeat))
     print(f"load average (1, 5, 15 min) after the runs: {', '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs")
     return 0
 

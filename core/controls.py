@@ -173,7 +173,7 @@ class Control:
             "end_frame": self.end_frame,
             "line": self.line,
             "col": self.col,
-            "options": self.options,
+            "options": dict(sorted(self.options.items())),  # one order, however they were written or read
         }
         if self.stroke_frame is not None:
             d["stroke_frame"] = self.stroke_frame

@@ -93,14 +93,15 @@ class FaceTrack:
 #: outer span's expression). A name without a side stands for both (``mouthSmile``).
 EXPRESSIONS: dict[str, dict[str, float]] = {
     "neutral": {},
-    "smile": {"mouthSmile": 0.45, "cheekSquint": 0.2},
-    "happy": {"mouthSmile": 0.65, "cheekSquint": 0.4, "eyeSquint": 0.25, "mouthDimple": 0.2, "browOuterUp": 0.1},
-    "sad": {"mouthFrown": 0.45, "browInnerUp": 0.55, "mouthShrugLower": 0.25, "mouthPress": 0.1, "eyeBlink": 0.15},
-    "angry": {"browDown": 0.65, "noseSneer": 0.3, "eyeSquint": 0.35, "mouthPress": 0.3, "mouthFrown": 0.15},
-    "surprised": {"browInnerUp": 0.7, "browOuterUp": 0.7, "eyeWide": 0.6},
-    "afraid": {"browInnerUp": 0.7, "browOuterUp": 0.3, "eyeWide": 0.5, "mouthStretch": 0.35},
-    "disgusted": {"noseSneer": 0.55, "mouthUpperUp": 0.3, "browDown": 0.35, "cheekSquint": 0.3, "mouthFrown": 0.2},
-    "calm": {"mouthSmile": 0.15, "eyeBlink": 0.12},
+    "smile": {"mouthSmile": 0.6, "cheekSquint": 0.5},
+    "happy": {"mouthSmile": 0.8, "cheekSquint": 0.5, "eyeSquint": 0.3, "mouthDimple": 0.2, "browOuterUp": 0.15,
+              "jawOpen": 0.2},
+    "sad": {"mouthFrown": 0.5, "browInnerUp": 0.65, "mouthShrugLower": 0.3, "mouthPress": 0.1, "eyeBlink": 0.25},
+    "angry": {"browDown": 0.75, "noseSneer": 0.3, "eyeSquint": 0.45, "mouthPress": 0.4, "mouthFrown": 0.25},
+    "surprised": {"browInnerUp": 0.8, "browOuterUp": 0.8, "eyeWide": 0.7, "jawOpen": 0.35, "mouthFunnel": 0.15},
+    "afraid": {"browInnerUp": 0.8, "browOuterUp": 0.2, "eyeWide": 0.6, "mouthStretch": 0.55, "jawOpen": 0.12},
+    "disgusted": {"noseSneer": 0.7, "mouthUpperUp": 0.45, "browDown": 0.35, "cheekSquint": 0.45, "mouthFrown": 0.3},
+    "calm": {"mouthSmile": 0.3, "eyeBlink": 0.55},
 }
 #: The expression a built-in style preset (``<happy>``) shows.
 PRESET_EXPRESSIONS: dict[str, str] = {"happy": "happy", "sad": "sad", "angry": "angry", "calm": "calm"}

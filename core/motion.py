@@ -6,7 +6,7 @@ JSON (``*.json``)::
     {"format": "sgt-motion", "version": 3, "fps": 15,
      "joints": [...joint names], "bones": [[parent, child], ...],
      "coordinates": "y-up, right-handed, metres; character faces +z",
-     "frames": N, "source": "mall_guide.sgt",
+     "frames": N, "source": "mall_guide.sgt", "engine": "matching",
      "hands": {"sides": ["left", "right"], "digits": ["thumb", ...]},
      "face": {"names": [52 ARKit names], "eyes": ["left", "right"]},
      "utterances": [{"index": 0, "speaker": ..., "text": ...,
@@ -24,7 +24,8 @@ audio; word times and control frames count from the utterance's own frame 0. A t
 speaker's motion over the whole performance (``frames`` frames from time 0): its utterances
 in their places, listening motion between them (see :mod:`model.performance`). ``source``
 is the script it was generated from (relative to the motion file's folder when possible),
-or null. Hands (:mod:`core.hands`: palm targets and finger angles in degrees per side and
+or null; ``engine`` the generation engine that made it (``matching``, ``neural``, ``keyframe``,
+``rules``), or null where that is not known (a file from before the key, an export). Hands (:mod:`core.hands`: palm targets and finger angles in degrees per side and
 frame) belong to every utterance and track.
 
 The face (:mod:`core.face`: 52 ARKit blendshape weights in the header's ``face.names`` order
@@ -49,7 +50,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -61,6 +61,7 @@ from core.fileio import atomic_write
 from core.frames_text import frame_lines_of_many, json_with_lines
 from core.face import ARKIT_NAMES, EYES, FaceTrack
 from core.hands import DIGITS, SIDES, HandTrack
+from core.npz import load_npz
 from core.reading import InputFileError, loads_json, read_bytes
 from core.skeleton import BONE_NAMES, BONES, FPS, JOINTS, N_JOINTS, POSE_DIM, positions_from_pose
 from core.words import TimedWord
@@ -171,6 +172,7 @@ class MotionFile:
     tracks: list[Track] = field(default_factory=list)
     source: str | None = None
     version: int = VERSION
+    engine: str | None = None  # the engine that made it, where the file says
 
 
 def _header() -> dict:
@@ -232,22 +234,31 @@ def _kind(path) -> str:
 
 
 def _source_text(source, path) -> str | None:
+    """The script's path as the motion file at ``path`` records it: relative to the file's
+    folder (absolute for a stream)."""
     if source is None:
         return None
-    src = Path(source)
-    if not hasattr(path, "write"):
-        try:
-            return os.path.relpath(src.resolve(), Path(path).resolve().parent)
-        except ValueError:  # another drive
-            pass
-    return str(src.resolve())
+    if hasattr(path, "write"):
+        return str(Path(source).resolve())
+    return source_relative(source, path)
+
+
+def source_relative(source, motion_path) -> str:
+    """``source`` (a script's path) relative to the folder of the motion file ``motion_path``
+    (absolute where no relative path exists, another drive)."""
+    src = Path(source).resolve()
+    try:
+        return os.path.relpath(src, Path(motion_path).resolve().parent)
+    except ValueError:  # another drive
+        return str(src)
 
 
 def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
-                tracks: Sequence[Track] = (), source=None) -> None:
+                tracks: Sequence[Track] = (), source=None, engine: str | None = None, at=None) -> None:
     """Write ``clips`` (and the speakers' ``tracks``) to ``path`` by :mod:`core.fileio`'s rules
     (atomically for a regular file). ``source`` is the script's path, stored relative to the
-    motion file's folder.
+    motion file's folder (``at``: where the file will be, when ``path`` is a stream whose bytes
+    the caller writes there); ``engine`` the engine that made the motion.
 
     ``format`` ("json" or "npz") defaults to the path's extension; ``path`` may also be a binary
     stream (then ``format`` is needed)."""
@@ -262,7 +273,7 @@ def save_motion(path, clips: Sequence[MotionClip], format: str | None = None, *,
         if c.fps != FPS:
             raise MotionFileError(f"clip at {c.fps} fps; motion files are {FPS} fps")
     frames = max([c.start_frame + c.n_frames for c in clips] + [t.n_frames for t in tracks] + [0])
-    doc = {**_header(), "frames": frames, "source": _source_text(source, path)}
+    doc = {**_header(), "frames": frames, "source": _source_text(source, path if at is None else at), "engine": engine}
     if kind == "json":
         rows: list[_Rows] = []
 
@@ -425,7 +436,9 @@ def _finish(doc: dict, clips: list[MotionClip], tracks: list[Track], path: Path)
     source = doc.get("source")
     if isinstance(source, str) and not hasattr(path, "write"):  # as the reader's paths go
         source = os.path.normpath(path.parent / source)
-    return MotionFile(clips, tracks, source if isinstance(source, str) else None, doc["version"])
+    engine = doc.get("engine")
+    return MotionFile(clips, tracks, source if isinstance(source, str) else None, doc["version"],
+                      engine if isinstance(engine, str) else None)
 
 
 def load_motion(path) -> list[MotionClip]:
@@ -463,23 +476,23 @@ def load_motion_file(path) -> MotionFile:
             ]
             return _finish(doc, clips, tracks, path)
         try:
-            with np.load(io.BytesIO(data), allow_pickle=False) as z:
-                if "meta" not in z.files:
-                    raise MotionFileError(f"{path}: no 'meta' entry; not an sgt motion file")
-                doc = json.loads(str(z["meta"]))
-                _check_header(doc, path)
-                names = _face_names(doc)
-                clips = []
-                for i, u in enumerate(doc["utterances"]):
-                    poses, pos, hands, face = _npz_part(z, "", i, path)
-                    clips.append(_clip(u, poses, pos, path, i, hands, face, names))
-                n = _frames(doc, clips, path)
-                tracks = []
-                for i, t in enumerate(doc.get("tracks") or []):
-                    poses, pos, hands, face = _npz_part(z, "track_", i, path)
-                    tracks.append(_track(t, poses, pos, path, i, n, hands, face, names))
-                return _finish(doc, clips, tracks, path)
-        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile) as exc:
+            z = load_npz(data, "motion file")  # sizes checked before anything is inflated (zip bombs)
+            if "meta" not in z:
+                raise MotionFileError(f"{path}: no 'meta' entry; not an sgt motion file")
+            doc = loads_json(str(z["meta"]))
+            _check_header(doc, path)
+            names = _face_names(doc)
+            clips = []
+            for i, u in enumerate(doc["utterances"]):
+                poses, pos, hands, face = _npz_part(z, "", i, path)
+                clips.append(_clip(u, poses, pos, path, i, hands, face, names))
+            n = _frames(doc, clips, path)
+            tracks = []
+            for i, t in enumerate(doc.get("tracks") or []):
+                poses, pos, hands, face = _npz_part(z, "track_", i, path)
+                tracks.append(_track(t, poses, pos, path, i, n, hands, face, names))
+            return _finish(doc, clips, tracks, path)
+        except (ValueError, KeyError) as exc:  # NpzError, JSON, a missing key
             raise MotionFileError(f"{path}: cannot read as npz: {exc or 'the file is empty'}") from None
     except FileNotFoundError:
         raise MotionFileError(f"{path}: no such file") from None
@@ -502,8 +515,7 @@ def _npz_part(z, prefix: str, i: int, path: Path) -> tuple:
     """(poses, positions or None, hands or None, face or None) of utterance ``i`` (``prefix``
     "") or track ``i`` (``prefix`` "track_") of an NPZ motion file."""
     def get(name: str):
-        key = f"{prefix}{name}_{i}"
-        return z[key] if key in z.files else None
+        return z.get(f"{prefix}{name}_{i}")
 
     poses = get("poses")
     if poses is None:

@@ -14,6 +14,8 @@ configuration) goes through :func:`read_bytes`, with one set of rules:
 
 Failures raise :class:`InputFileError` (an :class:`OSError`) whose ``reason`` is one line
 for users ("it is a FIFO, not a file"); callers turn it into their diagnostic or message.
+:func:`open_input` applies the same checks and hands back the open file, for readers that
+take what they need from it (NPZ archives, :mod:`core.npz`).
 
 Standard library only.
 """
@@ -34,6 +36,13 @@ LIMITS = {
     "gesture spec": 1 * MiB,
     "configuration": 1 * MiB,
     "motion file": 1024 * MiB,
+    "motion capture": 512 * MiB,  # a BVH take: 10 minutes at 120 fps with 75 joints is about 150 MiB
+    "audio": 1024 * MiB,  # a training take's recording: an hour of 48 kHz 16-bit stereo is 660 MiB
+    "checkpoint": 4096 * MiB,  # sgt train's checkpoint.pt: about 3 times the weights (Adam's two moments)
+    "weights": 1024 * MiB,  # a network's weights (the shipped generator.pt is 3.9 MB)
+    "matching database": 1024 * MiB,
+    "corpus shard": 1024 * MiB,
+    "corpus manifest": 256 * MiB,
 }
 
 #: The deepest nesting of arrays and objects a JSON input may have (motion files need 4).
@@ -85,6 +94,25 @@ def read_bytes(path, what: str = "script", limit: int | None = None) -> bytes:
     ``what`` in :data:`LIMITS`). Raises :class:`InputFileError` for anything else (a missing
     file raises :class:`FileNotFoundError`, a folder :class:`IsADirectoryError`, as ``open``)."""
     limit = LIMITS[what] if limit is None else limit
+    with open_input(path, what, limit) as f:
+        chunks, total = [], 0
+        while True:
+            chunk = f.read(min(1 << 20, limit + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > limit:  # it grew while being read
+                raise InputFileError(path, _too_large(total, limit, what))
+        return b"".join(chunks)
+
+
+def open_input(path, what: str = "script", limit: int | None = None):
+    """The regular file ``path`` opened for reading (binary), by the rules of
+    :func:`read_bytes`: anything but a regular file, or one larger than ``limit`` (default: the
+    limit of ``what``), raises before a byte is read. For readers that seek (an NPZ archive):
+    the file may still grow after the check, which they must bound themselves."""
+    limit = LIMITS[what] if limit is None else limit
     fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     try:
         st = os.fstat(fd)
@@ -95,18 +123,10 @@ def read_bytes(path, what: str = "script", limit: int | None = None) -> bytes:
         if st.st_size > limit:
             raise InputFileError(path, _too_large(st.st_size, limit, what))
         os.set_blocking(fd, True)
-        chunks, total = [], 0
-        while True:
-            chunk = os.read(fd, min(1 << 20, limit + 1 - total))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > limit:  # it grew while being read
-                raise InputFileError(path, _too_large(total, limit, what))
-        return b"".join(chunks)
-    finally:
+        return os.fdopen(fd, "rb")
+    except BaseException:
         os.close(fd)
+        raise
 
 
 def _too_large(size: int, limit: int, what: str) -> str:

@@ -392,12 +392,14 @@ SPEAKER_COLON = rule(
     "write '{name}: {rest}' for a speaker, or '{name}\\:{rest}' to speak it",
     """
 A speaker needs a space (or the end of the line) after its colon, so `g:hello` is not the
-speaker `g` saying "hello": it is the text "g:hello", spoken as two words.
+speaker `g` saying "hello": it is the text "g:hello", spoken as two words. The same goes for
+a mark right after the colon: `guide:[pose:nod] Yes.` has no speaker, and says "guide, yes"
+(the nod still plays).
 
-Example: `g:hello`.
+Example: `g:hello`, or `guide:[pose:nod] Yes.`
 
-Fix: add the space (`g: hello`), or escape the colon (`g\\:hello`) to speak it as written
-and silence this warning.
+Fix: add the space (`g: hello`, `guide: [pose:nod] Yes.`), or escape the colon
+(`g\\:hello`) to speak it as written and silence this warning.
 """,
     example="g:hello\n",
 )
@@ -1154,6 +1156,35 @@ the warning was made with), or move the line earlier in the script.
     example="knight: Halt.\n@gap -5s\nmerchant: Who goes there?\n",
 )
 
+PERFORMANCE_TOO_LONG = rule(
+    "SGT411", "performance-too-long", ERROR,
+    "the performance would last about {total}, more than the {limit} sgt makes{per}: it passes that here",
+    "shorten the script or split it (fewer or shorter pauses, gaps and holds); {setting} sets the limit",
+    """
+A script is one performance on one clock, and its length is bounded before any speech or
+motion is made: at most 1 hour (the environment variable `SGT_MAX_SECONDS` sets another
+limit; `sgt serve` has its own, `--max-seconds`, 10 minutes by default). The length is the
+script's as it declares it: its speech estimated from the text (as `sgt check` estimates
+it; a recording's own length), its pauses, its gaps between lines, and its gestures'
+holds where they run past the speech. A single `[pause 10s]` or `@gap 30s` is fine: the
+total is what is bounded. Each speaker's track is as long as the whole performance, so a
+script of several speakers may last 2/(speakers + 1) of the limit (two speakers: 40
+minutes, three: 30).
+
+The error is at the mark where the performance passes the limit: the pause, gap, word,
+gesture or recording that is playing then. `sgt check`, `generate` and `sgt serve` give the
+same verdict.
+
+Example: `guide: Hello there. [pause 10s] Goodbye.` with `SGT_MAX_SECONDS=5`.
+
+Fix: split the script into shorter ones, or shorten its pauses, gaps and holds; raise the
+limit with `SGT_MAX_SECONDS` if the machine has the memory (an hour of one speaker's motion
+takes about 800 MB to generate and write).
+""",
+    example="guide: Hello there. [pause 10s] Goodbye.\n",
+    env={"SGT_MAX_SECONDS": "5"},
+)
+
 # -- 5xx: gesture specs and configuration ------------------------------------------------
 
 BAD_SPEC = rule(
@@ -1354,6 +1385,29 @@ Fix: regenerate the file with the aligner, or correct it by hand (docs/language.
 """,
     example="@audio rec.wav timings=rec.json\nhello\n",
     files={"rec.wav": "@silence:0.5", "rec.json": '[{"word": "hello", "start": 0.5}]'},
+)
+
+RECORDING_TOO_LONG = rule(
+    "SGT613", "recording-too-long", ERROR,
+    "the recording '{audio}' is too long: {reason}",
+    "cut it into one recording per line ('ffmpeg -i IN -ss START -t SECONDS OUT.wav')",
+    """
+A recording (`@audio FILE`) is the speech of one line, and sgt reads at most 10 minutes of
+one (at up to 48 kHz; proportionally less at higher sample rates: the samples decoded are
+what takes memory). The length comes from the file's header, before anything is decoded,
+so a small file that holds hours of silence is refused at once; a file whose header says
+less than it holds is refused when decoding reaches the limit. The environment variable
+`SGT_MAX_RECORDING_SECONDS` sets another limit (`sgt serve` takes at most its
+`--max-seconds`).
+
+Example: `@audio rec.wav` (2 seconds) with `SGT_MAX_RECORDING_SECONDS=1`.
+
+Fix: cut the recording into one file per line (`ffmpeg -i in.flac -ss 0 -t 60 line1.wav`)
+and give each line its own `@audio`, or cut the silence out of it.
+""",
+    example="@audio rec.wav\nguide: hello\n",
+    files={"rec.wav": "@silence:2.0"},
+    env={"SGT_MAX_RECORDING_SECONDS": "1"},
 )
 
 BIDI_CONTROL = rule(

@@ -19,11 +19,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from core import rules
+from core import cancel, rules
 from core.diagnostics import Diagnostic, Related, sort_key
 from core.reading import InputFileError
 from core.skeleton import FPS, frame_count, seconds_to_frame
 from dsl import realize
+from dsl.limits import declared_timing, too_long
 from dsl.parser import analyse, read_source
 from dsl.plan import ArrayRequests, Control, Plan, UtterancePlan
 from dsl.resources import check_resources, speech_diagnostic
@@ -40,6 +41,10 @@ class CompileResult:
     script: Script
     plan: Plan | None
     diagnostics: list[Diagnostic] = field(default_factory=list)
+    #: Each compiled utterance planned on its declared timing (:mod:`dsl.limits`): the
+    #: performance the limits are checked on (the editor, which compiles a script in pieces,
+    #: lays the pieces' out together); empty when the analysis found errors.
+    declared: list[UtterancePlan] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -135,9 +140,25 @@ def compile_file(
         return CompileResult(script, None, sorted(diags, key=sort_key))
     plans: list[UtterancePlan] = []
     selected = [u for u in script.utterances if utterances is None or u.index in utterances]
-    for n, utt in enumerate(selected):
+    # The performance as the script declares it, held to the limits before any speech is made
+    # (dsl/limits.py); with estimated timing these are the plans, but for recordings.
+    declared: list[tuple[UtterancePlan, list[Diagnostic]]] = []
+    for utt in selected:
+        cancel.check()
+        own: list[Diagnostic] = []
+        declared.append((_utterance_plan(script, utt, declared_timing(utt), lib, True, own), own))
+    declared_plans = [p for p, _ in declared]
+    over = too_long(script, Plan(source=str(path), fps=FPS, seed=script.header.seed, utterances=declared_plans))
+    if over is not None:
+        return CompileResult(script, None, sorted(diags + [over], key=sort_key), declared_plans)
+    for n, (utt, (plan, own)) in enumerate(zip(selected, declared)):
+        cancel.check()
         if progress:
             progress(n, len(selected), utt.display[:40])
+        if timing == "estimate" and utt.audio is None:  # planned on the estimate already
+            plans.append(plan)
+            diags += own
+            continue
         t = _timing(script, utt, timing, cache_dir, diags)
         if t is None:
             continue
@@ -151,7 +172,7 @@ def compile_file(
                                           script.source.replace("\r\n", "\n").replace("\r", "\n").split("\n"),
                                           timing == "estimate")
     diags = sorted(diags, key=sort_key)
-    return CompileResult(script, plan if not any(d.is_error for d in diags) else None, diags)
+    return CompileResult(script, plan if not any(d.is_error for d in diags) else None, diags, declared_plans)
 
 
 def compile_text(text: str, path: Path | str = "<text>", **options) -> CompileResult:
@@ -271,7 +292,7 @@ def _utterance_plan(script: Script, utt: Utterance, t: Timing, lib, estimated: b
                 secs=f"{p.late / FPS:.2f}", word=_word_text(utt, t, p.mark),
                 why=p.why,
                 how=" (with estimated timing; real speech may differ)" if estimated else "",
-                hint=realize.hint(p, t.words, poses) or None,
+                hint=realize.hint(p, t.words) or None,
                 related=(Related(f"'{p.after.mark.name}' is here", script.path, o.line, o.col, o.length),),
             ))
         stroke = {} if p.stroke is None else {"stroke_frame": p.stroke_frame, "word_frame": p.word_frame}

@@ -14,9 +14,16 @@ compares their utterances:
 - **What changed in a matched utterance** (:class:`Change`, in this order): its text, its
   speaker, its voice (voice, rate, pitch), each pose control added, removed, moved to another
   word, or played otherwise (``x2``, ``flip``, ``hold=``), each style span added, removed,
-  moved or with other values, each pause added, removed or longer/shorter, its ``@gap``, and
-  where it plays on the performance clock: a start that moved by a frame or more (``retimed``,
-  in seconds; the lines before it changed) and a length that changed.
+  moved or with other values, each pause added, removed or longer/shorter, its ``@gap``, where
+  it plays on the performance clock (a start that moved by a frame or more: ``retimed``, in
+  seconds) and a length that changed.
+- **What many utterances share is said once** (:func:`fold`): a header setting that changed
+  (a speaker's ``@voice``/``@rate``/``@pitch``, the header's ``@gap`` and ``@seed``) is one
+  :class:`HeaderChange`, and the lengths it changed go with it; a run of consecutive
+  utterances that all start later or earlier because of an earlier change is one
+  :class:`Shift`. Each utterance then lists only what else changed in it, and names the
+  header changes and the shift that also apply to it; one with nothing else is ``affected``.
+  A moved utterance keeps its own ``retimed`` (its new place, not an earlier change, moves it).
 - An utterance with none of those is ``same`` (listed only with ``include_same``).
 
 The result (:class:`ScriptDiff`) is plain data; :meth:`ScriptDiff.to_dict` is the JSON of
@@ -32,11 +39,15 @@ from pathlib import Path
 from core.skeleton import FPS
 
 DIFF_FORMAT = "sgt-diff"
-DIFF_VERSION = 1
+DIFF_VERSION = 2
 
 #: Two left-over utterances whose words are at least this alike (difflib's ratio) are one
 #: utterance reworded, not one removed and another added.
 REWORDED = 0.5
+#: Two shifts of a start this close (seconds) are the same shift.
+SAME_SHIFT = 5e-4
+#: The statuses of an utterance, in the order they are counted.
+STATUSES = ("changed", "moved", "added", "removed", "affected", "same")
 
 
 @dataclass(frozen=True)
@@ -89,44 +100,107 @@ class Side:
 @dataclass
 class UtteranceDiff:
     """``status``: ``same``, ``changed``, ``moved`` (the same words elsewhere in the script,
-    perhaps changed too), ``added`` or ``removed``; ``old``/``new`` the two versions (one is
-    None for added and removed)."""
+    perhaps changed too), ``added``, ``removed`` or ``affected`` (nothing of its own changed:
+    only a header change or a shift applies to it); ``old``/``new`` the two versions (one is
+    None for added and removed); ``changes`` what changed in it alone; ``header`` and
+    ``shift`` the indices of the :class:`HeaderChange` entries and the :class:`Shift` of
+    :class:`ScriptDiff` that also apply to it."""
 
     status: str
     old: Side | None
     new: Side | None
     changes: list[Change] = field(default_factory=list)
+    header: list[int] = field(default_factory=list)
+    shift: int | None = None
 
     def to_dict(self) -> dict:
         return {"status": self.status, "old": self.old.to_dict() if self.old else None,
-                "new": self.new.to_dict() if self.new else None, "changes": [c.to_dict() for c in self.changes]}
+                "new": self.new.to_dict() if self.new else None, "changes": [c.to_dict() for c in self.changes],
+                "header": list(self.header), "shift": self.shift}
+
+
+@dataclass
+class HeaderChange:
+    """A header setting that changed, said once: ``kind`` ``voice`` (the voice, rate or pitch of
+    ``speakers``: ``settings`` lists the directives that differ, ``old``/``new`` the whole
+    voices), ``gap`` or ``seed`` (the header's); ``lines`` the new lines of the utterances it
+    applies to (whose own changes leave it out), ``lengths`` (line, old, new seconds) of those
+    whose length it alone changed."""
+
+    kind: str
+    speakers: list[str | None]
+    settings: list[tuple[str, object, object]]  # (directive, old, new)
+    old: object
+    new: object
+    lines: list[int] = field(default_factory=list)
+    lengths: list[tuple[int, float, float]] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "speakers": list(self.speakers),
+                "settings": [{"directive": d, "old": o, "new": n} for d, o, n in self.settings],
+                "old": self.old, "new": self.new, "lines": list(self.lines),
+                "lengths": [{"line": n, "old": round(o, 3), "new": round(b, 3)} for n, o, b in self.lengths]}
+
+
+@dataclass
+class Shift:
+    """Consecutive utterances that start at another time because of a change before them:
+    ``starts`` (new line, old start, new start) of each, by one amount or by amounts that
+    drift where nothing listed in between explains it (a header's ``@rate`` or ``@gap``).
+    ``to_end``: it runs to the new version's last utterance."""
+
+    starts: list[tuple[int, float, float]] = field(default_factory=list)
+    to_end: bool = False
+
+    @property
+    def lines(self) -> list[int]:
+        return [n for n, _, _ in self.starts]
+
+    @property
+    def seconds(self) -> list[float]:
+        """Each one's new start less its old one."""
+        return [new - old for _, old, new in self.starts]
+
+    @property
+    def constant(self) -> bool:
+        return max(self.seconds) - min(self.seconds) <= SAME_SHIFT
+
+    def to_dict(self) -> dict:
+        seconds = self.seconds
+        return {"lines": self.lines, "to_end": self.to_end, "seconds": round(seconds[0], 3) if self.constant else None,
+                "range": [round(min(seconds), 3), round(max(seconds), 3)],
+                "starts": [{"line": n, "old": round(o, 3), "new": round(b, 3)} for n, o, b in self.starts]}
 
 
 @dataclass
 class ScriptDiff:
     """The utterances of two versions of one script, in the new version's order (removed ones
-    where they were), and the problems that kept either version from compiling (its timing is
-    then unknown, and nothing is said about where utterances play)."""
+    where they were), what they share (``header``, ``shifts``: :func:`fold`), and the problems
+    that kept either version from compiling (its timing is then unknown, and nothing is said
+    about where utterances play)."""
 
     old_name: str
     new_name: str
     utterances: list[UtteranceDiff]
     timing: str
     problems: list[str] = field(default_factory=list)
+    header: list[HeaderChange] = field(default_factory=list)
+    shifts: list[Shift] = field(default_factory=list)
 
     @property
     def changed(self) -> list[UtteranceDiff]:
         return [u for u in self.utterances if u.status != "same"]
 
     def counts(self) -> dict[str, int]:
-        out = {s: 0 for s in ("changed", "moved", "added", "removed", "same")}
+        out = dict.fromkeys(STATUSES, 0)
         for u in self.utterances:
             out[u.status] += 1
         return out
 
     def to_dict(self, include_same: bool = False) -> dict:
         return {"old": self.old_name, "new": self.new_name, "timing": self.timing, "counts": self.counts(),
-                "problems": list(self.problems),
+                "problems": list(self.problems), "header": [h.to_dict() for h in self.header],
+                "shifts": [s.to_dict() for s in self.shifts],
                 "utterances": [u.to_dict() for u in self.utterances if include_same or u.status != "same"]}
 
 
@@ -138,14 +212,17 @@ def diff_scripts(old_text: str | None, new_text: str | None, *, old_name: str = 
     and ``@library`` paths resolve from (default: the names); ``timing`` "estimate" (no speech
     engine) or "speech"."""
     problems: list[str] = []
-    old = _sides(old_text, old_path or old_name, timing, library, problems, "old")
-    new = _sides(new_text, new_path or new_name, timing, library, problems, "new")
-    return ScriptDiff(old_name, new_name, match(old, new), timing, problems)
+    old, old_header = _sides(old_text, old_path or old_name, timing, library, problems, "old")
+    new, new_header = _sides(new_text, new_path or new_name, timing, library, problems, "new")
+    d = ScriptDiff(old_name, new_name, match(old, new), timing, problems)
+    fold(d, old_header, new_header)
+    return d
 
 
-def _sides(text: str | None, path, timing: str, library, problems: list[str], which: str) -> list[Side]:
+def _sides(text: str | None, path, timing: str, library, problems: list[str], which: str):
+    """The utterances of one version, and its header (None: no such version)."""
     if text is None:
-        return []
+        return [], None
     from dsl.compiler import compile_file  # lazy: the compiler loads the library
 
     result = compile_file(Path(path), source=text, timing=timing, library=library)
@@ -156,7 +233,7 @@ def _sides(text: str | None, path, timing: str, library, problems: list[str], wh
         problems.append(f"the {which} version has errors, so where its lines play is unknown: "
                         f"{e.line}:{e.col}: {e.message}{more}")
     placed = {u.index: u for u in result.plan.utterances} if result.plan is not None and not errors else {}
-    return [_side(u, placed.get(u.index)) for u in result.script.utterances]
+    return [_side(u, placed.get(u.index)) for u in result.script.utterances], result.script.header
 
 
 def _side(u, plan) -> Side:
@@ -242,6 +319,85 @@ def _place_of_removed(i: int, old: list[Side], new: list[Side], placed) -> float
             if d.old is not None and d.new is not None and d.old.index == old[k].index:
                 return where + 0.5
     return -0.5
+
+
+# -- what many utterances share ---------------------------------------------------------------
+
+
+def fold(d: ScriptDiff, old_header, new_header) -> None:
+    """Say once what many utterances of ``d`` share (in place): header changes (from the
+    utterances' voices, and the two headers' ``@gap`` and ``@seed`` when both are given),
+    then the shifts of their starts; an utterance left with no change of its own is
+    ``affected``. ``*_header``: the versions' headers (None: no such version)."""
+    _fold_voices(d)
+    if old_header is not None and new_header is not None:
+        if old_header.gap != new_header.gap:
+            d.header.append(HeaderChange("gap", [], [("@gap", old_header.gap, new_header.gap)], old_header.gap,
+                                         new_header.gap))
+        if old_header.seed != new_header.seed:
+            d.header.append(HeaderChange("seed", [], [("@seed", old_header.seed, new_header.seed)], old_header.seed,
+                                         new_header.seed))
+    _fold_shifts(d)
+    for u in d.utterances:
+        if u.status == "changed" and not u.changes:
+            u.status = "affected"
+
+
+def _both(u: UtteranceDiff) -> bool:
+    """Both versions, by the same speaker: what a header change applies to alike."""
+    return u.old is not None and u.new is not None and u.old.speaker == u.new.speaker
+
+
+def _fold_voices(d: ScriptDiff) -> None:
+    """A speaker whose every utterance changed voice the same way: a header change, one for
+    the speakers that changed alike; the length of an utterance that changed in nothing else
+    goes with it."""
+    seen: dict[str | None, set] = {}
+    for u in d.utterances:
+        if _both(u):
+            seen.setdefault(u.new.speaker, set()).add((u.old.voice, u.new.voice))
+    groups: dict[tuple, list[str | None]] = {}
+    for speaker, pairs in seen.items():
+        if len(pairs) == 1 and (pair := next(iter(pairs)))[0] != pair[1]:
+            groups.setdefault(pair, []).append(speaker)
+    for (old, new), speakers in groups.items():
+        settings = [(name, a, b) for name, a, b in zip(("@voice", "@rate", "@pitch"), old, new, strict=True) if a != b]
+        h = HeaderChange("voice", speakers, settings, _voice(old), _voice(new))
+        index = len(d.header)
+        d.header.append(h)
+        for u in d.utterances:
+            if not _both(u) or u.new.speaker not in speakers:
+                continue
+            u.header.append(index)
+            h.lines.append(u.new.line)
+            u.changes = [c for c in u.changes if c.kind != "voice"]
+            length = next((c for c in u.changes if c.kind == "length"), None)
+            if length is not None and all(c.kind in ("length", "retimed") for c in u.changes):
+                u.changes.remove(length)
+                h.lengths.append((u.new.line, u.old.duration, u.new.duration))
+
+
+def _fold_shifts(d: ScriptDiff) -> None:
+    """Consecutive ``changed`` utterances whose starts moved: one :class:`Shift` while they
+    move by the same amount, or while nothing listed explains another amount (a change of the
+    one before or of this one, such as its ``@gap``; a header change is not listed there); a
+    moved, added, removed or unmoved utterance ends it."""
+    run: Shift | None = None
+    before = False  # the utterance before lists a change of its own
+    for k, u in enumerate(d.utterances):
+        retimed = next((c for c in u.changes if c.kind == "retimed"), None) if u.status == "changed" else None
+        if retimed is None:
+            run = None
+            continue
+        explained = before or any(c is not retimed for c in u.changes)
+        if run is None or (explained and abs(u.new.start - u.old.start - run.seconds[-1]) > SAME_SHIFT):
+            run = Shift()
+            d.shifts.append(run)
+        run.starts.append((u.new.line, u.old.start, u.new.start))
+        run.to_end = all(v.new is None for v in d.utterances[k + 1:])
+        u.shift = len(d.shifts) - 1
+        u.changes.remove(retimed)
+        before = bool(u.changes)
 
 
 # -- what changed ------------------------------------------------------------------------------

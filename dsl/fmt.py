@@ -14,16 +14,18 @@ One layout, whatever the input's spacing (docs/language.md, "Canonical layout"):
   spoken); no trailing whitespace;
 - **speakers**: ``name: text`` (no space before the colon, one after it);
 - **directives**: ``@name`` and its arguments one space apart; ``SPEAKER: VALUE`` with the
-  colon on the name; ``@preset NAME = ITEMS``; and in a run of consecutive lines, the values
-  of per-speaker directives of one kind line up after their speakers, and the ``=`` of
-  ``@preset`` lines line up;
+  colon on the name; ``@preset NAME = ITEMS``;
 - **continuation lines**: indented by four spaces;
 - **comments**: their text kept as written; a comment after code starts two spaces after
-  it, and the comments of consecutive lines that have code and a comment line up (two
-  spaces after the longest code; directives and utterance lines apart); a comment on a
-  line of its own starts in column 1, or is indented by four spaces when it was indented;
+  it; a comment on a line of its own starts in column 1, or is indented by four spaces when
+  it was indented;
 - **blank lines**: at most one in a row, none at the start or the end; the file ends with
   one line end, of the kind its first line end was (LF by default); a byte-order mark stays.
+
+**A line's layout depends on that line alone** (and on the statement it belongs to: a
+continuation line is indented): nothing is lined up across lines, so adding, removing or
+editing one line never rewrites another, and a one-line change stays a one-line diff. The only
+rule that looks past a line is the blank lines' (two blank lines that meet are one).
 
 Nothing spoken or gestured changes: every change is whitespace where the language ignores it
 (inside tags, between directive arguments, between words) or an order the language defines
@@ -45,19 +47,22 @@ from dsl.parser import analyse
 from dsl.scan import scan_items
 
 #: The diagnostics that make a script unreadable for the formatter: where the grammar fails
-#: (a tag it cannot read, a stray bracket, a trailing backslash), a line indented with
-#: nothing to continue, a directive without a name, a tag without its name.
+#: (a tag it cannot read, a stray bracket, an unknown escape, a trailing backslash, a closing
+#: tag that closes nothing or the wrong span), a line indented with nothing to continue, a
+#: directive without a name, a tag without its name. A script with any of them is left as it
+#: is: formatting text the parser did not read as the author meant would only hide the error.
 SYNTAX_CODES = frozenset(r.code for r in (rules.INDENT, rules.SYNTAX, rules.STRAY_CLOSER, rules.UNCLOSED, rules.BAD_TAG,
-                                          rules.TRAILING_BACKSLASH, rules.DIRECTIVE_NAME, rules.MISSING_NAME))
+                                          rules.BAD_ESCAPE, rules.TRAILING_BACKSLASH, rules.UNMATCHED_CLOSE,
+                                          rules.MISMATCHED_CLOSE, rules.DIRECTIVE_NAME, rules.MISSING_NAME))
 #: Continuation lines start with this.
 INDENT = "    "
-#: Spaces at least between code and the comment after it.
+#: Spaces between code and the comment after it.
 COMMENT_GAP = 2
 _OPTION_RANK = {"x1": 0, "x2": 0, "x3": 0, "flip": 1, "hold": 2}
 _BLANKS = re.compile(r"[ \t]+")
 _ARG_RE = re.compile(r'"[^"]*"|\'[^\']*\'|\S+')  # dsl.directives' argument split, raw text
 _DIRECTIVE_RE = re.compile(r"@([A-Za-z_][A-Za-z0-9_\-]*)")
-_PER_SPEAKER = ("voice", "rate", "pitch")
+_PER_SPEAKER = ("voice", "rate", "pitch")  # SPEAKER: VALUE
 
 
 class FormatError(Exception):
@@ -99,24 +104,21 @@ def format_source(source: str, path: str = "<string>") -> str:
         else:
             statements.append([n])
     new_code: dict[int, str] = {}
-    directives: dict[int, list[str]] = {}  # line -> formatted tokens, for the alignment
     for stmt in statements:
         first = codes[stmt[0]].rstrip()
         if first.startswith("@"):
-            directives[stmt[0]] = _directive_tokens(first)
+            new_code[stmt[0]] = " ".join(_directive_tokens(first))
             continue
         text = "\n".join([first] + [codes[n].lstrip(" \t").rstrip() for n in stmt[1:]])
         pieces = _utterance(text).split("\n")
         for k, (n, piece) in enumerate(zip(stmt, pieces)):
             new_code[n] = piece if k == 0 else INDENT + piece
-    new_code.update(_aligned(directives))
 
     out: list[str] = []
-    columns = _comment_columns(new_code, comments, directives)
     for n in range(len(lines)):
         code, comment = new_code.get(n, ""), comments[n]
         if code and comment:
-            out.append(code.ljust(columns[n]) + comment)
+            out.append(code + " " * COMMENT_GAP + comment)
         elif comment:
             out.append((INDENT if indented[n] else "") + comment)
         else:
@@ -128,23 +130,6 @@ def format_source(source: str, path: str = "<string>") -> str:
     while kept and not kept[-1]:
         kept.pop()
     return bom + newline.join(kept) + (newline if kept else "")
-
-
-def _comment_columns(code: dict[int, str], comments: list[str], directives) -> dict[int, int]:
-    """Where the comment after the code of each line starts: two spaces after the longest
-    code of its block (the consecutive lines that have code and a comment, all directives or
-    all utterance lines)."""
-    columns: dict[int, int] = {}
-    block: list[int] = []
-    for n in range(len(comments) + 1):
-        inside = n < len(comments) and bool(comments[n]) and bool(code.get(n))
-        if block and (not inside or (n in directives) != (block[-1] in directives)):
-            width = max(len(code[k]) for k in block) + COMMENT_GAP
-            columns.update((k, width) for k in block)
-            block = []
-        if inside:
-            block.append(n)
-    return columns
 
 
 def _line_end(source: str) -> str:
@@ -225,41 +210,3 @@ def _preset_args(args: list[str]) -> list[str]:
     if not PRESET_NAME_RE.match(first) or not rest:  # a broken preset keeps its arguments
         return args
     return [first, "="] + rest
-
-
-def _aligned(directives: dict[int, list[str]]) -> dict[int, str]:
-    """The directive lines, with the values of runs of per-speaker directives of one kind
-    (and the ``=`` of runs of presets) lined up."""
-    out: dict[int, str] = {}
-    lines = sorted(directives)
-    run: list[int] = []
-
-    def close() -> None:
-        width = max(len(directives[n][1]) for n in run)
-        for n in run:
-            tokens = directives[n]
-            out[n] = " ".join(tokens[:2]) + " " * (width - len(tokens[1]) + 1) + " ".join(tokens[2:])
-        run.clear()
-
-    for n in lines:
-        key = _align_key(directives[n])
-        if run and (n != run[-1] + 1 or _align_key(directives[run[-1]]) != key):
-            close()
-        if key is None:
-            out[n] = " ".join(directives[n])
-        else:
-            run.append(n)
-    if run:
-        close()
-    return out
-
-
-def _align_key(tokens: list[str]) -> str | None:
-    """What a directive lines up with: per-speaker directives of its kind, or presets."""
-    if len(tokens) < 3:
-        return None
-    if tokens[0] == "@preset" and tokens[2] == "=":
-        return "@preset"
-    if tokens[0][1:] in _PER_SPEAKER and tokens[1].endswith(":") and len(tokens[1]) > 1:
-        return tokens[0]
-    return None

@@ -10,9 +10,9 @@ Rules (see docs/language.md):
   and ``-``, not starting with a digit), a colon, then a space or the end of the line.
 
 Lines that look like a speaker but are not one get a warning: two or three words before the
-colon (``mall guide: Hello``, spoken whole) and a colon with no space after it
-(``g:hello``, spoken as text). Escaping the colon (``\\:``) says "this is text" and silences
-both.
+colon (``mall guide: Hello``, spoken whole) and a colon with no space after it, before a
+word or a mark (``g:hello``, ``guide:[pose:nod] Yes.``: the name is spoken as text).
+Escaping the colon (``\\:``) says "this is text" and silences both.
 
 Each statement keeps a map from its text offsets back to file line and column so that every
 diagnostic points at the right character.
@@ -31,8 +31,8 @@ _NAME = r"[^\W\d][\w\-]*"
 SPEAKER_RE = re.compile(rf"[ \t]*({_NAME})[ \t]*:(?=[ \t]|$)")
 #: Two or three words and a colon at the start of a line: a speaker name with a space?
 _SPACED_SPEAKER_RE = re.compile(rf"({_NAME}(?:[ \t]+[\w\-]+){{1,2}})[ \t]*:(?=[ \t]|$)")
-#: A name, a colon and a word with no space between: a speaker without its space?
-_GLUED_SPEAKER_RE = re.compile(rf"({_NAME}):([^\W\d_][\w\-']*)")
+#: A name, a colon and a word, a tag or a style tag with no space between: a speaker without its space?
+_GLUED_SPEAKER_RE = re.compile(rf"({_NAME}):([^\W\d_][\w\-']*|\[[^\[\]]*\]|</?[^<>\[\]]*>)")
 
 
 @dataclass

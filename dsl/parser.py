@@ -19,7 +19,7 @@ from pathlib import Path
 from core import rules
 from core.controls import STYLE_NAMES
 from core.diagnostics import Diagnostic, Fix, Related, TextEdit, sort_key
-from core.face import EXPRESSIONS, LOOK_DIRECTIONS, PRESET_EXPRESSIONS
+from core.face import EXPRESSIONS, PRESET_EXPRESSIONS
 from core.reading import read_bytes
 from dsl.directives import DirectiveContext, apply_directive
 from dsl.durations import parse_duration
@@ -37,7 +37,7 @@ from dsl.script import (
     Utterance,
     WordToken,
 )
-from dsl.speakers import speaker_diagnostics
+from dsl.speakers import look_targets, speaker_diagnostics
 from dsl.styles import parse_style_value
 
 #: A spoken word: letters or digits, with inner apostrophes or hyphens ("don't", "left-hand").
@@ -186,32 +186,8 @@ class _Analyser:
         if utterances:
             self.diags.extend(speaker_diagnostics(self.file, header, [
                 (u.speaker, Span(u.line, 1, len(u.speaker))) for u in utterances if u.speaker]))
-            self._look_targets(utterances)
+            self.diags.extend(look_targets(self.file, utterances))
         return header, utterances
-
-    def _look_targets(self, utterances: list[Utterance]) -> None:
-        """Warn about ``[look:NAME]`` marks whose NAME is no speaker of the script and no
-        direction (a fix per close name), and drop them: the eyes ignore them."""
-        speakers = list(dict.fromkeys(u.speaker for u in utterances if u.speaker))
-        known = set(speakers) | set(LOOK_DIRECTIONS)
-        for u in utterances:
-            if not u.looks:
-                continue
-            keep = []
-            for mark in u.looks:
-                t = mark.target_where
-                if mark.target == u.speaker:
-                    others = ", ".join([s for s in speakers if s != u.speaker][:3] + ["left", "right"])
-                    self.diags.append(rules.LOOK_AT_SELF.at(self.file, t.line, t.col, t.length, name=mark.target,
-                                                            others=others))
-                    continue
-                if mark.target in known:
-                    keep.append(mark)
-                    continue
-                hint, fixes = rules.did_you_mean(mark.target, speakers + list(LOOK_DIRECTIONS), t.line, t.col, t.length)
-                self.diags.append(rules.UNKNOWN_LOOK_TARGET.at(self.file, t.line, t.col, t.length, name=mark.target,
-                                                               fixes=fixes, **({"hint": hint} if hint else {})))
-            u.looks = keep
 
     def _silent(self, stmt: Statement) -> None:
         """Warn about an utterance with no words (and no error), with a fix that blanks its lines."""
@@ -468,7 +444,7 @@ class _Analyser:
     def _look(self, stmt, utt: Utterance, offset: int, length: int, names, args, starts: list[int], base: int) -> None:
         """``[look:TARGET hold=DURATION]``: a :class:`~dsl.script.LookMark` anchored like a pose
         control (the next word, else the end of the last one). Whether TARGET is a speaker is
-        known once every line is read (:meth:`_look_targets`)."""
+        known once every line is read (:func:`dsl.speakers.look_targets`)."""
         if len(names) < 2:
             self.report(stmt, offset, length, rules.MISSING_LOOK_TARGET)
             return

@@ -29,10 +29,13 @@ The approach itself is drawn by :meth:`dsl.plan.ArrayRequests.build` (poses) and
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from bisect import bisect_left
+from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 import numpy as np
 
+from core import cancel
 from core.hands import HandTrack
 from core.skeleton import FPS, N_BONES, bone_angles, frame_count, mirror_name, seconds_to_frame
 
@@ -73,6 +76,11 @@ class Placed:
     #: limbs over cuts those only; None = ``length`` everywhere
     bone_lengths: np.ndarray | None = None
     side_lengths: np.ndarray | None = None
+    #: the clips of one utterance's gestures by (gesture, speed, flip, hold), shared by its
+    #: placed gestures: each clip is built once (they are read, never changed)
+    clips: dict = field(default_factory=dict, repr=False, compare=False)
+    #: where :func:`resolve` took this gesture (for :func:`hint`'s trials)
+    turn: _Turn | None = field(default=None, repr=False, compare=False)
 
     @property
     def stroke_frame(self) -> int | None:
@@ -110,7 +118,11 @@ class Placed:
         return self.start
 
     def clip(self):
-        return self.gesture.clip(speed=self.mark.speed, flip=self.mark.flip, hold=self.mark.hold)
+        key = (self.gesture, self.mark.speed, self.mark.flip, self.mark.hold)
+        clip = self.clips.get(key)
+        if clip is None:
+            clip = self.clips[key] = self.gesture.clip(speed=self.mark.speed, flip=self.mark.flip, hold=self.mark.hold)
+        return clip
 
     @property
     def limbs(self) -> frozenset[str]:
@@ -123,22 +135,24 @@ def place(utt, words, lib) -> list[Placed]:
     """Each pose mark of ``utt`` whose gesture exists, in source order, with its stroke on the
     onset of the word after the mark (the end of the previous word when none follows); ``words``
     are the utterance's timed words on its motion frames."""
-    out = []
+    out: list[Placed] = []
+    clips: dict = {}
     for mark in utt.poses:
         gesture = lib.get(mark.name)
         if gesture is None:  # already reported by the analyser
             continue
         at = words[mark.word_index].start if mark.word_index is not None else words[mark.after_word].end
-        out.append(_natural(mark, gesture, seconds_to_frame(at)))
+        out.append(_natural(mark, gesture, seconds_to_frame(at), clips))
     return out
 
 
-def _natural(mark, gesture, word: int) -> Placed:
-    """``gesture`` played by ``mark`` whole, its stroke on frame ``word``."""
+def _natural(mark, gesture, word: int, clips: dict) -> Placed:
+    """``gesture`` played by ``mark`` whole, its stroke on frame ``word``; ``clips``: the
+    utterance's clips (:attr:`Placed.clips`)."""
     stroke = gesture.stroke_frame(mark.speed)
     length = gesture.clip_length(speed=mark.speed, hold=mark.hold)
     keep = length if stroke is None else stroke + 1 + (frame_count(mark.hold) if mark.hold > 0 else 0)
-    return Placed(mark, gesture, word - (stroke or 0), length, keep, stroke, word)
+    return Placed(mark, gesture, word - (stroke or 0), length, keep, stroke, word, clips=clips)
 
 
 def approach_frames(angle_deg: float) -> int:
@@ -153,18 +167,43 @@ def resolve(placed: list[Placed]) -> list[Placed]:
     and returned): see the module's docstring. Gestures are taken in the order their clips
     start (source order on ties); each is compared with the last gesture placed on each limb it
     drives."""
-    order = sorted(range(len(placed)), key=lambda i: placed[i].start)
+    keys = sorted((p.start, i) for i, p in enumerate(placed))
+    order = [placed[i] for _, i in keys]
     last_on: dict[str, Placed] = {}
-    for i in order:
-        g = placed[i]
-        before = list({id(p): p for limb in g.limbs if (p := last_on.get(limb)) is not None}.values())
-        mine = _bones(g.clip())
-        before = [p for p in before if g.start < p.end_on(mine)]  # still playing on g's limbs when g would start
-        if before:
-            _follow(g, before)
-        for limb in g.limbs:
-            last_on[limb] = g
+    for rank, (g, key) in enumerate(zip(order, keys)):
+        g.turn = _Turn(order, keys, rank, key, tuple((limb, p, p.bone_lengths, p.side_lengths) for limb, p in last_on.items()))
+        _take(g, last_on)
     return placed
+
+
+@dataclass(frozen=True)
+class _Turn:
+    """Where :func:`resolve` took a gesture: ``order`` (every gesture of the utterance in the
+    order taken, shared) and their sort ``keys`` (natural start, source index), its ``rank``
+    there and its ``key``, and ``last_on``: the last gesture on each limb when it was taken,
+    with their frames played per bone and per hand then ((limb, Placed, bone_lengths,
+    side_lengths), ...). What :func:`resolve` did before a rank depends on nothing taken
+    after it, so a trial with one gesture changed starts from the turn where the two orders
+    part (:func:`_makes_it`)."""
+
+    order: list
+    keys: list
+    rank: int
+    key: tuple
+    last_on: tuple
+
+
+def _take(g: Placed, last_on: dict[str, Placed]) -> None:
+    """One step of :func:`resolve`: place ``g`` after the last gestures on its limbs
+    (``last_on``, updated) that still play on them where it would start."""
+    cancel.check()
+    before = list({id(p): p for limb in g.limbs if (p := last_on.get(limb)) is not None}.values())
+    mine = _bones(g.clip())
+    before = [p for p in before if g.start < p.end_on(mine)]  # still playing on g's limbs when g would start
+    if before:
+        _follow(g, before)
+    for limb in g.limbs:
+        last_on[limb] = g
 
 
 def _follow(g: Placed, before: list[Placed]) -> None:
@@ -227,14 +266,20 @@ def _pose_at(before: list[Placed], frame: int, default: np.ndarray) -> np.ndarra
 
 def _hands_at(before: list[Placed], frame: int):
     """(palm (2, 3), fingers (2, 5, 4)) the gestures ``before`` set at ``frame`` on their sides."""
-    rest = HandTrack.rest(1)
-    palm, fingers = rest.palm[0].copy(), rest.fingers[0].copy()
+    palm, fingers = (a.copy() for a in _rest_hand())
     for p in sorted(before, key=lambda p: p.start):
         clip = p.clip()
         k = min(max(frame - p.start, 0), clip.n_frames - 1)
         for s in np.flatnonzero(_sides(clip)):
             palm[s], fingers[s] = clip.hands.palm[k, s], clip.hands.fingers[k, s]
     return palm, fingers
+
+
+@lru_cache(maxsize=1)
+def _rest_hand() -> tuple[np.ndarray, np.ndarray]:
+    """(palm (2, 3), fingers (2, 5, 4)) of relaxed hands (read only: copied by the caller)."""
+    rest = HandTrack.rest(1)
+    return rest.palm[0], rest.fingers[0]
 
 
 def _bones(clip) -> np.ndarray:
@@ -247,18 +292,19 @@ def _sides(clip) -> np.ndarray:
     return np.ones(2, bool) if clip.hand_sides is None else np.asarray(clip.hand_sides, bool)
 
 
-def hint(g: Placed, words, placed: list[Placed]) -> str:
+def hint(g: Placed, words) -> str:
     """What would put a late stroke on its word, tried in this order: the earlier gesture
     faster (x2, x3: when its key frames are what is in the way), without its ``hold=``, or this
-    mark one word later. ``words``: the utterance's timed words on its frames."""
+    mark one word later. ``words``: the utterance's timed words on its frames; ``g`` was placed
+    by :func:`resolve`."""
     p = g.after
     if p is None:
         return ""
     if g.approach is None and p.mark.speed < 3:  # it waited for a gesture that plays whole
         for speed in (2, 3):
-            if speed > p.mark.speed and _makes_it(g, p, replace(p.mark, speed=speed), placed):
+            if speed > p.mark.speed and _makes_it(g, p, replace(p.mark, speed=speed)):
                 return f"use x{speed} on '{p.mark.name}'"
-    if p.mark.hold > 0 and _makes_it(g, p, replace(p.mark, hold=0.0), placed):
+    if p.mark.hold > 0 and _makes_it(g, p, replace(p.mark, hold=0.0)):
         return f"drop hold= from '{p.mark.name}'"
     later = _next_word(g, words)
     if later is not None:
@@ -266,11 +312,34 @@ def hint(g: Placed, words, placed: list[Placed]) -> str:
     return f"give '{g.mark.name}' a word of its own, later in the line"
 
 
-def _makes_it(g: Placed, p: Placed, mark, placed: list[Placed]) -> bool:
-    """Whether ``g`` would land on its word with ``p`` played by ``mark`` instead."""
-    trial = [_natural(mark if q is p else q.mark, q.gesture, q.word_frame) for q in placed]
-    resolve(trial)
-    return trial[placed.index(g)].late < LATE_WARN
+def _makes_it(g: Placed, p: Placed, mark) -> bool:
+    """Whether ``g`` would land on its word with ``p`` played by ``mark`` instead: what
+    :func:`resolve` would make of the utterance with that change, replayed only from the first
+    turn where the two orders differ up to ``g`` (the turns before are the same, and ``g``'s
+    place depends on nothing taken after it), so a hint costs the gestures between ``p`` and
+    ``g``, not the utterance's.
+    """
+    turn = p.turn
+    changed = _natural(mark, p.gesture, p.word_frame, p.clips)
+    key = (changed.start, turn.key[1])
+    rank = bisect_left(turn.keys, key)  # p's rank in the trial's order
+    if rank > turn.rank:
+        rank -= 1
+    first = min(rank, turn.rank)
+    seq = [q for q in turn.order[first : max(turn.rank, rank, g.turn.rank) + 1] if q is not p]
+    seq.insert(rank - first, p)
+    copies: dict[int, Placed] = {}  # the gestures taken before, as they were at that turn
+    last_on: dict[str, Placed] = {}
+    for limb, q, bone_lengths, side_lengths in turn.order[first].turn.last_on:
+        if id(q) not in copies:
+            copies[id(q)] = replace(q, bone_lengths=bone_lengths, side_lengths=side_lengths)
+        last_on[limb] = copies[id(q)]
+    for q in seq:
+        trial = changed if q is p else _natural(q.mark, q.gesture, q.word_frame, q.clips)
+        _take(trial, last_on)
+        if q is g:
+            return trial.late < LATE_WARN
+    raise AssertionError("the trial's order holds g")
 
 
 def _next_word(g: Placed, words) -> str | None:

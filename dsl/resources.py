@@ -104,6 +104,9 @@ def speech_diagnostic(script: Script, utt: Utterance, exc: SpeechError) -> Diagn
     if exc.kind == "audio" and audio is not None:
         w = audio.where
         return rules.UNREADABLE_AUDIO.at(file, w.line, w.col, w.length, audio=shown_from(audio.path, file), reason=exc.reason)
+    if exc.kind == "too-long" and audio is not None:
+        w = audio.where
+        return rules.RECORDING_TOO_LONG.at(file, w.line, w.col, w.length, audio=shown_from(audio.path, file), reason=exc.reason)
     if exc.kind == "timings" and audio is not None and audio.timings_where is not None:
         w = audio.timings_where
         return rules.BAD_TIMINGS.at(file, w.line, w.col, w.length, timings=shown_from(audio.timings, file), reason=exc.reason)

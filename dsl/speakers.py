@@ -1,17 +1,20 @@
 """Checks of a script's speakers as a whole: the names per-speaker directives give
-(``@voice NAME: ...``, ``@rate``, ``@pitch``) against the speakers of its lines, and speaker
-names that differ only in case.
+(``@voice NAME: ...``, ``@rate``, ``@pitch``) against the speakers of its lines, speaker
+names that differ only in case, and the speakers look marks name (``[look:NAME]``).
 
 These look at every line at once, so the analysis runs them after the last statement
-(:func:`dsl.parser.analyse`), and the editor, which analyses a script in chunks, runs them on
-the whole text (:mod:`sgt_tui.editor.analysis`). Both call :func:`speaker_diagnostics`.
+(:func:`dsl.parser.analyse`). The editor, which analyses a script in chunks
+(:mod:`sgt_tui.editor.analysis`), runs :func:`speaker_diagnostics` on the whole text, and
+analyses a chunk that has a look mark among all the script's speakers, so that
+:func:`look_targets` judges it as in the whole file.
 """
 
 from __future__ import annotations
 
 from core import rules
 from core.diagnostics import Diagnostic, Fix, Related, TextEdit
-from dsl.script import Header, Span
+from core.face import LOOK_DIRECTIONS
+from dsl.script import Header, Span, Utterance
 
 #: The codes :func:`speaker_diagnostics` reports (the editor recomputes them on the whole text).
 CODES = frozenset({rules.UNKNOWN_SPEAKER.code, rules.SPEAKER_CASE.code})
@@ -57,4 +60,32 @@ def speaker_diagnostics(file: str, header: Header, speakers: list[tuple[str, Spa
                 hint = f"{hint} (speaker names are case-sensitive)"
         out.append(rules.UNKNOWN_SPEAKER.at(file, w.line, w.col, w.length, directive=directive, name=name,
                                             related=related, fixes=fixes, **({"hint": hint} if hint else {})))
+    return out
+
+
+def look_targets(file: str, utterances: list[Utterance]) -> list[Diagnostic]:
+    """Warnings about ``[look:NAME]`` marks of ``utterances`` (every one of the script) whose
+    NAME is the speaker of its own line (:data:`core.rules.LOOK_AT_SELF`) or no speaker of the
+    script and no direction (:data:`core.rules.UNKNOWN_LOOK_TARGET`, a fix per close name);
+    those marks are dropped from their utterances: the eyes ignore them."""
+    out: list[Diagnostic] = []
+    speakers = list(dict.fromkeys(u.speaker for u in utterances if u.speaker))
+    known = set(speakers) | set(LOOK_DIRECTIONS)
+    for u in utterances:
+        if not u.looks:
+            continue
+        keep = []
+        for mark in u.looks:
+            t = mark.target_where
+            if mark.target == u.speaker:
+                others = ", ".join([s for s in speakers if s != u.speaker][:3] + ["left", "right"])
+                out.append(rules.LOOK_AT_SELF.at(file, t.line, t.col, t.length, name=mark.target, others=others))
+                continue
+            if mark.target in known:
+                keep.append(mark)
+                continue
+            hint, fixes = rules.did_you_mean(mark.target, speakers + list(LOOK_DIRECTIONS), t.line, t.col, t.length)
+            out.append(rules.UNKNOWN_LOOK_TARGET.at(file, t.line, t.col, t.length, name=mark.target,
+                                                    fixes=fixes, **({"hint": hint} if hint else {})))
+        u.looks = keep
     return out

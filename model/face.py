@@ -50,6 +50,7 @@ import re
 
 import numpy as np
 
+from core import cancel
 from core.face import (
     ARKIT_INDEX,
     EXPRESSIONS,
@@ -202,7 +203,9 @@ def mouth(segments, n_frames: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
                 rests.append(("rest", e0, s1, 0))
         rests.append(("rest", max(s[2] for s in segs), math.inf, 0))
         far = 5 * REACH
-        for cls, a, b, stress in segs + rests:
+        for k, (cls, a, b, stress) in enumerate(segs + rests):
+            if not k % cancel.EVERY:
+                cancel.check()
             lo = 0 if a == -math.inf else max(0, int((a - far) * SUBSAMPLES * FPS))
             hi = n_samples if b == math.inf else min(n_samples, int(math.ceil((b + far) * SUBSAMPLES * FPS)) + 1)
             if hi <= lo:
@@ -491,6 +494,7 @@ def speaker_face(plan, speaker, poses: np.ndarray, seed: int = 0) -> FaceTrack:
     segments, stressed, pauses, face_controls = [], [], [], []
     raised = np.zeros((n, N_BLENDSHAPES), np.float32)
     for u in own:
+        cancel.check()
         at = u.start
         segs = _segments_of(u)
         segments += [(c, a + at, b + at, s) for c, a, b, s in segs]

@@ -30,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from core import cancel
 from core.skeleton import FPS
-from dsl.speech.audio import read_wav, resample_poly
+from dsl.speech.audio import StreamResampler, wav_blocks
 
 SAMPLE_RATE = 16000
 N_MELS = 32
@@ -43,19 +44,39 @@ HOP = SAMPLE_RATE // FPS  # samples per motion frame
 AUDIO_FEATURES = "log-mel+energy, dB re speech level, floor -60 dB (v2)"
 
 
+#: Frames of a recording :func:`load_audio` reads and resamples at a time.
+AUDIO_BLOCK = 1 << 16
+
+
 def load_audio(path: Path | str, sample_rate: int = SAMPLE_RATE) -> np.ndarray:
     """Mono float32 audio at ``sample_rate``. 16-bit WAV (what espeak-ng writes) is read with the
-    standard library, anything else with soundfile; resampling is numpy's (no scipy import)."""
-    wav = read_wav(path)
-    if wav is None:
-        import soundfile as sf
+    standard library, anything else with soundfile; resampling is numpy's (no scipy import).
+    The file is read, mixed down and resampled :data:`AUDIO_BLOCK` frames at a time
+    (:class:`dsl.speech.audio.StreamResampler`: the numbers of one :func:`resample_poly` of the
+    whole), so memory holds the result and a block, not the file's samples in float64."""
+    blocks, sr = wav_blocks(path, AUDIO_BLOCK) or _soundfile_blocks(path)
+    resampler = StreamResampler(int(sr), sample_rate) if sr != sample_rate else None
+    out = []
+    for block in blocks:
+        cancel.check()
+        mono = block.mean(axis=1)
+        out.append(mono if resampler is None else resampler.push(mono).astype(np.float32))
+    if resampler is not None:
+        out.append(resampler.flush().astype(np.float32))
+    return np.concatenate(out) if out else np.zeros(0, np.float32)
 
-        wav = sf.read(str(path), dtype="float32", always_2d=True)
-    data, sr = wav
-    mono = data.mean(axis=1)
-    if sr != sample_rate:
-        mono = resample_poly(mono, sample_rate, int(sr)).astype(np.float32)
-    return mono
+
+def _soundfile_blocks(path):
+    """(float32 (k, channels) blocks, sample rate) of any file soundfile reads."""
+    import soundfile as sf
+
+    f = sf.SoundFile(str(path))
+
+    def blocks():
+        with f:
+            yield from f.blocks(blocksize=AUDIO_BLOCK, dtype="float32", always_2d=True)
+
+    return blocks(), f.samplerate
 
 
 N_FFT = max(2 * HOP, 512)  # STFT size and window length: two motion frames
@@ -100,11 +121,27 @@ def _mel_filters(sr: int = SAMPLE_RATE, n_fft: int = N_FFT, n_mels: int = N_MELS
     return weights * (2.0 / (edges[2:] - edges[:-2]))[:, None]
 
 
+#: Motion frames whose powers :func:`frame_powers` computes at a time: the spectrum takes about
+#: 40 KB a frame, so the memory stays the same for an utterance of any length.
+CHUNK_FRAMES = 1024
+
+
 def frame_powers(audio: np.ndarray, first: int, count: int) -> np.ndarray:
     """(count, AUDIO_DIM) float64 powers of motion frames ``first``, ``first + 1``, ... of
     ``audio`` at SAMPLE_RATE: the mel bands, then the mean square. Frame k is centred on sample
     ``k * HOP`` and spans ``2 * HOP`` samples (:data:`N_FFT`); samples outside the audio are 0.
-    Any run of frames gives the numbers the whole audio gives them (the stream relies on it)."""
+    Any run of frames gives the numbers the whole audio gives them (the stream relies on it),
+    so they are computed :data:`CHUNK_FRAMES` at a time."""
+    if count <= CHUNK_FRAMES:
+        return _frame_powers(audio, first, count)
+    out = np.empty((count, AUDIO_DIM), np.float64)
+    for a in range(0, count, CHUNK_FRAMES):
+        cancel.check()
+        out[a : a + CHUNK_FRAMES] = _frame_powers(audio, first + a, min(CHUNK_FRAMES, count - a))
+    return out
+
+
+def _frame_powers(audio: np.ndarray, first: int, count: int) -> np.ndarray:
     y = np.asarray(audio, np.float32)
     lo, hi = (first - 1) * HOP, (first + count) * HOP
     segment = np.zeros(hi - lo, np.float32)

@@ -95,7 +95,7 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     use_threads(opts.threads)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
-    arrays = postprocess.seeded_controls(inputs)
+    arrays = inputs.arrays
     raw = motion(runner, audio, ids, onsets, arrays, seed)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,
                               blend=opts.blend, ramp=opts.ramp, bones=arrays.bone_mask, words=inputs.words,

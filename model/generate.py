@@ -26,36 +26,26 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import inspect
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import Callable
 
-import numpy as np
-
+from core import cancel, limits
 from core.controls import ControlArrays
+from core.fileio import OutputError
 from core.motion import MotionClip, Track, save_motion
+from core.reading import LIMITS
 from core.seeds import SEED_MAX
 from core.words import TimedWord
 from dsl.compiler import compile_file
 from dsl.plan import Plan
+from model.engines import DEFAULT_ENGINE, ENGINES, NETWORK_ENGINES
 from model.hands import motion_hands
-from model.performance import SEED_FRAMES, Exact, listening_tracks, perform
+from model.performance import Exact, perform
 from model.runtime import load_runner
 from model.take_posture import speaker_key
 from model.weights import WeightsError
-
-#: Engine name -> module with ``generate(inputs, *, seed, ...)``.
-ENGINES = {
-    "neural": "model.neural",  # the controllable generator (shipped weights)
-    "matching": "model.matching",  # motion matching over the training takes (shipped database)
-    "flow": "model.flow",  # flow matching: a network that samples takes (shipped weights model/weights/flow.pt)
-    "keyframe": "model.keyframe",  # SGToolkit's MANUAL condition: splines through the pose controls
-    "rules": "model.teacher",  # the rule-based teacher of the procedural corpus
-}
-DEFAULT_ENGINE = "neural"
-#: Engines that start an utterance from its speaker's listening motion (seed poses).
-SEEDED_ENGINES = ("neural", "matching", "flow")
 
 
 @dataclass
@@ -66,9 +56,6 @@ class EngineInputs:
     words: list[TimedWord]  # seconds on the motion timeline, lead-in already added
     audio_path: Path | None = None  # speech audio; it starts ``lead_in`` seconds into the motion
     lead_in: float = 0.0
-    #: (k, 27) poses of the speaker's track where the utterance starts (its listening motion):
-    #: engines that take seed poses (neural) start from them, so the utterance joins its track.
-    start_poses: np.ndarray | None = None
     #: the take's draw key (:func:`model.take_posture.speaker_key`): one posture per speaker of a
     #: performance; None: the engine's seed draws it.
     take_key: tuple | None = None
@@ -78,9 +65,9 @@ class EngineInputs:
         return self.arrays.n_frames
 
     @classmethod
-    def from_plan(cls, u, start_poses=None, base_seed: int | None = None) -> "EngineInputs":
+    def from_plan(cls, u, base_seed: int | None = None) -> EngineInputs:
         key = None if base_seed is None else speaker_key(base_seed, u.speaker)
-        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in, start_poses, key)
+        return cls(u.arrays, list(u.words), u.audio_path, u.lead_in, key)
 
 
 class GenerateError(Exception):
@@ -113,20 +100,23 @@ class Take:
     source: str = ""
     seed: int = 0
     _tracks: list | None = field(default=None, repr=False)
-    listening: dict | None = field(default=None, repr=False)  # the speakers' listening motion, when computed already
     exact: Exact | None = field(default=None, repr=False)  # how the performance makes the pose controls exact
+    engine: str | None = None  # the engine that made it (recorded in the motion file)
 
     @property
     def tracks(self) -> list[Track]:
         """One continuous track per speaker over the whole performance."""
         if self._tracks is None:
-            self.clips, self._tracks = perform(self.plan, self.clips, self.seed, self.listening, self.exact)
+            self.clips, self._tracks = perform(self.plan, self.clips, self.seed, exact=self.exact)
         return self._tracks
 
     def save(self, path, format: str | None = None) -> None:
-        """Write the take as a motion file (utterances, tracks, the script's path)."""
+        """Write the take as a motion file (utterances, tracks, the script's path); raises
+        :class:`core.fileio.OutputError` when it would be larger than a motion file may be
+        (:func:`check_motion_size`)."""
         source = self.plan.source if self.plan.source and not self.plan.source.startswith("<") else None
-        save_motion(path, self.clips, format, tracks=self.tracks, source=source)
+        check_motion_size(self.clips, self.tracks)
+        save_motion(path, self.clips, format, tracks=self.tracks, source=source, engine=self.engine)
 
     @property
     def utterances(self) -> list[int]:
@@ -139,13 +129,24 @@ class Take:
         return self.plan.utterances[0].speech.get("engine") if self.plan.utterances else None
 
 
+def check_motion_size(clips, tracks) -> None:
+    """Raise :class:`core.fileio.OutputError` when a motion file of ``clips`` and ``tracks`` could
+    be larger than sgt reads one (:data:`core.reading.LIMITS`), before it is encoded."""
+    frames = sum(c.n_frames for c in clips) + sum(t.n_frames for t in tracks)
+    if not limits.motion_file_fits(frames):
+        most = LIMITS["motion file"] // limits.MAX_FRAME_BYTES
+        raise OutputError(f"the motion is {frames} frames over its utterances and speakers' tracks, more than a motion "
+                          f"file holds (at most {most} frames, {LIMITS['motion file'] >> 20} MiB): generate fewer "
+                          f"utterances at a time (--utterance) or split the script")
+
+
 def engine_function(name: str, options=None) -> Callable:
     """The engine's ``generate`` function; ``options`` (a :class:`model.neural.Options`; neural and
     matching) set post-processing, weights and the take's posture."""
     if name not in ENGINES:
         raise GenerateError(f"unknown engine '{name}': choose one of {', '.join(ENGINES)}")
     fn = importlib.import_module(ENGINES[name]).generate
-    if name in ("neural", "flow"):
+    if name in NETWORK_ENGINES:
         try:  # fail early, with the fix, when the weights are missing, unusable or of the other network
             load_runner(getattr(options, "weights", None), name)
         except WeightsError as exc:
@@ -164,30 +165,23 @@ def engine_function(name: str, options=None) -> Callable:
 
 
 def clips_from_plan(plan: Plan, *, engine: str | None = None, seed: int | None = None, progress=None,
-                    options=None, seed_poses: bool = True, listening: dict | None = None) -> list[MotionClip]:
-    """One :class:`~core.motion.MotionClip` per planned utterance.
-
-    ``seed_poses``: the neural engine starts each utterance from its speaker's listening motion
-    where it begins (which depends on the whole performance); False generates every utterance
-    from its own inputs alone (what a per-utterance cache needs: ``sgt build``), and the tracks
-    then only ease into it. ``listening``: :func:`model.performance.listening_tracks` of the
-    plan and seed, when the caller has them (computed here otherwise)."""
+                    options=None) -> list[MotionClip]:
+    """One :class:`~core.motion.MotionClip` per planned utterance, each generated from its own
+    inputs alone (its words, speech and controls; the seed ``seed + index``): nothing of the
+    lines around it, so ``sgt build`` caches exactly what ``sgt generate`` makes. The
+    performance (:func:`model.performance.perform`) then eases each speaker's track into and
+    out of its utterances."""
     fn = engine_function(engine or DEFAULT_ENGINE, options)
     base_seed = plan.seed if seed is None else seed
     _check_seed(base_seed)
-    # only the seeded engines take seed poses: the others need no listening motion here
-    if not (seed_poses and (engine or DEFAULT_ENGINE) in SEEDED_ENGINES):
-        listening = None
-    elif listening is None:
-        listening = listening_tracks(plan, base_seed)
     clips = []
     for n, u in enumerate(plan.utterances):
+        cancel.check()
         if progress:
             progress(n, len(plan.utterances), u.text[:40])
-        start_poses = listening[u.speaker][u.start_frame : u.start_frame + SEED_FRAMES] if listening else None
         layers: list = []  # an engine's own gesture hands (the rules engine's), then the pose controls'
         extra = {"hands_out": layers} if "hands_out" in inspect.signature(fn).parameters else {}
-        poses = fn(EngineInputs.from_plan(u, start_poses, base_seed), seed=base_seed + u.index, **extra)
+        poses = fn(EngineInputs.from_plan(u, base_seed), seed=base_seed + u.index, **extra)
         hands = motion_hands(poses, [*layers, u.hands])
         clips.append(MotionClip(poses=poses, speaker=u.speaker, text=u.text, words=list(u.words),
                                 controls=list(u.controls), hands=hands, index=u.index, start=u.start,
@@ -204,14 +198,14 @@ def exact_for(engine: str, options=None) -> Exact:
         from model.teacher import CONTROL_RAMP, CONTROL_RAMP_STEP_DEG  # lazy: the teacher loads the library
 
         return Exact(ramp=CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG)
-    if engine in SEEDED_ENGINES and options is not None:
+    if engine in (*NETWORK_ENGINES, "matching") and options is not None:
         return Exact(ramp=options.ramp, blend=options.blend)
     return Exact()
 
 
 def generate(script: Path | str | Plan | None = None, *, source: str | None = None, engine: str | None = None,
              utterances=None, seed: int | None = None, timing: str = "speech", options=None, progress=None,
-             speech_progress=None, library=None, seed_poses: bool = True, perform: bool = True) -> Take:
+             speech_progress=None, library=None, perform: bool = True) -> Take:
     """Compile a script and generate its motion: the one way from a script to motion.
 
     ``script`` is a script file's path, or a compiled :class:`~dsl.plan.Plan` (generated as it
@@ -223,7 +217,7 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
     ``speech_progress`` and ``progress`` are called ``(done, total, what)`` while compiling and
     while generating. ``library`` is a loaded :class:`~library.Library` to compile with (default:
     the built-in and user gestures plus the script's ``@library`` folders, loaded per call).
-    ``seed_poses``: see :func:`clips_from_plan`. ``perform``: the tracks and the clips as their
+    ``perform``: the tracks and the clips as their
     views (:func:`model.performance.perform`); False keeps the engine's clips (see :class:`Take`).
 
     Raises :class:`GenerateError` (script errors, with their diagnostics; an unknown engine;
@@ -259,10 +253,8 @@ def generate(script: Path | str | Plan | None = None, *, source: str | None = No
         plan, diagnostics, text = result.plan, result.diagnostics, result.script.source
     base_seed = plan.seed if seed is None else seed
     # once, for the seed poses and the tracks (the other engines' tracks compute it when asked)
-    listening = listening_tracks(plan, base_seed) if seed_poses and engine in SEEDED_ENGINES else None
-    clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options, seed_poses=seed_poses,
-                            listening=listening)
-    take = Take(plan, clips, diagnostics, text, base_seed, listening=listening, exact=exact_for(engine, options))
+    clips = clips_from_plan(plan, engine=engine, seed=seed, progress=progress, options=options)
+    take = Take(plan, clips, diagnostics, text, base_seed, exact=exact_for(engine, options), engine=engine)
     if perform:
         take.tracks  # noqa: B018  (performs the take: its clips become the tracks' views)
     return take

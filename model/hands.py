@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from core import cancel
 from core.hands import SIDES, HandTrack, slerp
 from core.skeleton import FPS, JOINT_INDEX, positions_from_pose
 
@@ -93,6 +94,8 @@ def limit_speed(track: HandTrack, max_finger: float = MAX_FINGER_STEP, max_palm:
     palm target turning more than ``max_palm`` degrees (each frame chases the requested one)."""
     palm, fingers = track.palm.astype(np.float64).copy(), track.fingers.astype(np.float64).copy()
     for t in range(1, track.n_frames):
+        if not t % cancel.EVERY:
+            cancel.check()
         step = fingers[t] - fingers[t - 1]
         fingers[t] = fingers[t - 1] + np.clip(step, -max_finger, max_finger)
         for s in range(2):

@@ -19,7 +19,10 @@ frames; for each it picks the database frame whose
   take per speaker, so a speaker gestures alike in all its lines),
 - and, where the segment holds a pose control, whose pose on that frame is nearest the request,
 
-with a bonus for simply continuing the take it is already playing (:data:`CONTINUE_BONUS`).
+with a bonus for simply continuing the take it is already playing (:data:`CONTINUE_BONUS`),
+except where that take falls silent while the line speaks on (:func:`continue_bonus`).
+An utterance is matched from its own inputs alone (no pose of the lines around it): the
+performance eases each line in from its speaker's track (:func:`model.performance.place`).
 Segments join with a cross-fade of :data:`BLEND` frames from the old take's own continuation
 into the new one, bone by bone, so no joint jumps. The first segment is drawn among the
 :data:`FIRST_CHOICES` best by the seed; the rest is deterministic. Then the same
@@ -32,16 +35,17 @@ numpy only: no torch import on this engine's path.
 from __future__ import annotations
 
 import dataclasses
-import json
-import zipfile
-import zlib
+import stat
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from core import cancel
 from core.controls import STYLE_NAMES
+from core.npz import load_npz
+from core.reading import InputFileError, loads_json
 from core.skeleton import FPS, JOINT_INDEX, POSE_DIM, normalize_pose, positions_from_pose
 from model import postprocess, take_posture
 from model.features import AUDIO_DIM, level_db, speech_inputs, word_id
@@ -71,6 +75,14 @@ W_CONTROL = 8.0
 #: a style, so the search moves to takes of that style.
 CONTINUE_BONUS = 10.0
 CONTINUE_BONUS_STYLED = 2.0
+#: No continue bonus for a take that falls silent (its next segment's share of frames with
+#: speech below SILENT_TAKE) where the line speaks on without a break (at least SPEAKING_LINE
+#: of the frames from SPEECH_RUN before the segment to its end): the bonus would carry the
+#: take's rest on through the speech (on long unmarked lines a fifth of the segments played,
+#: at a third of the teacher's stroke rate).
+SILENT_TAKE = 0.1
+SPEAKING_LINE = 0.9
+SPEECH_RUN = 30
 #: The first segment is drawn among this many best candidates.
 FIRST_CHOICES = 16
 #: Candidate segment starts are every STRIDE-th database frame (SEGMENT is a multiple, so a
@@ -133,6 +145,7 @@ class Database:
     speech_keys_t: np.ndarray = dataclasses.field(default=None)  # (K, M)
     cand_style_t: np.ndarray = dataclasses.field(default=None)  # (3, M)
     cand_style_sq_t: np.ndarray = dataclasses.field(default=None)  # (3, M)
+    cand_speaking: np.ndarray = dataclasses.field(default=None)  # (M,) share of the segment's frames with speech
 
     def finalise(self) -> "Database":
         self.speech_keys_dim = len(self.key_mean)
@@ -151,7 +164,17 @@ class Database:
         where[c] = np.arange(len(c))
         nxt = where[c + SEGMENT]
         self.next_cand = np.where(self.cand_clip[np.maximum(nxt, 0)] == self.cand_clip, nxt, -1)
+        self.cand_speaking = candidate_speaking(self)
         return self
+
+
+def candidate_speaking(db: Database) -> np.ndarray:
+    """(M,) each candidate segment's share of frames with speech, read back from its speech key
+    (the key's PCA undone on the speaking feature of the segment's own frames)."""
+    n_feat = len(db.feat_mean)
+    rows = (CONTEXT_BEFORE + np.arange(SEGMENT)) * n_feat + n_feat - 1
+    key = db.speech_keys @ db.key_basis[rows].T + db.key_mean[rows]
+    return (key / FEATURE_WEIGHTS[-1] * db.feat_std[-1] + db.feat_mean[-1]).mean(1).astype(np.float32)
 
 
 def candidate_starts(clip_starts: np.ndarray) -> np.ndarray:
@@ -241,7 +264,7 @@ def load(path=None) -> Database:
         st = p.stat()
     except OSError:
         st = None
-    if st is None or not p.is_file():
+    if st is None or stat.S_ISDIR(st.st_mode):  # (a FIFO or a device: refused by name in _load, unread)
         raise DatabaseError(f"no matching database at {p}: build it with {_rebuild(p)}")
     return _load(str(p), st.st_mtime_ns, st.st_size)
 
@@ -258,19 +281,20 @@ def _rebuild(p: Path) -> str:
 def _load(path: str, _mtime_ns: int, _size: int) -> Database:
     p = Path(path)
     try:
-        with np.load(p, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            if not isinstance(meta, dict) or meta.get("format") != FORMAT or meta.get("version") != VERSION:
-                raise DatabaseError(f"{p} is not a version-{VERSION} {FORMAT} file: rebuild it with {_rebuild(p)}")
-            f32 = {k: z[k].astype(np.float32) for k in ("frame_style", "take_style", "audio_mean", "audio_basis",
-                                                         "feat_mean", "feat_std", "key_mean", "key_basis",
-                                                         "pose_mean", "pose_basis", "speech_keys")}
-            poses = normalize_pose(z["poses"].astype(np.float32) / 32767.0).astype(np.float32)
-            clip_starts = z["clip_starts"].astype(np.int64)
+        z = load_npz(p, "matching database")  # sizes checked before anything is inflated (zip bombs)
+        meta = loads_json(str(z["meta"]))
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT or meta.get("version") != VERSION:
+            raise DatabaseError(f"{p} is not a version-{VERSION} {FORMAT} file: rebuild it with {_rebuild(p)}")
+        f32 = {k: z[k].astype(np.float32) for k in ("frame_style", "take_style", "audio_mean", "audio_basis",
+                                                     "feat_mean", "feat_std", "key_mean", "key_basis",
+                                                     "pose_mean", "pose_basis", "speech_keys")}
+        poses = normalize_pose(z.pop("poses").astype(np.float32) / 32767.0).astype(np.float32)
+        clip_starts = z["clip_starts"].astype(np.int64)
     except DatabaseError:
         raise
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error, json.JSONDecodeError) as exc:
-        # (a truncated or damaged zip raises BadZipFile or zlib.error, neither an OSError)
+    except InputFileError as exc:
+        raise DatabaseError(f"{p}: {exc.reason}; give a matching database built with {_rebuild(p)}") from None
+    except (OSError, ValueError, KeyError, TypeError) as exc:  # NpzError (damaged, foreign, a zip bomb), JSON, a missing array
         raise DatabaseError(f"{p} is not a readable matching database ({exc}): rebuild it with {_rebuild(p)}") from None
     if poses.ndim != 2 or poses.shape[1] != POSE_DIM or meta.get("segment") != SEGMENT or meta.get("stride") != STRIDE \
             or meta.get("blend") != BLEND or f32["audio_mean"].shape != (AUDIO_DIM,):
@@ -345,6 +369,16 @@ def pick_candidate(cost: np.ndarray, nxt: int, bonus: float, rng=None) -> int:
     return pick
 
 
+def continue_bonus(db: Database, nxt: int, speaking: float, bonus: float) -> float:
+    """The bonus of continuing the playing take with candidate ``nxt`` where the line speaks on
+    a ``speaking`` share of the frames from :data:`SPEECH_RUN` before the segment to its end:
+    ``bonus``, or 0 where the take falls silent while the line speaks on (:data:`SILENT_TAKE`,
+    :data:`SPEAKING_LINE`)."""
+    if nxt >= 0 and speaking >= SPEAKING_LINE and db.cand_speaking[nxt] < SILENT_TAKE:
+        return 0.0
+    return bonus
+
+
 def segment_frames(db: Database, j: int, length: int, source=None) -> np.ndarray:
     """The database's frames ``j`` on, ``length`` and :data:`BLEND` more; cross-faded over
     the first BLEND from ``source`` (what the motion continues with) when one is given."""
@@ -393,6 +427,7 @@ def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None 
         static -= (2.0 * weight * target) @ db.cand_style_t
     styled = (weight >= W_STYLE).any(1) if W_STYLE > 0 else np.zeros(len(starts), bool)
     pose_mask = np.asarray(arrays.pose_mask) > 0.5
+    speaking = np.asarray(ids)[:n] > 0
     rng = np.random.default_rng((0x4D42, int(seed)))
     out = np.zeros((n + SEGMENT + BLEND, POSE_DIM), np.float32)
 
@@ -405,6 +440,7 @@ def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None 
         prev = entry_state(db, sp[-2] if len(sp) > 1 else sp[-1], sp[-1])
     s = 0
     for t, length, held in pieces:
+        cancel.check()
         if held:  # hold the pose the speaker paused in, with a share of the take's continuation
             anchor = out[t - 1]
             if pos is not None:
@@ -428,7 +464,9 @@ def match(db: Database, audio, ids, onsets, arrays, seed: int, take: int | None 
             cost = cost + W_CONTROL * (d * d).sum(1)
         nxt = -1 if cur is None else int(db.next_cand[cur])
         first = s == 0 and tail is None  # the first segment: one of the best few, by the seed
-        pick = pick_candidate(cost, nxt, CONTINUE_BONUS_STYLED if styled[s] else CONTINUE_BONUS, rng if first else None)
+        bonus = continue_bonus(db, nxt, float(speaking[max(0, t - SPEECH_RUN) : t + length].mean()),
+                               CONTINUE_BONUS_STYLED if styled[s] else CONTINUE_BONUS)
+        pick = pick_candidate(cost, nxt, bonus, rng if first else None)
         j = int(db.cands[pick])
         source = tail if tail is not None else (db.poses[pos : pos + BLEND] if pos is not None else None)
         seg = segment_frames(db, j, length, source if pick != nxt else None)  # cross-faded from what the motion continues with
@@ -570,9 +608,8 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
     take = draw_take(db, take_posture.take_key(inputs, seed)) if opts.take_posture else None
-    a = postprocess.seeded_controls(inputs)
-    raw = match(db, audio, ids, onsets, a, seed, take, getattr(inputs, "start_poses", None),
-                postprocess.pause_frames(inputs.words, n))
+    a = inputs.arrays
+    raw = match(db, audio, ids, onsets, a, seed, take, pauses=postprocess.pause_frames(inputs.words, n))
     return finish(raw, a, smoothing=opts.smoothing, blend=opts.blend, ramp=opts.ramp, words=inputs.words)
 
 

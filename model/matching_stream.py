@@ -11,7 +11,8 @@ stream keeps that lookahead and gives the search what is known when a segment st
   keys are a PCA of whole windows, so each candidate's known part is read back from its key;
   chosen by measurement over rescaling it or estimating the whole key from the known part,
   docs/serve.md);
-- the **entry**, **style** and **continue-bonus** terms, the first segment drawn among the best
+- the **entry**, **style** and **continue-bonus** terms (no bonus for a take falling silent
+  while the line speaks on, up to the segment's known frames: :func:`~model.matching.continue_bonus`), the first segment drawn among the best
   by the seed, the **cross-fade** of a new take from the old one's continuation and the in-engine
   **pause hold** are :func:`~model.matching.match`'s, frame by frame (a pause is known when its
   first frame is decided: the stream knows 0.467 s of silence, more than ``PAUSE_MIN_S``);
@@ -48,10 +49,12 @@ from model.matching import (
     FEATURE_WEIGHTS,
     ONE_EURO_MIN_CUTOFF,
     SEGMENT,
+    SPEECH_RUN,
     W_SPEECH,
     W_STYLE,
     W_TAKE_STYLE,
     Database,
+    continue_bonus,
     draw_take,
     entry_cost,
     entry_state,
@@ -180,7 +183,10 @@ class MatchingStreamGenerator(StreamBase):
             cost += entry_cost(db, prev)
         nxt = -1 if cur < 0 else int(db.next_cand[cur])
         first = self.segments == 0 and tail is None  # the first segment: one of the best few, by the seed
-        pick = pick_candidate(cost, nxt, self.bonus, self.rng if first else None)
+        run = max(0, t - SPEECH_RUN)  # the speech run before the segment and its known frames
+        ids, _ = word_features(self._recent_words(run), t + STEP + LOOKAHEAD - run)
+        bonus = continue_bonus(db, nxt, float((ids > 0).mean()), self.bonus)
+        pick = pick_candidate(cost, nxt, bonus, self.rng if first else None)
         j = int(db.cands[pick])
         source = tail if tail is not None else (db.poses[pos : pos + BLEND] if pos is not None else None)
         seg = segment_frames(db, j, SEGMENT, source if pick != nxt else None)  # cross-faded from what the motion continues with

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core import cancel
 from core.controls import network_pose_controls
 from core.skeleton import POSE_DIM
 from model import postprocess, take_posture
@@ -76,6 +77,7 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
     fade = _fade_weights(overlap)
     start = 0
     while True:
+        cancel.check()
         end = min(start + WINDOW, t_count)
         pose = arrays.pose[start:end].copy()
         mask = network_pose_controls(pose, arrays.pose_mask[start:end], None if arrays.bone_mask is None
@@ -106,7 +108,7 @@ def generate(inputs, *, seed: int = 0, options: Options | None = None) -> np.nda
     use_threads(opts.threads)
     n = inputs.n_frames
     audio, ids, onsets = speech_inputs(inputs, n)
-    arrays = postprocess.seeded_controls(inputs)
+    arrays = inputs.arrays
     raw = network_motion(model, audio, ids, onsets, arrays, seed, take_posture.take_key(inputs, seed), opts.take_posture,
                          take_posture.drift_start(inputs.words), inputs.words)
     return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=opts.smoothing,

@@ -18,11 +18,11 @@ All work on poses (T, 27) of unit bone directions and return renormalised poses.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 
+from core import cancel
 from core.easing import smoothstep
 from core.skeleton import FPS, N_BONES, normalize_pose
 from model.style import load_stats, raw_style, window_mean
@@ -67,6 +67,8 @@ def one_euro(poses: np.ndarray, min_cutoff: float = ONE_EURO_MIN_CUTOFF, beta: f
         dx_prev, first = np.zeros(x.shape[1]), 1
     a_d = alpha(d_cutoff)
     for i in range(first, len(x)):
+        if not i % cancel.EVERY:
+            cancel.check()
         dx = (x[i] - prev) * fps
         dx_hat = a_d * dx + (1 - a_d) * dx_prev
         cutoff = min_cutoff + beta * np.abs(dx_hat)
@@ -378,23 +380,3 @@ def hold_pose(poses: np.ndarray, target: np.ndarray, weight: np.ndarray) -> np.n
     if on.any():
         out[on] = _nlerp(out[on], np.asarray(target, np.float32)[on], np.asarray(weight, np.float32)[on, None])
     return out
-
-
-def seeded_controls(inputs):
-    """The control arrays with ``inputs.start_poses`` (the track's poses where the utterance
-    starts) as pose controls on the first frames the user left free, for both engines: the
-    utterance starts where the speaker's track is (the blend then follows them exactly and
-    eases into the engine's motion)."""
-    start = getattr(inputs, "start_poses", None)
-    if start is None or not len(start):
-        return inputs.arrays
-    a = inputs.arrays
-    arrays = dataclasses.replace(a, pose=a.pose.copy(), pose_mask=a.pose_mask.copy(),
-                                 bone_mask=None if a.bone_mask is None else a.bone_mask.copy())
-    k = min(len(start), arrays.n_frames)
-    free = arrays.pose_mask[:k] < 0.5
-    arrays.pose[:k][free] = np.asarray(start[:k], np.float32)[free]
-    arrays.pose_mask[:k][free] = 1.0
-    if arrays.bone_mask is not None:  # a seeded frame controls every bone
-        arrays.bone_mask[:k][free] = 1.0
-    return arrays

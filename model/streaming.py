@@ -33,6 +33,7 @@ import math
 
 import numpy as np
 
+from core import cancel
 from core.controls import STYLE_INDEX, STYLE_LIMIT, STYLE_NAMES
 from core.skeleton import FPS, POSE_DIM
 from core.words import TimedWord
@@ -154,6 +155,7 @@ class StreamBase:
         self.known = max(self.known, float(seconds))
         out = []
         while self.done + STEP + LOOKAHEAD <= self._ready_frames():
+            cancel.check()
             out.append(self._step(self.done + STEP + LOOKAHEAD))
         return self._emit(out)
 
@@ -162,6 +164,7 @@ class StreamBase:
         total = max(self.done, int(math.ceil((max(self.known, self.last_word_end) + TAIL) * FPS - 1e-6)))
         out = []
         while self.done < total:
+            cancel.check()
             out.append(self._step(total, final=True))
         self.finished = True
         return self._emit(out)

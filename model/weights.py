@@ -17,12 +17,15 @@ from __future__ import annotations
 
 import hashlib
 import io
+import struct
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from core.controls import CONTROL_LAYOUT, STYLE_NAMES
 from core.fileio import atomic_write
+from core.reading import InputFileError, read_bytes
 from core.skeleton import FPS, JOINTS, POSE_DIM
 from model.features import AUDIO_DIM, AUDIO_FEATURES, N_MELS, SAMPLE_RATE, WORD_BUCKETS
 from model.style import STATS_PATH, load_stats
@@ -178,7 +181,7 @@ def set_takes(path: Path | str, takes: Takes) -> None:
 
 def file_hash(path: Path | str) -> str:
     """SHA-256 of a weights file (what an ONNX export records to show which weights it holds)."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return hashlib.sha256(read_bytes(path, "weights")).hexdigest()
 
 
 def load_weights(path: Path | str | None = None, kind: str | None = "neural"):
@@ -213,11 +216,34 @@ def _read(path: Path, kind: str | None = "neural") -> dict:
     fix = fix_for(kind or "neural")
     if not path.exists():
         raise WeightsError(f"generator weights not found: {path}; {fix}")
+    try:  # bounded, and a FIFO or a device refused unread
+        data = read_bytes(path, "weights")
+    except InputFileError as exc:
+        raise WeightsError(f"cannot read generator weights {path}: {exc.reason}; {fix}") from None
+    except OSError as exc:
+        raise WeightsError(f"cannot read generator weights {path}: {exc.strerror or exc}; {fix}") from None
+    why = not_torch_archive(data)  # stored entries only: torch.load's memory is bounded by the file's size
+    if why:
+        raise WeightsError(f"cannot read generator weights {path}: {why}; {fix}")
     try:
-        blob = torch.load(str(path), map_location="cpu", weights_only=True)
+        blob = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - torch.load raises a dozen unrelated types on damaged files (UnpicklingError,
         # RuntimeError, EOFError, UnicodeDecodeError, IndexError, struct.error, KeyError, AssertionError...: measured on
         # truncated and mutated files); only torch.load is inside, and the error is reported with its type, not hidden
         raise WeightsError(f"cannot read generator weights {path}: {exc.__class__.__name__}; the file is corrupt. {fix}") from None
     check_info(path, blob, kind)
     return blob
+
+
+def not_torch_archive(data: bytes) -> str | None:
+    """Why ``data`` is not the archive ``torch.save`` writes (a zip whose entries are stored
+    uncompressed, one of them ``data.pkl``), or None."""
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as z:
+            entries = z.infolist()
+    except (zipfile.BadZipFile, ValueError, struct.error):
+        return "not a zip archive: it may be truncated" if data else "the file is empty"
+    if not any(e.filename.endswith("/data.pkl") or e.filename == "data.pkl" for e in entries):
+        return "no data.pkl in its archive"
+    squeezed = next((e.filename for e in entries if e.compress_type != zipfile.ZIP_STORED or e.file_size != e.compress_size), None)
+    return f"its entry {squeezed} is compressed; torch.save stores every entry as it is" if squeezed else None

@@ -7,11 +7,16 @@ decorated (:mod:`renders.overlay`), mapped to one shared palette and streamed in
 Every output is written with :func:`core.fileio.atomic_write`.
 
 Each clip's face (``clip.face``, :class:`core.face.FaceTrack`) moves the mannequin's face (lip sync,
-blinks, gaze); a clip without one shows a resting face.
+blinks, gaze); a clip without one shows a resting face. ``face_inset`` (``auto``, ``on``, ``off``;
+:mod:`renders.face_closeup`) draws a close-up of the head in each picture's top right corner,
+framed in the body's colour: by default wherever the head is drawn too small for its face to read
+(at 320 px, the default size, it is about 50 pixels tall).
 
 Panels side by side are told apart by a label each (the speaker's name, or A/B for a
 comparison) and, given ``tints``, by the colour of the mannequin's body; the label's box is
-drawn in a dark shade of the same colour (:func:`label_color`).
+drawn in a dark shade of the same colour (:func:`label_color`), at the left under the spoken
+word's band (:func:`renders.overlay.label_layout`: never over the word), cut short before the
+face's close-up.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from core.hands import hand_positions
 from core.motion import MotionClip
 from core.skeleton import FPS, seconds_to_frame
 from renders import overlay
+from renders.face_closeup import FaceInset, inset_side
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
 from renders.mannequin import BODY, DEFAULT_VIEW, FaceFrames, Mannequin
 from renders.video import write_mp4
@@ -48,45 +54,42 @@ def label_color(tint) -> tuple[int, int, int]:
     return tuple(int(round(255 * v)) for v in srgb)
 
 
-def draw_label(image, label: str, color) -> None:
-    """``label`` in white on a box of ``color`` in the top-left corner of PIL ``image`` (the
-    place and size of :func:`renders.overlay.draw_label`)."""
-    from PIL import ImageDraw
-
-    d = ImageDraw.Draw(image)
-    s = overlay.scale(*image.size)
-    f = overlay.font(max(8, round(12 * s)), bold=True)
-    pad = max(1, round(4 * s))
-    y = max(1, round(4 * s))
-    box = d.textbbox((pad * 2, y + pad), label, font=f, anchor="lt")
-    d.rectangle([box[0] - pad, y, box[2] + pad, box[3] + pad], fill=tuple(color))
-    d.text((pad * 2, y + pad), label, font=f, fill=overlay.WHITE, anchor="lt")
-
-
 class _Panel:
-    """One clip drawn into a width x height panel, from one view, in one tint, with its overlays."""
+    """One clip drawn into a width x height panel, from one view, in one tint, with its overlays
+    and, given an ``inset`` (:class:`renders.face_closeup.FaceInset`), a close-up of its face."""
 
     def __init__(self, mannequin, clip: MotionClip, label: str | None, *, view: str = DEFAULT_VIEW,
-                 tint=BODY) -> None:
+                 tint=BODY, inset: FaceInset | None = None) -> None:
         self.m = mannequin
         self.clip = clip
         self.label = label
         self.view = view
         self.tint = tuple(tint)
+        self.inset = inset
         self.hands = hand_positions(clip.positions, clip.hands)
         self.face = FaceFrames(clip.face) if clip.face is not None else None
 
-    def image(self, frame: int, **kw):
-        from PIL import Image
+    def image(self, frame: int, *, word: bool = True, legend: bool = True):
+        from PIL import Image, ImageDraw
 
         f = min(frame, self.clip.n_frames - 1)
         face = self.face[f] if self.face is not None else None
         img = Image.fromarray(self.m.render(self.clip.positions[f], self.hands[f], view=self.view, tint=self.tint,
                                             face=face))
-        overlay.decorate(img, f, self.clip, **kw)
+        overlay.decorate(img, f, self.clip, word=word, legend=legend)
+        if self.inset is not None:
+            self.inset.draw(img, self.m, self.clip.positions[f], self.hands[f], face, self.tint, label_color(self.tint))
         if self.label:
-            draw_label(img, self.label, label_color(self.tint))
+            overlay.draw_label(ImageDraw.Draw(img), img.width, img.height, self.label, color=label_color(self.tint),
+                               word=overlay.frame_word(self.clip.words, f) if word else None, right=self.label_end(img.width))
         return img
+
+    def label_end(self, width: int) -> float | None:
+        """Where the label must end: before the face's close-up (its frame, and a gap), if any."""
+        if self.inset is None:
+            return None
+        i = self.inset
+        return width - i.margin - i.side - i.border - max(2, i.border * 2)
 
 
 def _compose(panels, frame: int):
@@ -104,30 +107,38 @@ def _compose(panels, frame: int):
     return out
 
 
-def _panels(m, clip, compare, others, labels, view, tints) -> list[_Panel]:
+def _inset(mode: str, view: str, width: int, height: int) -> FaceInset | None:
+    """The face close-up for pictures of ``width`` x ``height`` from ``view`` (None: none)."""
+    side = inset_side(mode, view, width, height)
+    return FaceInset(side, width, height) if side else None
+
+
+def _panels(m, clip, compare, others, labels, view, tints, inset=None) -> list[_Panel]:
     clips = [clip] + ([compare] if compare is not None else []) + list(others)
     if labels is None and len(clips) > 1:
         labels = tuple("ABCDEFGHIJ"[i % 10] for i in range(len(clips)))
     tints = list(tints) if tints is not None else [BODY] * len(clips)
     if len(tints) != len(clips):
         raise ValueError(f"{len(tints)} tints for {len(clips)} panels")
-    return [_Panel(m, c, labels[i] if labels else None, view=view, tint=tints[i]) for i, c in enumerate(clips)]
+    return [_Panel(m, c, labels[i] if labels else None, view=view, tint=tints[i], inset=inset) for i, c in enumerate(clips)]
 
 
 def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip | None = None,
                labels: tuple[str, ...] | None = None, progress=None, mannequin=None, others=(),
-               view: str = DEFAULT_VIEW, tints=None) -> dict:
+               view: str = DEFAULT_VIEW, tints=None, face_inset: str = "auto") -> dict:
     """Render ``clip`` (and, side by side, ``compare`` and ``others``, each with its label and,
     with ``tints``, its body colour) to a looping 15 fps GIF at ``path``, seen from ``view``
-    (:data:`renders.mannequin.VIEWS`).
+    (:data:`renders.mannequin.VIEWS`), with the face's close-up as ``face_inset`` says
+    (:data:`renders.face_closeup.INSET_MODES`).
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform.
     """
     width, height = size
     own = mannequin is None
+    inset = _inset(face_inset, view, width, height)
     m = mannequin or Mannequin(width, height)
     try:
-        panels = _panels(m, clip, compare, others, labels, view, tints)
+        panels = _panels(m, clip, compare, others, labels, view, tints, inset)
         n = max(p.clip.n_frames for p in panels)
         samples = {f: _compose(panels, f) for f in _sample_frames(n, PALETTE_SAMPLES)}  # kept: a few frames
         palette, pimg = build_palette(samples.values(), overlay.FIXED_COLORS)
@@ -150,18 +161,19 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
 
 def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, audio=None,
                sample_rate: int | None = None, size=DEFAULT_SIZE, progress=None, mannequin=None,
-               view: str = DEFAULT_VIEW, tints=None) -> dict:
+               view: str = DEFAULT_VIEW, tints=None, face_inset: str = "auto") -> dict:
     """Render ``clips`` side by side (each with its label and tint) to a 15 fps H.264 MP4 at
-    ``path``, seen from ``view``, with ``audio`` (mono, sample 0 with frame 0;
-    :mod:`renders.audio_mix`) as its AAC track.
+    ``path``, seen from ``view``, with the face's close-up as ``face_inset`` says and
+    ``audio`` (mono, sample 0 with frame 0; :mod:`renders.audio_mix`) as its AAC track.
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform, audio_s.
     """
     width, height = size
     own = mannequin is None
+    inset = _inset(face_inset, view, width, height)
     m = mannequin or Mannequin(width, height)
     try:
-        panels = _panels(m, clips[0], None, clips[1:], labels, view, tints)
+        panels = _panels(m, clips[0], None, clips[1:], labels, view, tints, inset)
         n = max(p.clip.n_frames for p in panels)
         info = write_mp4(path, (np.asarray(_compose(panels, f)) for f in range(n)), audio=audio, sample_rate=sample_rate,
                          n_frames=n, progress=progress)
@@ -246,7 +258,7 @@ def _sheet_items(clip: MotionClip, at: str, n_samples: int):
         return items, f"{n} gesture{'s' if n != 1 else ''}"
     items = []
     for f in sheet_frames(clip.n_frames, n_samples):
-        word = overlay.word_at(clip.words, (f + 0.5) / FPS)
+        word = overlay.frame_word(clip.words, f)
         playing = [gesture_label(c) for c in strokes if c.start_frame <= f < c.end_frame]
         items.append((f, playing[0] if playing else None, word, [(word or "—", True, not word),
                                                                  (", ".join(playing), False, False),
@@ -280,23 +292,16 @@ def sheet_layout(width: int, height: int, counts: list[int], columns: int = SHEE
             "size": (cols * width, y), "pad": pad, "fonts": fonts, "caption_lines": centres}
 
 
-def _fit(draw, text: str, font, width: float) -> str:
-    if draw.textlength(text, font=font) <= width:
-        return text
-    while len(text) > 1 and draw.textlength(text + "…", font=font) > width:
-        text = text[:-1]
-    return text + "…"
-
-
 def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, size=DEFAULT_SIZE,
                  at: str = "strokes", view: str = DEFAULT_VIEW, tints=None, columns: int = SHEET_COLUMNS,
-                 n_samples: int = SHEET_FRAMES, title: str | None = None, mannequin=None) -> dict:
+                 n_samples: int = SHEET_FRAMES, title: str | None = None, mannequin=None, face_inset: str = "auto") -> dict:
     """A PNG contact sheet of ``clips`` (one row per clip: a speaker's track, or a take of a
     comparison), each row under a band with its label and tint, wrapped at ``columns``
     pictures a line. ``at="strokes"``: a picture at every pose control's stroke frame,
     captioned with the gesture, the word it marks and the frame; a row without pose controls
     falls back to ``n_samples`` evenly spaced frames, as ``at="even"`` does for every row
-    (captioned with the word spoken then and the gesture playing).
+    (captioned with the word spoken then and the gesture playing). Each picture has the face's
+    close-up as ``face_inset`` says.
 
     Returns frames (every picture's, row by row), panels (:class:`SheetPanel`), width,
     height and platform.
@@ -312,6 +317,7 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
     rows = [_sheet_items(c, at, n_samples) for c in clips]
     lay = sheet_layout(width, height, [len(items) for items, _ in rows], columns)
     own = mannequin is None
+    inset = _inset(face_inset, view, width, height)
     m = mannequin or Mannequin(width, height)
     try:
         sheet = Image.new("RGB", lay["size"], overlay.WHITE)
@@ -320,7 +326,7 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
         if title is None:
             title = " / ".join(c.text for c in clips if c.text) or "(no text)"
         tf = overlay.font(big, bold=True)
-        d.text((pad, lay["title"] / 2), _fit(d, title, tf, lay["size"][0] - 2 * pad), font=tf, fill=overlay.INK,
+        d.text((pad, lay["title"] / 2), overlay.fit(title, tf, lay["size"][0] - 2 * pad), font=tf, fill=overlay.INK,
                anchor="lm")
         panels: list[SheetPanel] = []
         for r, (clip, (items, note)) in enumerate(zip(clips, rows)):
@@ -335,9 +341,9 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
             d.rectangle([x, top + 2, chip[2] + pad, top + bh - 3], fill=color)
             d.text((x + pad, top + bh / 2), labels[r], font=nf, fill=overlay.WHITE, anchor="lm")
             x = chip[2] + 2 * pad
-            d.text((x, top + bh / 2), _fit(d, note, overlay.font(small), lay["size"][0] - x - pad),
+            d.text((x, top + bh / 2), overlay.fit(note, overlay.font(small), lay["size"][0] - x - pad),
                    font=overlay.font(small), fill=overlay.SOFT_INK, anchor="lm")
-            panel = _Panel(m, clip, None, view=view, tint=tints[r])
+            panel = _Panel(m, clip, None, view=view, tint=tints[r], inset=inset)
             for k, (f, gesture, word, caption) in enumerate(items):
                 line, c = divmod(k, lay["cols"])
                 x = c * width
@@ -350,7 +356,7 @@ def render_sheet(clips: list[MotionClip], path, *, labels: tuple[str, ...] | Non
                         continue
                     size_px = (big, mid, small)[i]
                     font = overlay.font(size_px, bold=bold)
-                    text = _fit(d, text, font, width - 2 * pad)
+                    text = overlay.fit(text, font, width - 2 * pad)
                     centre = (x + width / 2, cy + lay["caption_lines"][i])
                     fill = overlay.SOFT_INK if dim else overlay.INK
                     d.text(centre, text, font=font, fill=fill, anchor="mm")

@@ -10,22 +10,26 @@ character's own left, so ``eyeBlinkLeft`` closes the eye on +x. Every part is a 
 own frame (:func:`part_meshes`) moved by an affine map per frame (:func:`part_transforms`):
 
 - eyes: a white ball each, a dark pupil that turns with the gaze (yaw towards the character's
-  left, pitch up, degrees; :data:`GAZE_GAIN` times for the picture);
+  left, pitch up, degrees; :data:`GAZE_GAIN` times for the picture) and shrinks as the eye widens;
 - eyelids: an upper lid per eye, an ellipsoid that grows down over the ball as the eye closes
-  (``eyeBlink``, back up with ``eyeWide``), and a lower lid that rises as it squints
-  (``eyeSquint``, ``cheekSquint``);
-- brows: a bar per side whose inner end rises with ``browInnerUp``, outer end with
-  ``browOuterUp``, both lower with ``browDown``;
+  (``eyeBlink``) and as the brow lowers (``browDown``: a glare), up off it with ``eyeWide``, and a
+  lower lid that rises as it squints (``eyeSquint``, ``cheekSquint``: a smile's eyes);
+- brows: a bar per side, level at rest as the cameras see it (its outer end lower on the head,
+  where the forehead curves back), whose inner end rises with ``browInnerUp`` (a worried slant),
+  outer end with ``browOuterUp``, and whose inner end drops and draws in with ``browDown`` (a V);
 - mouth: a dark opening whose height follows ``jawOpen`` (and ``mouthLowerDown``,
-  ``mouthUpperUp``, ``mouthFunnel``; ``mouthClose``, ``mouthPress`` and ``mouthRoll`` close it)
-  and whose width narrows as it rounds (``mouthPucker``, ``mouthFunnel``) and widens as it
-  stretches or smiles; four lip bars from its middle to its corners, the corners up with a smile,
-  down with a frown, a tongue that comes out with ``tongueOut``;
+  ``mouthUpperUp``, ``mouthFunnel``, ``mouthStretch``; ``mouthClose``, ``mouthPress`` and
+  ``mouthRoll`` close it) and whose width narrows as it rounds (``mouthPucker``, ``mouthFunnel``)
+  or presses and widens as it stretches or smiles; four lip bars from its middle to its corners,
+  the corners up with a smile (a V), down with a frown or a stretch, a tongue that comes out with
+  ``tongueOut``;
 - a chin that drops with the jaw (``jawOpen``, ``jawForward``, ``jawLeft``/``Right``), cheeks that
   puff, a nose that sneers.
 
-The parts are sized to read at 320 px (a mouth 6 cm wide, eyes 5 cm): a mannequin's face, not
-a person's.
+The parts are sized and their movements scaled to read at 320 px, where the head is about 50
+pixels tall (a mouth 6 cm wide, eyes 5 cm, a smile that lifts the corners 2 cm, brows that rise
+2.4 cm): a mannequin's face, not a person's. ``docs/face_expressions.png``
+(:mod:`renders.face_sheet`) shows every expression at that size.
 """
 
 from __future__ import annotations
@@ -41,12 +45,12 @@ HEAD_RADII = (0.092, 0.112, 0.102)
 GAZE_GAIN = 1.5
 
 SKIN = (0.80, 0.62, 0.48)
-LID = (0.76, 0.57, 0.44)
+LID = (0.68, 0.48, 0.37)
 EYE_WHITE = (0.93, 0.93, 0.90)
 PUPIL = (0.08, 0.09, 0.12)
 BROW = (0.24, 0.16, 0.11)
 MOUTH = (0.13, 0.02, 0.03)
-LIP = (0.66, 0.26, 0.25)
+LIP = (0.55, 0.17, 0.16)
 TONGUE = (0.80, 0.36, 0.38)
 
 _EYE_R = 0.024  # eyeball radius
@@ -57,7 +61,15 @@ _LIP_R = 0.0050
 _MOUTH_Y = -0.054
 _MOUTH_HALF_WIDTH = 0.030
 _BROW_INNER, _BROW_OUTER = 0.013, 0.064  # x of the brow's ends
-_BROW_Y = 0.064
+_BROW_Y = 0.070  # the inner end's height at rest
+_BROW_DROP = 0.010  # the outer end this much lower at rest
+_BROW_INNER_UP, _BROW_OUTER_UP = 0.024, 0.020  # how far browInnerUp, browOuterUp raise the ends
+_BROW_DOWN, _BROW_OUTER_DOWN, _BROW_KNIT = 0.024, 0.004, 0.008  # browDown: the inner end down and in, the outer a little
+_LID_REST, _LID_LIFT = 0.14, 0.008  # the upper lid's height at rest; how far eyeWide lifts it off the ball
+_LID_BROW_DOWN, _LOWER_LID_SQUINT = 0.30, 0.70  # how far browDown brings the upper lid down, a squint the lower lid up
+_PUPIL_WIDE = 0.25  # a wide eye's pupil this much smaller
+_CORNER_REST, _CORNER_SMILE, _CORNER_FROWN = 0.001, 0.030, 0.020  # the mouth's corners above its middle
+_SMILE_LIFT = 0.33  # the share of a smile's rise that lifts the whole mouth (the rest: the corners above it)
 
 #: The parts, in draw order: (name, shape, colour, roughness). Shapes: ``sphere`` (a unit
 #: ball: its transform holds the radii) or ``capsule:R:H`` (a bar of radius R and half length H
@@ -86,6 +98,11 @@ def surface_z(x: float, y: float) -> float:
     """z of the head ellipsoid's front at (x, y)."""
     a, b, c = HEAD_RADII
     return c * float(np.sqrt(max(0.0, 1.0 - (x / a) ** 2 - (y / b) ** 2)))
+
+
+def _surface_slope(x: float, y: float) -> float:
+    """dz/dy of the head ellipsoid's front at (x, y), over the span the brows move (2 cm down to 2 up)."""
+    return (surface_z(x, y + 0.02) - surface_z(x, y - 0.02)) / 0.04
 
 
 # -- meshes --------------------------------------------------------------------------------
@@ -192,27 +209,38 @@ def part_transforms(weights, gaze, gaze_gain: float = 1.0) -> np.ndarray:
         right = np.stack([np.cos(yaw), np.zeros(n), -np.sin(yaw)], axis=-1)
         up = np.cross(fwd, right)
         rot = np.stack([right, up, fwd], axis=-1)
-        p = PART_INDEX["pupil_" + s]
-        m[:, p, :3, :3] = rot * np.array([0.52, 0.52, 0.2]) * _EYE_R
-        m[:, p, :3, 3] = eye + 0.84 * _EYE_R * fwd
-        # The upper lid covers the ball from the top down: its height s runs 0.12 (open) .. 1 (shut).
         blink, wide = _w(w, "eyeBlink" + side), _w(w, "eyeWide" + side)
-        squint = np.clip(_w(w, "eyeSquint" + side) + 0.5 * _w(w, "cheekSquint" + side), 0.0, 1.0)
-        h = np.clip(0.12 + 0.88 * blink - 0.10 * wide + 0.08 * squint, 0.02, 1.0)
-        lift = 0.006 * wide
+        squint = np.clip(_w(w, "eyeSquint" + side) + _w(w, "cheekSquint" + side), 0.0, 1.0)
+        p = PART_INDEX["pupil_" + s]  # smaller in a wide eye: more white round it
+        m[:, p, :3, :3] = rot * (np.array([0.52, 0.52, 0.2]) * _EYE_R) * (1 - _PUPIL_WIDE * wide)[:, None, None]
+        m[:, p, :3, 3] = eye + 0.84 * _EYE_R * fwd
+        # The upper lid covers the ball from the top down: its height h runs from _LID_REST (open)
+        # to 1 (shut), up off the ball as the eye widens, down over the pupil's top as the brow
+        # lowers (a glare); a squint raises the lower lid (a smile's eyes, and a frown's).
+        down = _w(w, "browDown" + side)
+        h = np.clip(_LID_REST + (1 - _LID_REST) * blink - _LID_REST * wide + 0.08 * squint + _LID_BROW_DOWN * down,
+                    0.02, 1.0)
+        lift = _LID_LIFT * wide
         centre = eye + np.stack([np.zeros(n), _LID_R * (1 - h) + lift, np.zeros(n)], axis=-1)
         _ellipsoids(m, PART_INDEX["lid_" + s], centre, np.stack([np.full(n, _LID_R), _LID_R * h, np.full(n, _LID_R)], -1))
-        lo = np.clip(0.10 + 0.40 * squint, 0.02, 1.0)
+        lo = np.clip(0.10 + _LOWER_LID_SQUINT * squint - 0.06 * wide, 0.02, 1.0)
         centre = eye - np.stack([np.zeros(n), _LID_R * (1 - lo), np.zeros(n)], axis=-1)
         _ellipsoids(m, PART_INDEX["lower_lid_" + s], centre,
                     np.stack([np.full(n, _LID_R), _LID_R * lo, np.full(n, _LID_R)], -1))
-        # Brows: inner and outer ends.
-        down, inner_up, outer_up = _w(w, "browDown" + side), _w(w, "browInnerUp"), _w(w, "browOuterUp" + side)
-        zi, zo = surface_z(_BROW_INNER, _BROW_Y) + 0.003, surface_z(_BROW_OUTER, _BROW_Y - 0.006) + 0.002
-        a = np.stack([sx * (_BROW_INNER - 0.004 * down), _BROW_Y + 0.014 * inner_up - 0.011 * down,
-                      zi + 0.004 * down], axis=-1)
-        b = np.stack([np.full(n, sx * _BROW_OUTER), _BROW_Y - 0.006 + 0.014 * outer_up - 0.005 * down,
-                      np.full(n, zo)], axis=-1)
+        # Brows: inner and outer ends. Level at rest (the outer end a little lower, as a brow's
+        # arch falls; seen from above it rises back); the inner end rises and falls the most, so
+        # a raise, a worried slant (inner up) and a frown (inner down and in: a V) differ by the
+        # bar's angle as well as its height.
+        inner_up, outer_up = _w(w, "browInnerUp"), _w(w, "browOuterUp" + side)
+        # Each end keeps to the forehead as it moves (z along the surface's slope there: linear in the weights).
+        dyi = _BROW_INNER_UP * inner_up - _BROW_DOWN * down
+        dyo = _BROW_OUTER_UP * outer_up - _BROW_OUTER_DOWN * down
+        a = np.stack([sx * (_BROW_INNER - _BROW_KNIT * down), _BROW_Y + dyi,
+                      surface_z(_BROW_INNER, _BROW_Y) + 0.003 + _surface_slope(_BROW_INNER, _BROW_Y) * dyi + 0.003 * down],
+                     axis=-1)
+        yo = _BROW_Y - _BROW_DROP
+        b = np.stack([np.full(n, sx * _BROW_OUTER), yo + dyo,
+                      surface_z(_BROW_OUTER, yo) + 0.002 + _surface_slope(_BROW_OUTER, yo) * dyo], axis=-1)
         _bars(m, PART_INDEX["brow_" + s], a, b, (_BROW_OUTER - _BROW_INNER) / 2)
     # The mouth: width, opening, where its middle is, its corners.
     jaw = _w(w, "jawOpen")
@@ -222,25 +250,31 @@ def part_transforms(weights, gaze, gaze_gain: float = 1.0) -> np.ndarray:
     closing = np.clip(_w(w, "mouthClose") + 0.5 * _w(w, "mouthPressLeft", "mouthPressRight")
                       + 0.5 * _w(w, "mouthRollLower", "mouthRollUpper"), 0.0, 1.0)
     upper_up, lower_down = _w(w, "mouthUpperUpLeft", "mouthUpperUpRight"), _w(w, "mouthLowerDownLeft", "mouthLowerDownRight")
-    half_w = _MOUTH_HALF_WIDTH * (1 + 0.30 * stretch + 0.20 * smile + 0.12 * _w(w, "mouthDimpleLeft", "mouthDimpleRight")
-                                  - 0.45 * pucker - 0.28 * funnel)
-    opening = 0.022 * jaw + 0.006 * lower_down + 0.005 * upper_up + 0.008 * funnel
+    press = _w(w, "mouthPressLeft", "mouthPressRight")
+    half_w = _MOUTH_HALF_WIDTH * (1 + 0.40 * stretch + 0.30 * smile + 0.12 * _w(w, "mouthDimpleLeft", "mouthDimpleRight")
+                                  - 0.45 * pucker - 0.28 * funnel - 0.15 * press)
+    opening = 0.022 * jaw + 0.006 * lower_down + 0.008 * upper_up + 0.008 * funnel + 0.010 * stretch
     half_h = np.maximum(0.0012, 0.0022 + opening * (1 - 0.85 * closing) - 0.0012 * closing)
     cx = 0.008 * (_w(w, "mouthLeft") - _w(w, "mouthRight")) + 0.006 * (_w(w, "jawLeft") - _w(w, "jawRight"))
-    cy = _MOUTH_Y - 0.008 * jaw + 0.002 * (upper_up - lower_down) + 0.003 * _w(w, "mouthShrugUpper")
+    # (a smile lifts the middle a third as far as the corners: a shallower V)
+    cy = (_MOUTH_Y - 0.008 * jaw + 0.008 * upper_up - 0.002 * lower_down + 0.003 * _w(w, "mouthShrugUpper")
+          + _SMILE_LIFT * _CORNER_SMILE * smile)
     cz = surface_z(0.0, _MOUTH_Y) - 0.004 + 0.007 * pucker + 0.004 * funnel + 0.006 * _w(w, "jawForward")
     centre = np.stack([cx, cy, cz], axis=-1)
-    _ellipsoids(m, PART_INDEX["mouth"], centre, np.stack([half_w, half_h, np.full(n, 0.009)], -1))
+    # The opening narrows as the corners rise (a smile), keeping inside the lips' V.
+    _ellipsoids(m, PART_INDEX["mouth"], centre, np.stack([half_w * (1 - 0.5 * smile), half_h, np.full(n, 0.009)], -1))
     tongue = _w(w, "tongueOut")
     _ellipsoids(m, PART_INDEX["tongue"], centre + np.stack([np.zeros(n), -0.5 * half_h, -0.012 + 0.028 * tongue], -1),
                 np.stack([np.full(n, 0.012), np.full(n, 0.005), np.full(n, 0.013)], -1))
     roll = _w(w, "mouthRollUpper"), _w(w, "mouthRollLower")
     shrug = _w(w, "mouthShrugUpper"), _w(w, "mouthShrugLower")
     for s, sx, side in sides:
-        corner_up = 0.012 * _w(w, "mouthSmile" + side) - 0.009 * _w(w, "mouthFrown" + side)
+        corner_up = (_CORNER_REST + (1 - _SMILE_LIFT) * _CORNER_SMILE * _w(w, "mouthSmile" + side)
+                     - _CORNER_FROWN * _w(w, "mouthFrown" + side)
+                     - 0.005 * _w(w, "mouthStretch" + side))
         corner = centre + np.stack([sx * half_w, corner_up, -0.004 * _w(w, "mouthDimple" + side)], axis=-1)
         for lip, sign, rolled, shrugged in (("upper", 1.0, roll[0], shrug[0]), ("lower", -1.0, roll[1], shrug[1])):
-            middle = centre + np.stack([np.zeros(n), sign * (half_h + 0.6 * _LIP_R) + 0.003 * shrugged,
+            middle = centre + np.stack([np.zeros(n), sign * (half_h + 0.6 * _LIP_R) + 0.005 * shrugged,
                                         0.004 - 0.004 * rolled], axis=-1)
             _bars(m, PART_INDEX[f"lip_{lip}_{s}"], middle, corner, _MOUTH_HALF_WIDTH / 2)
     # Chin, cheeks, nose.
@@ -252,8 +286,8 @@ def part_transforms(weights, gaze, gaze_gain: float = 1.0) -> np.ndarray:
         centre = np.stack([np.full(n, sx * 0.045), -0.028 + 0.006 * _w(w, "cheekSquint" + side), np.full(n, 0.045)], -1)
         _ellipsoids(m, PART_INDEX["cheek_" + s], centre, np.tile(0.028, (n, 3)) * (1 + 0.5 * puff)[:, None])
     sneer = _w(w, "noseSneerLeft", "noseSneerRight")
-    nose = np.stack([np.zeros(n), -0.012 + 0.005 * sneer, np.full(n, surface_z(0, -0.012) - 0.004)], -1)
-    _ellipsoids(m, PART_INDEX["nose"], nose, np.tile([0.016, 0.019, 0.026], (n, 1)) * (1 + [0.15, 0, 0] * sneer[:, None]))
+    nose = np.stack([np.zeros(n), -0.012 + 0.008 * sneer, np.full(n, surface_z(0, -0.012) - 0.004)], -1)
+    _ellipsoids(m, PART_INDEX["nose"], nose, np.tile([0.016, 0.019, 0.026], (n, 1)) * (1 + [0.30, 0, 0] * sneer[:, None]))
     return m
 
 

@@ -21,7 +21,9 @@ with it, so every view is lit alike:
 - ``front``: facing the character at eye height (its right hand on your left; depth is lost);
 - ``side``: its right side, the character facing the right of the picture (depth is left-right);
 - ``top``: from straight above, its front down the picture (its right hand on your left, as from
-  the front).
+  the front);
+- ``face``: a close-up of the head from the front, the camera following the head's centre
+  frame by frame (``View.on_head``), for the face's expressions.
 
 ``tint`` colours the body (clothes) of one render, to tell speakers apart (:data:`TINTS`).
 """
@@ -35,7 +37,7 @@ import numpy as np
 from core.face import FaceTrack
 from core.hands import DIGITS, HAND_JOINTS, SIDES, HandTrack, hand_positions, local_hand_joints
 from core.interrupts import interrupts_deferred
-from core.skeleton import BONE_LENGTHS
+from core.skeleton import BONE_LENGTHS, REST_POSE, positions_from_pose
 from core.skeleton import JOINT_INDEX as J
 from renders import face_rig, gl
 from renders.rotations import frame_from, shortest_arcs, transform
@@ -56,15 +58,22 @@ _JOINT_SHADE = np.array(JOINT_COLOR) / np.array(BODY)
 TARGET = np.array([0.0, 1.39, 0.0])
 DISTANCE = 2.95
 YFOV = 30.0
+#: The head's centre (:func:`renders.face_rig.head_frames`) in the rest pose: where a view
+#: ``on_head`` looks when no frame gives the head.
+HEAD_CENTRE = face_rig.head_frames(positions_from_pose(REST_POSE[None]))[1][0]
 
 
 @dataclass(frozen=True)
 class View:
     """A camera position: ``azimuth`` degrees round from the character's front towards its
-    right (-x; negative: towards its left), ``elevation`` degrees above the horizontal."""
+    right (-x; negative: towards its left), ``elevation`` degrees above the horizontal, ``distance``
+    metres from what it looks at: :data:`TARGET`, or with ``on_head`` the head's centre in each frame
+    (a close-up that follows the head; :data:`HEAD_CENTRE` where no frame says)."""
 
     azimuth: float
     elevation: float
+    distance: float = DISTANCE
+    on_head: bool = False
 
 
 VIEWS = {
@@ -74,6 +83,9 @@ VIEWS = {
     "top": View(0.0, 90.0),
 }
 DEFAULT_VIEW = "three-quarter"
+#: ``face``: a close-up of the head from the front, a little above, that follows the head; the
+#: head and chin fill about two thirds of the picture's height (0.40 m seen at 0.75 m).
+VIEWS["face"] = View(0.0, 6.0, distance=0.75, on_head=True)
 
 #: Lights (direction towards the light, colour, intensity) as seen from the camera of
 #: LIGHTS_VIEW; other views turn them with the camera.
@@ -140,18 +152,20 @@ def speaker_tint(index: int) -> tuple[float, float, float]:
     return TINTS[index % len(TINTS)]
 
 
-def camera_pose(view: str = DEFAULT_VIEW) -> np.ndarray:
-    """The camera's pose (4, 4) for ``view`` (a name of :data:`VIEWS`): it looks along its own -z."""
-    return _camera(VIEWS[view])
+def camera_pose(view: str = DEFAULT_VIEW, head=None) -> np.ndarray:
+    """The camera's pose (4, 4) for ``view`` (a name of :data:`VIEWS`): it looks along its own -z.
+    A view ``on_head`` looks at ``head`` (the head's centre, (3,); :data:`HEAD_CENTRE` when None)."""
+    return _camera(VIEWS[view], head)
 
 
-def _camera(v: View) -> np.ndarray:
+def _camera(v: View, head=None) -> np.ndarray:
     az, el = np.radians(v.azimuth), np.radians(v.elevation)
     # Front is +z; the character's right is -x.
     back = np.array([-np.sin(az) * np.cos(el), np.sin(el), np.cos(az) * np.cos(el)])
     # Straight above, "up" in the picture is the character's back (its front is down the picture).
     up = np.array([0.0, 1.0, 0.0]) if abs(back[1]) < 0.999 else np.array([np.sin(az), 0.0, -np.cos(az)])
-    return transform(_look_frame(back, up), TARGET + DISTANCE * back)
+    target = (HEAD_CENTRE if head is None else np.asarray(head, np.float64)) if v.on_head else TARGET
+    return transform(_look_frame(back, up), target + v.distance * back)
 
 
 def _look_frame(back: np.ndarray, up=np.array([0.0, 1.0, 0.0])) -> np.ndarray:
@@ -176,10 +190,11 @@ def projection(width: int, height: int) -> np.ndarray:
     return p
 
 
-def project(points: np.ndarray, width: int, height: int, view: str = DEFAULT_VIEW) -> np.ndarray:
+def project(points: np.ndarray, width: int, height: int, view: str = DEFAULT_VIEW, head=None) -> np.ndarray:
     """Pixel coordinates (..., 2) (x right, y down) of world ``points`` (..., 3) in a
-    ``width`` x ``height`` render from ``view``."""
-    cam = camera_pose(view)
+    ``width`` x ``height`` render from ``view`` (a view on the head: looking at ``head``, see
+    :func:`camera_pose`)."""
+    cam = camera_pose(view, head)
     p = np.asarray(points, np.float64)
     clip = np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1) @ (projection(width, height) @ np.linalg.inv(cam)).T
     ndc = clip[..., :2] / clip[..., 3:4]
@@ -363,10 +378,14 @@ class Mannequin:
         if view not in VIEWS:
             raise ValueError(f"unknown view '{view}': use {', '.join(VIEWS)}")
         self.pose(positions, hands, face)
-        if view not in self._cameras:
-            cam = camera_pose(view)
-            self._cameras[view] = (self._projection @ np.linalg.inv(cam), cam[:3, 3], _lights(VIEWS[view]))
-        vp, eye, lights = self._cameras[view]
+        if VIEWS[view].on_head:  # the camera follows the head's centre
+            cam = camera_pose(view, self._matrices[self._index["head"], :3, 3])
+            vp, eye, lights = self._projection @ np.linalg.inv(cam), cam[:3, 3], _lights(VIEWS[view])
+        else:
+            if view not in self._cameras:
+                cam = camera_pose(view)
+                self._cameras[view] = (self._projection @ np.linalg.inv(cam), cam[:3, 3], _lights(VIEWS[view]))
+            vp, eye, lights = self._cameras[view]
         self.scene = gl.Frame(self._matrices, self.materials(tint), vp, eye, lights, AMBIENT, BACKGROUND)
         # PyOpenGL drops exceptions raised inside its argument conversion, KeyboardInterrupt
         # included (a Ctrl-C landing there was lost and the render ran on): hold it for the frame.

@@ -1,9 +1,12 @@
-"""Overlays drawn with Pillow on every frame: spoken word, control timeline, playhead, time.
+"""Overlays drawn with Pillow on every frame: spoken word, control timeline, playhead, time, label.
 
 Layout (``s = min(width, height) / 320``): the current word centred at the top; at the
 bottom a thin timeline over the whole utterance with two lanes, pose controls in green
 (upper lane) and style controls in red (lower lane) as in SGToolkit's Fig. 3, pauses in
-grey, a dark playhead at the current frame, and the time in seconds above the lanes.
+grey, a dark playhead at the current frame, and the time in seconds above the lanes. A
+picture's label (a speaker's name, A/B of a comparison) sits at the left under the band the
+word's box can take (:func:`caption_bottom`), so that it never covers the word, whatever the
+word and the size; it is cut short (…) where it would run into ``right`` (the face's close-up).
 """
 
 from __future__ import annotations
@@ -84,6 +87,13 @@ def word_at(words, seconds: float) -> str | None:
     return None
 
 
+def frame_word(words, frame: int) -> str | None:
+    """The word frame ``frame`` is captioned with: the one being spoken at the frame's middle,
+    ``(frame + 0.5) / FPS`` (the first in ``words`` when two are), or None between words. The
+    page of ``sgt view`` has the same rule (``viewer/src/caption.js``)."""
+    return word_at(words, (frame + 0.5) / FPS)
+
+
 def draw_timeline(draw, width: int, height: int, frame: int, n_frames: int, controls, *, legend=True) -> None:
     g = timeline_geometry(width, height, n_frames)
     s = scale(width, height)
@@ -115,27 +125,83 @@ def draw_timeline(draw, width: int, height: int, frame: int, n_frames: int, cont
         draw.text((g.left + lw, ty), "style", font=small, fill=STYLE_RED, anchor="lb")
 
 
-def draw_word(draw, width: int, height: int, word: str | None) -> None:
-    if not word:
-        return
+def _word_style(width: int, height: int):
+    """(font, padding, top) of the spoken word's box."""
     s = scale(width, height)
-    f = font(max(9, round(22 * s)), bold=True)
-    pad = max(2, round(6 * s))
-    top = max(2, round(8 * s))
+    return font(max(9, round(22 * s)), bold=True), max(2, round(6 * s)), max(2, round(8 * s))
+
+
+def word_box(width: int, height: int, word: str | None) -> tuple[float, float, float, float] | None:
+    """The box :func:`draw_word` draws behind ``word`` (x0, y0, x1, y1, corners included), None
+    without a word."""
+    if not word:
+        return None
+    f, pad, top = _word_style(width, height)
+    x0, _, x1, y1 = f.getbbox(word, anchor="mt")
     cx = width / 2
-    box = draw.textbbox((cx, top + pad), word, font=f, anchor="mt")
-    draw.rounded_rectangle([box[0] - pad, top, box[2] + pad, box[3] + pad], radius=pad, fill=WHITE)
-    draw.text((cx, top + pad), word, font=f, fill=INK, anchor="mt")
+    return (cx + x0 - pad, top, cx + x1 + pad, top + pad + y1 + pad)
 
 
-def draw_label(draw, width: int, height: int, label: str) -> None:
+def caption_bottom(width: int, height: int) -> int:
+    """The lowest row the spoken word's box takes for any word the font's ascent and descent
+    hold: what is drawn below it never meets the word."""
+    f, pad, top = _word_style(width, height)
+    ascent, descent = f.getmetrics()
+    return top + pad + ascent + descent + pad
+
+
+def draw_word(draw, width: int, height: int, word: str | None) -> None:
+    box = word_box(width, height, word)
+    if box is None:
+        return
+    f, pad, top = _word_style(width, height)
+    draw.rounded_rectangle(box, radius=pad, fill=WHITE)
+    draw.text((width / 2, top + pad), word, font=f, fill=INK, anchor="mt")
+
+
+def fit(text: str, font, width: float) -> str:
+    """``text``, cut short with "…" to take at most ``width`` pixels in ``font``."""
+    if font.getlength(text) <= width:
+        return text
+    while len(text) > 1 and font.getlength(text + "…") > width:
+        text = text[:-1]
+    return text + "…"
+
+
+@dataclass(frozen=True)
+class Label:
+    """Where a picture's label goes: its ``text`` (cut short to fit), drawn from ``origin`` (its
+    left top) in ``font`` on ``box`` (x0, y0, x1, y1, corners included)."""
+
+    text: str
+    box: tuple[float, float, float, float]
+    origin: tuple[float, float]
+    font: object
+
+
+def label_layout(width: int, height: int, label: str, *, word: str | None = None, right: float | None = None) -> Label:
+    """The label of a ``width`` x ``height`` picture: at the left, under :func:`caption_bottom`
+    (under ``word``'s own box too, should a glyph of it reach lower), ending before ``right``
+    (default: as far from the right edge as it is from the left)."""
     s = scale(width, height)
     f = font(max(8, round(12 * s)), bold=True)
     pad = max(1, round(4 * s))
-    y = max(1, round(4 * s))
-    box = draw.textbbox((pad * 2, y + pad), label, font=f, anchor="lt")
-    draw.rectangle([box[0] - pad, y, box[2] + pad, box[3] + pad], fill=INK)
-    draw.text((pad * 2, y + pad), label, font=f, fill=WHITE, anchor="lt")
+    box = word_box(width, height, word)
+    y = max(caption_bottom(width, height), box[3] + 1 if box else 0) + max(2, round(4 * s))
+    x = 2 * pad
+    end = width - pad if right is None else right
+    text = fit(label, f, max(1, end - 1 - pad - x))
+    x0, _, x1, y1 = f.getbbox(text, anchor="lt")
+    return Label(text, (x + x0 - pad, y, x + x1 + pad, y + pad + y1 + pad), (x, y + pad), f)
+
+
+def draw_label(draw, width: int, height: int, label: str, *, color=INK, word: str | None = None,
+               right: float | None = None) -> Label:
+    """``label`` in white on a box of ``color`` where :func:`label_layout` puts it; returns its layout."""
+    at = label_layout(width, height, label, word=word, right=right)
+    draw.rectangle(at.box, fill=tuple(color))
+    draw.text(at.origin, at.text, font=at.font, fill=WHITE, anchor="lt")
+    return at
 
 
 def decorate(image, frame: int, clip, *, label: str | None = None, word: bool = True, legend: bool = True):
@@ -146,9 +212,9 @@ def decorate(image, frame: int, clip, *, label: str | None = None, word: bool = 
     w, h = image.size
     n = clip.n_frames
     f = min(frame, n - 1)
-    if word:
-        draw_word(d, w, h, word_at(clip.words, (f + 0.5) / FPS))
+    spoken = frame_word(clip.words, f) if word else None
+    draw_word(d, w, h, spoken)
     draw_timeline(d, w, h, f, n, clip.controls, legend=legend)
     if label:
-        draw_label(d, w, h, label)
+        draw_label(d, w, h, label, word=spoken)
     return image

@@ -3,7 +3,9 @@ text output and its before/after renders. What changed is :mod:`dsl.diff`'s."""
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,36 +39,41 @@ class Pair:
     new_path: Path
 
 
-def pairs_for(args: list[str]) -> list[Pair]:
-    """The script versions ``sgt diff ARGS`` compares (see its --help)."""
-    if "--" in args:
-        at = args.index("--")
-        head, paths = args[:at], args[at + 1 :]
-    else:
-        head, paths = args, []
-    if len(head) == 7 and not paths and _looks_like_git_external(head):
-        return [_external(head)]
-    if len(head) == 2 and not paths and all(os.path.exists(a) for a in head):
-        a, b = map(Path, head)
-        if a.is_dir() and b.is_dir():
-            return _folders(a, b)
-        if a.is_dir() or b.is_dir():
-            raise DiffInputError(f"compare two files or two folders, not a file and a folder ({head[0]}, {head[1]})", usage=True)
-        return [Pair(_read(a), _read(b), str(a), str(b), a, b)]
+def pairs_for(head: list[str], paths: list[str] | None = None) -> list[Pair]:
+    """The script versions ``sgt diff HEAD... -- PATHS...`` compares (see its --help): ``head``
+    the arguments before ``--``, ``paths`` those after it (None: there was no ``--``). As in
+    ``git diff``, everything after ``--`` is a path; one that exists in neither version is an
+    error, which says that options go before ``--``."""
+    if paths is None:
+        if len(head) == 7 and _looks_like_git_external(head):
+            return [_external(head)]
+        if len(head) == 2 and all(os.path.exists(a) for a in head):
+            a, b = map(Path, head)
+            if a.is_dir() and b.is_dir():
+                return _folders(a, b)
+            if a.is_dir() or b.is_dir():
+                raise DiffInputError(f"compare two files or two folders, not a file and a folder "
+                                     f"({quoted(head[0])}, {quoted(head[1])})", usage=True)
+            return [Pair(_read(a), _read(b), str(a), str(b), a, b)]
     if not head:
         raise DiffInputError("give two scripts, or a git revision (sgt diff HEAD~1 FILE, sgt diff A..B -- PATHS)", usage=True)
     rev = head[0]
     git = Git.here()
     if git is None:
         missing = [a for a in head if not os.path.exists(a)]
-        raise DiffInputError(f"{missing[0] if missing else head[0]}: no such file, and not in a git repository "
+        raise DiffInputError(f"{quoted(missing[0] if missing else head[0])}: no such file, and not in a git repository "
                              f"(for a revision)", usage=True)
     if ".." in rev:
         old_rev, new_rev = git.range(rev)
-        return git.changed(old_rev, new_rev, head[1:] + paths)
-    if not git.is_revision(rev):
-        raise DiffInputError(f"{rev}: no such file, and not a git revision", usage=True)
-    return git.changed(rev, None, head[1:] + paths)
+    elif git.is_revision(rev):
+        old_rev, new_rev = rev, None
+    else:
+        raise DiffInputError(f"{quoted(rev)}: no such file, and not a git revision", usage=True)
+    for path in head[1:]:
+        git.check_path(path, old_rev, new_rev, after_dashes=False)
+    for path in paths or ():
+        git.check_path(path, old_rev, new_rev, after_dashes=True)
+    return git.changed(old_rev, new_rev, head[1:] + (paths or []))
 
 
 def _read(path: Path) -> str:
@@ -75,7 +82,7 @@ def _read(path: Path) -> str:
     try:
         data = read_bytes(path, "script")
     except OSError as exc:
-        raise DiffInputError(f"{path}: {getattr(exc, 'reason', None) or exc.strerror or exc}") from None
+        raise DiffInputError(f"{quoted(str(path))}: {getattr(exc, 'reason', None) or exc.strerror or exc}") from None
     return data.decode("utf-8-sig", "replace")
 
 
@@ -129,13 +136,35 @@ class Git:
             a = r.stdout.strip()
         return a, b
 
+    def check_path(self, path: str, old: str, new: str | None, *, after_dashes: bool) -> None:
+        """Refuse a path that is in neither version (``new`` None: the working tree), as one
+        line that names it; after ``--`` it may be an option put in the wrong place. A
+        pathspec git expands (``*.sgt``, ``:(glob)...``) and a path outside the repository are
+        left to git."""
+        rel = os.path.relpath(os.path.abspath(path), self.top)
+        if any(c in path for c in "*?[") or path.startswith(":") or rel == ".." or rel.startswith(".." + os.sep):
+            return
+        if (new is None and os.path.lexists(path)) or self.exists(old, rel) or (new is not None and self.exists(new, rel)):
+            return
+        where = f"{old} or {new}" if new is not None else f"{old} or the working tree"
+        hint = ("; everything after '--' is a path: put options before '--' (sgt diff --format json A..B -- PATHS)"
+                if after_dashes else "")
+        raise DiffInputError(f"{quoted(path)}: no such file or folder in {where}{hint}", usage=True)
+
+    def exists(self, rev: str, rel: str) -> bool:
+        """Whether ``rel`` (a file or a folder, from the top) is in revision ``rev``."""
+        if rel == ".":
+            return True
+        r = _git(["cat-file", "-e", f"{rev}:{Path(rel).as_posix()}"], self.top)
+        return r is not None and r.returncode == 0
+
     def changed(self, old: str, new: str | None, paths: list[str]) -> list[Pair]:
         """Every .sgt file that differs between ``old`` and ``new`` (None: the working tree)
         under ``paths`` (all when empty), renames followed."""
         where = [os.path.relpath(os.path.abspath(p), self.top) for p in paths]
         r = _git(["diff", "--name-status", "-M", "-z", old, *([new] if new else []), "--", *(where or ["."])], self.top)
         if r is None or r.returncode != 0:
-            raise DiffInputError(f"git diff failed: {(r.stderr.strip() if r else 'git not found')}")
+            raise DiffInputError(f"git diff failed: {escaped(r.stderr.strip()) if r else 'git not found'}")
         fields = r.stdout.split("\0")
         out = []
         i = 0
@@ -162,9 +191,8 @@ class Git:
                 if os.path.isfile(p) and p.endswith(SUFFIX):
                     rel = os.path.relpath(os.path.abspath(p), self.top)
                     text = _read(Path(p))
-                    out.append(Pair(self.show(old, rel) if new is None else self.show(old, rel), text if new is None
-                                    else self.show(new, rel), f"{old}:{rel}", p if new is None else f"{new}:{rel}",
-                                    Path(p), Path(p)))
+                    out.append(Pair(self.show(old, rel), text if new is None else self.show(new, rel), f"{old}:{rel}",
+                                    p if new is None else f"{new}:{rel}", Path(p), Path(p)))
         return out
 
     def show(self, rev: str, rel: str) -> str | None:
@@ -183,30 +211,124 @@ def _git(args: list[str], cwd: Path, text: bool = True):
 
 # -- text --------------------------------------------------------------------------------------
 
-_MARK = {"changed": "~", "moved": ">", "added": "+", "removed": "-", "same": "="}
-_COLOR = {"changed": "33", "moved": "36", "added": "32", "removed": "31", "same": "2"}
+#: What is never printed as it is: C0 and C1 control characters and DEL (a terminal obeys
+#: them: ``\x1b[2J`` in a file name would clear the screen), the bidirectional and invisible
+#: formatting marks (they reorder or hide the text around them), and lone surrogates (bytes of
+#: a file name that are not UTF-8).
+_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u200b\u200e\u200f\u202a-\u202e\u2060\u2066-\u2069\ufeff\ud800-\udfff]")
+_NAMED = {"\t": "\\t", "\n": "\\n", "\r": "\\r"}
+
+
+def _escape(m: re.Match) -> str:
+    c = m.group()
+    if c in _NAMED:
+        return _NAMED[c]
+    o = ord(c)
+    if 0xDC80 <= o <= 0xDCFF:  # a byte that is not UTF-8, as Python keeps it in a name
+        return f"\\x{o - 0xDC00:02x}"
+    return f"\\x{o:02x}" if o <= 0xFF else f"\\u{o:04x}"
+
+
+def escaped(text: str) -> str:
+    """``text`` (from the files compared: words, speakers, messages) with every character of
+    :data:`_UNSAFE` written as an escape (``\\x1b``, ``\\t``, ``\\u202e``): safe to print."""
+    return _UNSAFE.sub(_escape, text)
+
+
+def quoted(name: str) -> str:
+    """A file name as git shows one: as it is, or, when it holds a character of :data:`_UNSAFE`,
+    in double quotes with those escaped (and ``\\`` and ``"`` too, so that the escapes are
+    unambiguous)."""
+    if not _UNSAFE.search(name):
+        return name
+    return '"' + escaped(name.replace("\\", "\\\\").replace('"', '\\"')) + '"'
+
+
+def json_diff(doc) -> str:
+    """``doc`` as ``sgt diff --format json`` prints it: JSON whose strings escape every character
+    of :data:`_UNSAFE` (json escapes the C0 controls itself; those left in the text are its
+    own line breaks)."""
+    text = json.dumps(doc, indent=1, ensure_ascii=False)
+    return _UNSAFE.sub(lambda m: m.group() if m.group() < "\x7f" else f"\\u{ord(m.group()):04x}", text)
+
+
+_MARK = {"changed": "~", "moved": ">", "added": "+", "removed": "-", "affected": ".", "same": "="}
+_COLOR = {"changed": "33", "moved": "36", "added": "32", "removed": "31", "affected": "2", "same": "2"}
+#: The mark and colour of what is said once for many utterances (a header change, a shift).
+_SHARED = ("*", "35")
 
 
 def format_diff(d, *, color: bool = False, include_same: bool = False) -> str:
-    """The text of one script's diff: a header, then each utterance that changed with a line
-    per change. Marks (``~ > + -``) say the status without colour."""
+    """The text of one script's diff: a header; the header changes, once each; then each
+    utterance that changed with a line per change of its own, and each shift of the starts
+    once, where it begins. ``affected`` utterances (only a header change or a shift applies)
+    are listed with ``include_same`` alone. Marks (``~ > + - *``) say the status without colour.
+    Names and text from the files are :func:`quoted` and :func:`escaped`: nothing in a file
+    reaches the terminal raw."""
 
     def paint(code: str, text: str) -> str:
         return f"\x1b[{code}m{text}\x1b[0m" if color else text
 
-    shown = [u for u in d.utterances if include_same or u.status != "same"]
     c = d.counts()
-    summary = ", ".join(f"{c[k]} {k}" for k in ("changed", "moved", "added", "removed") if c[k]) or "no changes"
-    lines = [paint("1", f"{d.old_name} -> {d.new_name}") + f"  ({summary}; {c['same']} unchanged)"]
-    lines += [paint("33", f"  note: {p}") for p in d.problems]
-    for u in shown:
+    summary = ", ".join(f"{c[k]} {k}" for k in ("changed", "moved", "added", "removed", "affected") if c[k]) or "no changes"
+    lines = [paint("1", f"{quoted(d.old_name)} -> {quoted(d.new_name)}") + f"  ({summary}; {c['same']} unchanged)"]
+    lines += [paint("33", f"  note: {escaped(p)}") for p in d.problems]
+    lines += [paint(_SHARED[1], f"{_SHARED[0]} {escaped(describe_header(h))}") for h in d.header]
+    shown = None
+    for u in d.utterances:
+        if u.shift is not None and u.shift != shown:
+            shown = u.shift
+            lines.append(paint(_SHARED[1], f"{_SHARED[0]} {describe_shift(d.shifts[u.shift])}"))
+        if not include_same and u.status in ("same", "affected"):
+            continue
         side = u.new or u.old
-        where = _where(u)
-        who = f"{side.speaker}: " if side.speaker else ""
-        lines.append(paint(_COLOR[u.status], f"{_MARK[u.status]} {where}  {who}\"{_short(side.text)}\""))
+        who = f"{escaped(side.speaker)}: " if side.speaker else ""
+        lines.append(paint(_COLOR[u.status], f"{_MARK[u.status]} {_where(u)}  {who}\"{escaped(_short(side.text))}\""))
         for ch in u.changes:
-            lines.append("    " + describe(ch))
+            lines.append("    " + escaped(describe(ch)))
     return "\n".join(lines) + "\n\n"
+
+
+def describe_header(h) -> str:
+    """A header change in words: ``@rate visitor: 160 -> 190 (8 lines, each 0.47 s shorter)``."""
+    if h.kind != "voice":
+        (name, old, new), = h.settings
+        if h.kind == "gap":
+            return f"{name}: {old:g} s -> {new:g} s (the silence between lines)"
+        return f"{name}: {old} -> {new} (every line's motion is drawn anew)"
+    who = ", ".join("(lines without a speaker)" if s is None else s for s in h.speakers)
+    said = "; ".join(f"{name} {who}: {old} -> {new}" for name, old, new in h.settings)
+    n = len(h.lines)
+    lengths = [new - old for _, old, new in h.lengths]
+    return f"{said} ({n} line{'s' if n != 1 else ''}{_lengths(lengths, len(h.lengths) == n)})"
+
+
+def _lengths(deltas: list[float], all_of_them: bool) -> str:
+    if not deltas:
+        return ""
+    lo, hi = min(deltas), max(deltas)
+    if hi - lo < 0.005:
+        each = "each " if all_of_them and len(deltas) > 1 else ""
+        return f", {each}{abs(lo):.2f} s {'longer' if lo > 0 else 'shorter'}" if abs(lo) >= 0.005 else ""
+    if lo > 0 or hi < 0:
+        return f", {min(abs(lo), abs(hi)):.2f} to {max(abs(lo), abs(hi)):.2f} s {'longer' if lo > 0 else 'shorter'}"
+    return f", lengths {lo:+.2f} to {hi:+.2f} s"
+
+
+def describe_shift(shift) -> str:
+    """A run of starts that moved in words: ``from line 7 on, every line starts 2.20 s earlier``."""
+    first, last = shift.lines[0], shift.lines[-1]
+    if len(shift.starts) == 1:
+        ((_, old, new),) = shift.starts
+        return f"line {first} starts {abs(new - old):.2f} s {'later' if new > old else 'earlier'} ({old:.2f} -> {new:.2f} s)"
+    which = f"from line {first} on, every line starts" if shift.to_end else f"lines {first} to {last} start"
+    lo, hi = min(shift.seconds), max(shift.seconds)
+    if shift.constant:
+        return f"{which} {abs(shift.seconds[0]):.2f} s {'later' if shift.seconds[0] > 0 else 'earlier'}"
+    if lo > 0 or hi < 0:
+        return (f"{which} {'later' if lo > 0 else 'earlier'}, by {min(abs(lo), abs(hi)):.2f} "
+                f"to {max(abs(lo), abs(hi)):.2f} s")
+    return f"{which} at another time, {lo:+.2f} to {hi:+.2f} s"
 
 
 def _where(u) -> str:
@@ -249,7 +371,8 @@ def describe(ch) -> str:
 
 
 def render_changes(pairs: list[Pair], diffs, folder: Path, *, engine: str | None, size, video: bool) -> list[Path]:
-    """For each utterance both versions have and that changed (more than its start time), the
+    """For each utterance both versions have and that changed (more than its start time; a
+    header change of its voice counts), the
     old take beside the new one (A old, B new) in ``folder``: ``STEM_lineNNNN.gif`` (or
     ``.mp4``, without sound: two speeches cannot play as one) named by the new version's line.
     Returns the files written."""
@@ -260,7 +383,7 @@ def render_changes(pairs: list[Pair], diffs, folder: Path, *, engine: str | None
     make_folder(folder)
     # an utterance that only plays at another time moves the same way: nothing to compare
     jobs = [(p, u) for p, d in zip(pairs, diffs) for u in d.utterances if u.old is not None and u.new is not None
-            and any(c.kind != "retimed" for c in u.changes)]
+            and (u.header or any(c.kind != "retimed" for c in u.changes))]
     written: list[Path] = []
     m = Mannequin(*size)
     try:
@@ -269,7 +392,7 @@ def render_changes(pairs: list[Pair], diffs, folder: Path, *, engine: str | None
                 old = generate(p.old_path, source=p.old_text, engine=engine, utterances=[u.old.index]).clips[0]
                 new = generate(p.new_path, source=p.new_text, engine=engine, utterances=[u.new.index]).clips[0]
             except GenerateError as exc:
-                raise InputError(f"{p.new_name}: cannot render line {u.new.line}: {exc}") from None
+                raise InputError(f"{quoted(p.new_name)}: cannot render line {u.new.line}: {escaped(str(exc))}") from None
             out = folder / f"{Path(p.new_path).stem}_line{u.new.line:04d}.{'mp4' if video else 'gif'}"
             labels = ("A old", "B new")
             bar = ProgressBar(f"render {k + 1}/{len(jobs)}")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from dsl.diff import DIFF_FORMAT, KINDS, diff_scripts
+from dsl.diff import DIFF_FORMAT, DIFF_VERSION, KINDS, diff_scripts
 
 pytestmark = pytest.mark.skipif(shutil.which("git") is None, reason="git is not installed")
 
@@ -57,7 +57,7 @@ def json_diff(repo: Path, *args) -> dict:
     r = sgt("diff", "--format", "json", *args, cwd=repo)
     assert r.returncode == 0, r.stderr
     doc = json.loads(r.stdout)
-    assert doc["format"] == DIFF_FORMAT and doc["version"] == 1
+    assert doc["format"] == DIFF_FORMAT and doc["version"] == DIFF_VERSION == 2
     return doc
 
 
@@ -75,13 +75,17 @@ def statuses(script: dict) -> list[tuple[str, str]]:
 def test_an_inserted_line_is_added_and_the_later_lines_only_retimed(repo):
     edit(repo, "visitor: Where are the shoes?\n", "visitor: Where are the shoes?\nvisitor: And the socks?\n")
     (script,) = json_diff(repo, "HEAD", "lobby.sgt")["scripts"]
-    assert script["counts"] == {"changed": 3, "moved": 0, "added": 1, "removed": 0, "same": 2}
+    assert script["counts"] == {"changed": 0, "moved": 0, "added": 1, "removed": 0, "affected": 3, "same": 2}
     added = [u for u in script["utterances"] if u["status"] == "added"]
     assert [u["new"]["text"] for u in added] == ["And the socks?"]
-    for u in script["utterances"]:
-        if u["status"] == "changed":  # the lines after it: the same words and gestures, played later
-            assert [c["kind"] for c in u["changes"]] == ["retimed"]
-            assert u["changes"][0]["new"] > u["changes"][0]["old"]
+    # the lines after it: the same words and gestures, played later, said once for all three
+    (shift,) = script["shifts"]
+    later = [u for u in script["utterances"] if u["status"] == "affected"]
+    assert shift["lines"] == [u["new"]["line"] for u in later] == [6, 7, 8] and shift["to_end"]
+    assert shift["seconds"] > 0 and shift["range"] == [shift["seconds"]] * 2
+    for u in later:
+        assert u["changes"] == [] and u["shift"] == 0 and u["header"] == []
+        assert u["new"]["start"] - u["old"]["start"] == pytest.approx(shift["seconds"], abs=2e-3)
 
 
 def test_a_deleted_line_is_removed_where_it_was(repo):
@@ -127,20 +131,137 @@ def test_a_pause_and_a_gap_retime_what_follows(repo):
     by_text = {u["new"]["text"]: u for u in script["utterances"]}
     hello = by_text["Hello, and welcome to the mall!"]["changes"]
     assert [c["kind"] for c in hello] == ["pause-added", "length"]
-    court = by_text["The food court is upstairs."]["changes"]
-    kinds = [c["kind"] for c in court]
-    assert kinds == ["gap", "retimed"]
-    retimed = court[1]
-    assert retimed["new"] - retimed["old"] == pytest.approx(0.5 + 1.5, abs=0.14)  # the pause, then the longer gap
+    court = by_text["The food court is upstairs."]
+    assert [c["kind"] for c in court["changes"]] == ["gap"]
+    # the pause moves the two lines after it; the longer gap moves the court's line and the last one more
+    first, second = script["shifts"]
+    assert first["seconds"] == pytest.approx(0.5, abs=0.07) and first["lines"] == [4, 5] and not first["to_end"]
+    assert court["shift"] == 1 and second["lines"] == [7, 8] and second["to_end"]
+    assert second["seconds"] == pytest.approx(0.5 + 1.5, abs=0.14)
 
 
 def test_a_voice_changed(repo):
     edit(repo, "@voice visitor: en-gb", "@voice visitor: en-us")
+    edit(repo, "visitor: [pose:nod] Thank you.", "visitor: [pose:nod] [pose:wave] Thank you.")
     (script,) = json_diff(repo, "HEAD", "lobby.sgt")["scripts"]
-    voiced = [u for u in script["utterances"] if any(c["kind"] == "voice" for c in u["changes"])]
-    assert {u["new"]["speaker"] for u in voiced} == {"visitor"} and len(voiced) == 2
-    change = next(c for c in voiced[0]["changes"] if c["kind"] == "voice")
-    assert change["old"].startswith("en-gb") and change["new"].startswith("en-us")
+    (header,) = script["header"]
+    assert header["kind"] == "voice" and header["speakers"] == ["visitor"] and header["lines"] == [4, 7]
+    assert header["settings"] == [{"directive": "@voice", "old": "en-gb", "new": "en-us"}]
+    assert header["old"].startswith("en-gb") and header["new"].startswith("en-us")
+    # said once: each visitor line names the header change and lists only what else changed in it
+    visitor = [u for u in script["utterances"] if u["header"]]
+    assert [(u["new"]["line"], u["status"], [c["kind"] for c in u["changes"]]) for u in visitor] == \
+        [(4, "affected", []), (7, "changed", ["pose-added", "length"])]
+    assert not any(c["kind"] == "voice" for u in script["utterances"] for c in u["changes"])
+    r = sgt("diff", "HEAD", "lobby.sgt", "--color", "never", cwd=repo)
+    assert r.stdout.count("en-gb") == 1 and "* @voice visitor: en-gb -> en-us (2 lines)\n" in r.stdout
+    assert "line 4" not in r.stdout and "~ line 7  visitor:" in r.stdout
+
+
+DIALOGUE = "@voice en-us\n@voice visitor: en-gb\n@rate visitor: 160\n" + "".join(
+    f"{'guide' if n % 2 == 0 else 'visitor'}: This is line number {n} of the [pose:nod] dialogue.\n" for n in range(16))
+
+
+def test_a_rate_change_is_said_once_not_on_each_of_16_lines(tmp_path):
+    """One @rate line changed: one line for the header change (with the lengths it changed) and
+    one for the starts it moved, not a voice, a length and a start on each of 16 lines."""
+    (tmp_path / "a.sgt").write_text(DIALOGUE)
+    (tmp_path / "b.sgt").write_text(DIALOGUE.replace("@rate visitor: 160", "@rate visitor: 190"))
+    r = sgt("diff", "a.sgt", "b.sgt", "--color", "never", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert lines[0] == "a.sgt -> b.sgt  (15 affected; 1 unchanged)"
+    assert lines[1].startswith("* @rate visitor: 160 -> 190 (8 lines, ") and lines[1].endswith(" s shorter)")
+    assert lines[2].startswith("* from line 6 on, every line starts earlier, by ")  # line 5 starts where it did
+    assert lines[3:] == [""]  # and nothing else
+    doc = json_diff(tmp_path, "a.sgt", "b.sgt")
+    (script,) = doc["scripts"]
+    (header,) = script["header"]
+    assert header["settings"] == [{"directive": "@rate", "old": 160, "new": 190}]
+    assert [x["line"] for x in header["lengths"]] == header["lines"] == list(range(5, 20, 2))
+    assert all(x["new"] < x["old"] for x in header["lengths"])
+    (shift,) = script["shifts"]
+    assert shift["seconds"] is None and shift["lines"] == list(range(6, 20)) and shift["to_end"]
+    # per utterance, a tool still finds every effect: the header change, the shift, the times
+    for u in script["utterances"]:
+        assert u["changes"] == [] and u["status"] == "affected"
+        assert (u["header"] == [0]) == (u["new"]["speaker"] == "visitor") and (u["shift"] == 0) == (u["new"]["line"] > 5)
+    starts = {x["line"]: x for x in shift["starts"]}
+    for u in script["utterances"][1:]:  # all but line 5 (line 4 is the same: not listed)
+        assert (starts[u["new"]["line"]]["old"], starts[u["new"]["line"]]["new"]) == (u["old"]["start"], u["new"]["start"])
+
+
+def test_the_headers_gap_is_said_once_and_the_starts_it_drifts_are_one_shift(tmp_path):
+    """A longer @gap in the header moves each line a little more than the one before: one
+    header line, one shift with its range; --all lists the lines it applies to (mark '.')."""
+    (tmp_path / "a.sgt").write_text(BASE)
+    (tmp_path / "b.sgt").write_text(BASE.replace("@voice en-us\n", "@voice en-us\n@gap 0.8s\n"))
+    r = sgt("diff", "a.sgt", "b.sgt", "--color", "never", cwd=tmp_path)
+    lines = r.stdout.splitlines()
+    assert lines[:2] == ["a.sgt -> b.sgt  (4 affected; 1 unchanged)", "* @gap: 0.5 s -> 0.8 s (the silence between lines)"]
+    assert lines[2].startswith("* from line 5 on, every line starts later, by 0.") and lines[3:] == [""]
+    r = sgt("diff", "a.sgt", "b.sgt", "--color", "never", "--all", cwd=tmp_path)
+    assert [x[:14] for x in r.stdout.splitlines()[3:-1]] == ["* from line 5 ", ". line 4 -> 5 ", ". line 5 -> 6 ",
+                                                              ". line 6 -> 7 ", ". line 7 -> 8 "]
+    (script,) = json_diff(tmp_path, "a.sgt", "b.sgt")["scripts"]
+    assert [(h["kind"], h["settings"], h["lines"]) for h in script["header"]] == \
+        [("gap", [{"directive": "@gap", "old": 0.5, "new": 0.8}], [])]
+    (shift,) = script["shifts"]
+    assert shift["seconds"] is None and 0 < shift["range"][0] < shift["range"][1]
+
+
+def test_a_removed_line_moves_the_later_ones_once(tmp_path):
+    """The lines after a removed one are not listed: one line says they all start earlier; a
+    line further on that changed in itself is listed with its own change, and where its new
+    length moves the lines after it again, that is a second shift."""
+    lines = DIALOGUE.splitlines(keepends=True)
+    (tmp_path / "a.sgt").write_text(DIALOGUE)
+    (tmp_path / "b.sgt").write_text("".join(lines[:5] + lines[6:]))  # line 6 removed
+    r = sgt("diff", "a.sgt", "b.sgt", "--color", "never", cwd=tmp_path)
+    out = r.stdout.splitlines()
+    assert out[0] == "a.sgt -> b.sgt  (1 removed, 13 affected; 2 unchanged)"
+    assert out[1].startswith("- line 6  guide:")
+    (shifted,) = [x for x in out if x.startswith("* ")]
+    assert shifted.startswith("* from line 6 on, every line starts ") and shifted.endswith(" s earlier")
+    assert out.index(shifted) == 3 and "starts" not in r.stdout.replace(shifted, "")
+    # a line further on is reworded: it keeps its text and length; the lines after it move by another amount
+    text = "".join(lines[:5] + lines[6:]).replace("line number 9 of", "line number 9, the longest one, of")
+    (tmp_path / "b.sgt").write_text(text)
+    (script,) = json_diff(tmp_path, "a.sgt", "b.sgt")["scripts"]
+    first, second = script["shifts"]
+    assert first["lines"] == list(range(6, 13)) and not first["to_end"] and first["seconds"] < 0
+    assert second["lines"] == list(range(13, 19)) and second["to_end"] and first["seconds"] < second["seconds"] < 0
+    (reworded,) = [u for u in script["utterances"] if u["status"] == "changed"]
+    assert [c["kind"] for c in reworded["changes"]] == ["text", "length"] and reworded["shift"] == 0
+    r = sgt("diff", "a.sgt", "b.sgt", "--color", "never", cwd=tmp_path)
+    assert [x[:22] for x in r.stdout.splitlines() if x.startswith("* ")] == ["* lines 6 to 12 start ", "* from line 13 on, eve"]
+
+
+def test_options_after_double_dash_are_paths_as_in_git(repo):
+    """Everything after '--' is a path (git diff's rule): an option there is a path that does
+    not exist, refused in one line that says where options go; before '--' options may stand
+    anywhere."""
+    edit(repo, "Thank you.", "Thank you so much.")
+    git("commit", "-qam", "thanks", cwd=repo)
+    r = sgt("diff", "HEAD~1..HEAD", "--", "lobby.sgt", "--format", "json", cwd=repo)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr == ("sgt diff: error: --format: no such file or folder in HEAD~1 or HEAD; everything after '--' "
+                        "is a path: put options before '--' (sgt diff --format json A..B -- PATHS)\n")
+    for args in (["--format", "json", "HEAD~1..HEAD", "--", "lobby.sgt"], ["HEAD~1..HEAD", "--format", "json", "--", "lobby.sgt"],
+                 ["HEAD~1..HEAD", "--", "lobby.sgt"]):
+        r = sgt("diff", *args, cwd=repo)
+        assert r.returncode == 0, (args, r.stderr)
+        if "json" in args:
+            assert json.loads(r.stdout)["scripts"][0]["new"] == "HEAD:lobby.sgt"
+        else:
+            assert r.stdout.startswith("HEAD~1:lobby.sgt -> HEAD:lobby.sgt  (1 changed; 4 unchanged)")
+    r = sgt("diff", "HEAD", "nope.sgt", cwd=repo)
+    assert (r.returncode, r.stderr) == (2, "sgt diff: error: nope.sgt: no such file or folder in HEAD or the working tree\n")
+    # a path that only one version has is a path: a deleted script is compared (all removed)
+    git("rm", "-q", "lobby.sgt", cwd=repo)
+    git("commit", "-qm", "gone", cwd=repo)
+    (script,) = json_diff(repo, "HEAD~1..HEAD", "--", "lobby.sgt")["scripts"]
+    assert script["counts"]["removed"] == 5
 
 
 def test_a_renamed_file_between_two_revisions_is_followed(repo):

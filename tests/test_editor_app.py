@@ -101,6 +101,21 @@ def test_typing_shows_live_diagnostics_with_marks_not_only_colour(tmp_path):
     drive(app, steps)
 
 
+def test_a_look_mark_at_a_speaker_of_another_line_is_no_problem(tmp_path):
+    """`[look:bob]` names nobody until a line is bob's: typing that line clears the warning on
+    ann's line, as `sgt check` judges the script."""
+    app = make_app(script(tmp_path, "ann: [look:bob] Hello there.\n"))
+
+    async def steps(pilot):
+        assert [d.code for d in app.analysis.diagnostics] == ["SGT214"] and "W" in gutter(app, 0)
+        await pilot.press("ctrl+end")
+        await type_text(pilot, "bob: Hi.")
+        await settle(pilot, app)
+        assert app.analysis.diagnostics == [] and not app.area.diagnostics and "W" not in gutter(app, 0)
+
+    drive(app, steps)
+
+
 def test_problems_list_and_next_problem_jump(tmp_path):
     app = make_app(script(tmp_path, "guide: fine\nguide: [pose:nope] a\nguide: <speed:9>b</speed>\n"))
 
@@ -275,9 +290,7 @@ def test_jobs_cancel_and_missing_weights_errors(tmp_path):
         await pilot.press("ctrl+g")
         await until(pilot, lambda: not app.jobs.busy)
         assert "weights not found" in app.last_message and "sgt train" in app.last_message
-        await pilot.press("ctrl+o")  # neural -> matching (its database is shipped, no weights needed)
-        assert app.engine == "matching"
-        await pilot.press("ctrl+o")  # -> keyframe
+        await pilot.press("ctrl+o")  # neural -> keyframe (the order: matching, the default, first)
         assert app.engine == "keyframe"
         await pilot.press("f8")
         await pilot.pause(0.05)

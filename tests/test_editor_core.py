@@ -195,8 +195,9 @@ SNIPPETS = ["[pose:foo]", "[pose:wave x2]", "<speed:9>", "</x>", "</>", "<happy>
 
 
 def test_incremental_analysis_equals_the_whole_file_analysis():
-    """Chunked analysis must report exactly what `sgt check` reports (overlaps: only without errors)."""
-    from dsl.compiler import compile_file, load_script
+    """Chunked analysis must report exactly what `sgt check` reports (no overlap while the
+    script has an error: check plans nothing then). tests/test_parity.py compares every script."""
+    from dsl.compiler import compile_file
 
     rng = random.Random(5)
     for trial in range(120):
@@ -207,11 +208,77 @@ def test_incremental_analysis_equals_the_whole_file_analysis():
             text = text[:i] + rng.choice(SNIPPETS) + text[i:]
         mine = Analyser(path).run(text).diagnostics
         full = compile_file(path, timing="estimate", source=text)
-        if any(d.is_error for d in full.diagnostics):
-            static = load_script(path, source=text)[2]
-            assert _key(d for d in mine if d.name != "overlap") == _key(static), text
-        else:
-            assert _key(mine) == _key(full.diagnostics), text
+        assert _key(mine) == _key(full.diagnostics), text
+
+
+def _check(text: str, path: str = "t.sgt") -> list:
+    from dsl.compiler import compile_text
+
+    return compile_text(text, path, timing="estimate").diagnostics
+
+
+def test_a_look_mark_is_judged_among_the_speakers_of_the_whole_script():
+    """`[look:bob]` on ann's line names a speaker of the script when any line is bob's: the
+    chunk of ann's line is analysed among every speaker, and again when they change."""
+    text = "ann: [look:bob] Hello there.\nbob: Hi.\n"
+    a = Analyser("t.sgt")
+    first = a.run(text)
+    assert first.diagnostics == [] == _check(text)
+    (look,) = [c for c in first.utterances[0].plan.controls if c.kind == "look"]  # the eyes do go to bob
+    assert look.name == "bob"
+    alone = "ann: [look:bob] Hello there.\n"  # bob's line gone: the same chunk text, now a warning
+    (d,) = a.run(alone).diagnostics
+    assert (d.code, d.line, d.col) == ("SGT214", 1, 12) and d == _check(alone)[0]
+    assert not [c for c in a.run(alone).utterances[0].plan.controls if c.kind == "look"]
+    back = a.run(text)
+    assert back.diagnostics == [] and back.utterances[0].key == first.utterances[0].key
+    assert back.utterances[0].key != a.run(text.replace("bob: Hi.", "bob: Hi.\ncara: Hey.")).utterances[0].key
+    tavern = ("innkeeper: [look:bard] A song? [look:smith] Thirsty?\nbard: [look:innkeeper] Gladly! [look:maid] You?\n"
+              "maid: [look:bard] Not tonight.\nsmith: [look:innkeeper] An ale. [look:Bard] Who sings?\n")
+    (d,) = Analyser("t.sgt").run(tavern).diagnostics  # only the name in another case
+    assert d == _check(tavern)[0] and (d.code, d.line, d.hint) == ("SGT214", 4, "did you mean 'bard'?")
+
+
+def test_no_timing_warning_while_the_script_has_an_error():
+    """As `sgt check`: a script with an error is not planned, so no stroke is late; the plan of
+    an utterance without errors of its own is kept for the timeline."""
+    late = "guide: Look [pose:point_left x3] [pose:point_right x3] there.\n"
+    assert [d.code for d in Analyser("t.sgt").run(late).diagnostics] == ["SGT401"]
+    text = late + "guide: [pose:nope] broken\n"
+    a = Analyser("t.sgt").run(text)
+    assert [d.code for d in a.diagnostics] == ["SGT201"] == [d.code for d in _check(text)]
+    assert a.utterances[0].plan is not None
+
+
+def test_a_performance_over_the_limits_is_found_on_the_whole_script(monkeypatch):
+    """No line is long, all of them are: the limits are checked on the chunks' declared plans
+    laid out together, at the place `sgt check` names, with no timing warning."""
+    monkeypatch.setenv("SGT_MAX_SECONDS", "6")
+    text = "".join(f"guide: line {n} [pose:point_left x3] [pose:point_right x3] there.\n" for n in range(4))
+    mine = Analyser("t.sgt").run(text).diagnostics
+    (d,) = _check(text)
+    assert mine == [d] and d.code == "SGT411" and d.line > 1
+    monkeypatch.setenv("SGT_MAX_SECONDS", "3600")
+    assert {d.code for d in Analyser("t.sgt").run(text).diagnostics} == {"SGT401"}
+
+
+def test_the_headers_recording_is_the_first_utterances_only(tmp_path):
+    """An `@audio` before the first utterance is that utterance's: the later chunks, analysed
+    after the header, do not give it to their stand-in (whose words it does not say)."""
+    from core.rules import lookup, materialise_example
+
+    script = materialise_example(lookup("SGT404"), tmp_path)  # rec.wav and its timings: "hello there"
+    text = ("@audio rec.wav timings=rec.json\nbot: Hello there.\n"
+            "bot: Look [pose:point_left x3] [pose:point_right x3] there.\n")
+    a = Analyser(script).run(text)
+    assert [(d.code, d.line) for d in a.diagnostics] == [("SGT401", 3)]
+    assert a.diagnostics == _check(text, str(script)) and a.utterances[1].plan is not None
+
+
+def test_a_directive_out_of_the_header_points_at_the_first_utterance():
+    text = "@seed 1\nfirst line here\n\nsecond\n@seed 2\n"
+    (d,) = Analyser("t.sgt").run(text).diagnostics
+    assert d == _check(text)[0] and (d.related[0].line, d.related[0].length) == (2, len("first line here"))
 
 
 def test_one_keystroke_reanalyses_one_chunk_and_moves_the_others():

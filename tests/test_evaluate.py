@@ -129,7 +129,7 @@ def test_smoothing_option_reaches_the_model_rows_only(clips, model, motions):
 
 
 def test_table_rows_are_the_metrics_of_the_conditions(corpus, clips, model):
-    rows = E.evaluate_corpus(corpus, split="train", seed=3, limit=3)
+    rows = E.evaluate_corpus(corpus, split="train", seed=3, limit=3, engine="neural")
     assert [r["name"] for r in rows] == NAMES + ["shuffled audio", "rules, shuffled"] and all(r["n_clips"] == 3 for r in rows)
     conditions = E.condition_motions(clips[:3], model, E.mean_pose(clips), seed=3)
     audio = [c["audio_clean"] for c in clips[:3]]
@@ -149,7 +149,7 @@ def test_table_rows_are_the_metrics_of_the_conditions(corpus, clips, model):
     assert by["model+pose raw"]["pcs"] < by["mean pose"]["pcs"]
     # --no-take-posture: the network alone; the style row requests space and handedness on
     # every frame, so it holds no posture either way
-    plain = {r["name"]: r for r in E.evaluate_corpus(corpus, split="train", seed=3, limit=3, takes=False)}
+    plain = {r["name"]: r for r in E.evaluate_corpus(corpus, split="train", seed=3, limit=3, takes=False, engine="neural")}
     assert plain["model"]["fgd"] != pytest.approx(by["model"]["fgd"], rel=1e-3)
     assert plain["model+style"]["fgd"] == pytest.approx(by["model+style"]["fgd"], rel=1e-9)
     for name in ("model", "rules"):

@@ -1,6 +1,18 @@
 """The preview shows the face: at 320 px the mouth opens and rounds, the eyelids close, the pupils
 follow the gaze and the brows rise, in single frames and in GIFs, sheets and videos (every clip's
-face reaches the mannequin); a clip without a face shows a resting one."""
+face reaches the mannequin); a clip without a face shows a resting one.
+
+The expressions read at that size (sgt render's default), and the previews show the face close:
+
+- every two expressions differ on the screen at least as much as one eye shut differs from the
+  resting face (the mean absolute difference of the head's pixels; closing an eye is a change the
+  preview shows at this size, as the blink test here checks), in the default view, from the front
+  and in the face close-up;
+- the brows say the expression: level at rest (no frown), a V for angry, raised in the middle for
+  sad and afraid, measured on the pixels of the close-up;
+- ``--view face`` is a camera that follows the head; GIFs, MP4s and sheets draw a close-up of the
+  face in a corner where the head is small (``--face-inset``, on by default at 320 px).
+"""
 
 from __future__ import annotations
 
@@ -8,9 +20,9 @@ import numpy as np
 import pytest
 from test_face_export import talking_face
 
-from core.face import ARKIT_INDEX, FaceTrack
+from core.face import ARKIT_INDEX, EXPRESSIONS, FaceTrack, expression_weights
 from core.motion import MotionClip, Track
-from core.skeleton import REST_POSE
+from core.skeleton import REST_POSE, positions_from_pose
 
 SIZE = 320
 
@@ -229,3 +241,154 @@ def test_gifs_sheets_and_videos_show_each_clips_face(tmp_path, mannequin):
     with av.open(str(tmp_path / "v.mp4")) as f:
         video = [fr.to_ndarray(format="rgb24").astype(int)[y0:y1, x0:x1] for fr in f.decode(video=0)]
     assert np.abs(video[1] - video[0]).sum(axis=-1).astype(bool).sum() > 30
+
+
+# -- the expressions at the default size, and the close-up -------------------------------------
+
+def test_the_default_size_is_what_the_expressions_are_measured_at():
+    from renders.animate import DEFAULT_SIZE
+
+    assert DEFAULT_SIZE == (SIZE, SIZE)
+
+
+@pytest.mark.parametrize("view", ["default", "front", "face"])
+def test_every_two_expressions_differ_on_screen_more_than_one_eye_shut(mannequin, view):
+    from renders.face_closeup import pixel_distances, wink_distance
+    from renders.mannequin import DEFAULT_VIEW
+
+    view = DEFAULT_VIEW if view == "default" else view
+    wink = wink_distance(mannequin, view)
+    distances = pixel_distances(mannequin, view)
+    assert len(distances) == len(EXPRESSIONS) * (len(EXPRESSIONS) - 1) // 2
+    alike = {f"{a}/{b}": round(d, 2) for (a, b), d in distances.items() if d < wink}
+    assert not alike, f"{view} at {SIZE} px: these differ less than one eye shut ({wink:.2f}): {alike}"
+
+
+def test_the_brows_are_level_at_rest_a_v_in_anger_and_slanted_up_in_sadness_and_fear(mannequin):
+    """The slant (degrees, positive: the inner ends lower) on the close-up's pixels. At rest the
+    brows may not dip in the middle at all (any V reads as a frown); angry, sad and afraid must
+    move them at least 12 degrees from it, the right way."""
+    from renders.face_closeup import brow_tilt, face_image, rest_positions
+
+    p = rest_positions()
+    tilt = {n: brow_tilt(face_image(mannequin, expression_weights(n), "face"), p, "face")
+            for n in ("neutral", "angry", "sad", "afraid")}
+    assert tilt["neutral"] <= 0.0, f"the resting brows dip in the middle (a frown): {tilt}"
+    assert tilt["angry"] - tilt["neutral"] >= 12.0, f"angry's brows are no V: {tilt}"
+    assert tilt["neutral"] - tilt["sad"] >= 12.0 and tilt["neutral"] - tilt["afraid"] >= 12.0, \
+        f"sad's and afraid's brows do not rise in the middle: {tilt}"
+
+
+def test_brow_tilt_reads_the_brows_of_a_picture(mannequin):
+    """The measure itself: a face with only the inner brows down slants positive, up negative."""
+    from core.face import blendshapes
+    from renders.face_closeup import brow_tilt, face_image, rest_positions
+
+    p = rest_positions()
+    down = brow_tilt(face_image(mannequin, blendshapes({"browDown": 1.0}), "face"), p, "face")
+    up = brow_tilt(face_image(mannequin, blendshapes({"browInnerUp": 1.0}), "face"), p, "face")
+    assert down > 10 and up < -10, (down, up)
+    with pytest.raises(ValueError, match="no brows"):
+        brow_tilt(np.full((SIZE, SIZE, 3), 236, np.uint8), p, "face")
+
+
+def test_the_face_view_follows_the_head(mannequin):
+    """The face close-up looks at the head's centre in every frame: a lean moves the body, not
+    the head's place in the picture, and the head fills most of it."""
+    from renders.face_closeup import head_box
+    from renders.face_rig import head_frames
+    from renders.mannequin import BACKGROUND, VIEWS, project
+
+    assert VIEWS["face"].on_head and not any(v.on_head for k, v in VIEWS.items() if k != "face")
+    pose = REST_POSE.copy()
+    leaning = positions_from_pose(pose[None])[0] + np.array([0.15, -0.05, 0.1])  # the whole figure moved
+    for positions in (positions_from_pose(pose[None])[0], leaning):
+        centre = head_frames(positions[None])[1][0]
+        assert np.allclose(project(centre, SIZE, SIZE, "face", head=centre), SIZE / 2)
+        image = mannequin.render(positions, view="face").astype(int)
+        x0, y0, x1, y1 = head_box(positions, SIZE, SIZE, "face")
+        assert (x1 - x0) > 0.4 * SIZE and (y1 - y0) > 0.55 * SIZE
+        # the head's skin at the picture's middle, the background at its top corners
+        assert np.abs(image[SIZE // 2, SIZE // 2] - np.array(BACKGROUND)).sum() > 60
+        assert np.abs(image[2, 2] - np.array(BACKGROUND)).sum() < 10
+
+
+def test_the_inset_is_on_where_the_head_is_small():
+    from renders.face_closeup import INSET_BELOW, head_box, inset_side, rest_positions
+    from renders.mannequin import DEFAULT_VIEW
+
+    _, y0, _, y1 = head_box(rest_positions(), SIZE, SIZE, DEFAULT_VIEW)
+    assert y1 - y0 < INSET_BELOW  # the head at the default size: too small to read by itself
+    assert inset_side("auto", DEFAULT_VIEW, SIZE, SIZE) == round(0.34 * SIZE)
+    assert inset_side("auto", DEFAULT_VIEW, 800, 800) == 0  # a head 130 px tall reads
+    assert inset_side("on", DEFAULT_VIEW, 800, 800) == 272
+    assert inset_side("off", DEFAULT_VIEW, SIZE, SIZE) == 0
+    assert inset_side("on", "face", SIZE, SIZE) == 0  # never a close-up of the close-up
+    with pytest.raises(ValueError, match="auto, on, off"):
+        inset_side("big", DEFAULT_VIEW, SIZE, SIZE)
+
+
+def _corner(image: np.ndarray) -> np.ndarray:
+    """Where the inset goes: the top right corner, under the word's line."""
+    return image[60:140, SIZE - 100:SIZE - 20]
+
+
+def _angry_clip(n: int = 6) -> MotionClip:
+    w = np.tile(expression_weights("angry"), (n, 1))
+    return MotionClip(poses=np.tile(REST_POSE, (n, 1)), face=FaceTrack(w, np.zeros((n, 2, 2))))
+
+
+def test_gifs_mp4s_and_sheets_show_the_face_close_by_default(tmp_path, mannequin):
+    from PIL import Image, ImageSequence
+
+    from renders.animate import render_gif, render_mp4, render_sheet
+    from renders.face_closeup import FaceInset, brow_tilt, rest_positions
+    from renders.mannequin import BACKGROUND, FaceFrames
+
+    clip = _angry_clip()
+    render_gif(clip, tmp_path / "a.gif", mannequin=mannequin)
+    render_gif(clip, tmp_path / "off.gif", mannequin=mannequin, face_inset="off")
+    frame = np.asarray(next(ImageSequence.Iterator(Image.open(tmp_path / "a.gif"))).convert("RGB")).astype(int)
+    plain = np.asarray(next(ImageSequence.Iterator(Image.open(tmp_path / "off.gif"))).convert("RGB")).astype(int)
+    assert np.abs(_corner(plain) - np.array(BACKGROUND)).sum(-1).max() < 12  # nothing there without it
+    # The corner holds the close-up as FaceInset draws it (the GIF's palette aside), with its angry brows.
+    inset = FaceInset(round(0.34 * SIZE), SIZE, SIZE)
+    close = np.asarray(inset.image(mannequin, clip.positions[0], None, FaceFrames(clip.face)[0], (0.25, 0.36, 0.55)))
+    x, y = SIZE - inset.side - inset.margin, inset.top
+    assert np.abs(frame[y:y + inset.side, x:x + inset.side] - close).mean() < 6
+    assert brow_tilt(close, rest_positions(), "face") > 8  # the V reads at the inset's size (no head at rest there)
+    # The same corner in a sheet's picture and an MP4's frame.
+    s = render_sheet([clip], tmp_path / "s.png", at="even", n_samples=1, mannequin=mannequin)
+    sheet = np.asarray(Image.open(tmp_path / "s.png").convert("RGB")).astype(int)
+    x0, y0, *_ = s["panels"][0].box
+    assert np.abs(_corner(sheet[y0:y0 + SIZE, x0:x0 + SIZE]) - _corner(frame)).mean() < 6
+    av = pytest.importorskip("av")
+    render_mp4([clip], tmp_path / "v.mp4", mannequin=mannequin)
+    with av.open(str(tmp_path / "v.mp4")) as f:
+        video = next(f.decode(video=0)).to_ndarray(format="rgb24").astype(int)
+    assert np.abs(_corner(video) - _corner(frame)).mean() < 8
+
+
+def test_sgt_render_draws_the_inset_unless_asked_not_to_and_renders_the_face_view(tmp_path):
+    """What users get from the command: the default GIF has the close-up in its corner,
+    --face-inset off has none, --view face is the close-up itself (no inset on it)."""
+    from PIL import Image
+
+    from core.motion import save_motion
+    from renders.mannequin import BACKGROUND
+    from sgt_tui.cli import main
+
+    clip = _angry_clip()
+    clip.face = talking_face(clip.n_frames)
+    save_motion(tmp_path / "take.json", [clip])
+
+    def first(name: str, *options: str) -> np.ndarray:
+        assert main(["render", str(tmp_path / "take.json"), "-o", str(tmp_path / name), *options]) == 0
+        return np.asarray(Image.open(tmp_path / name).convert("RGB")).astype(int)
+
+    shown, off, face = first("a.gif"), first("off.gif", "--face-inset", "off"), first("face.gif", "--view", "face")
+    away = np.abs(_corner(shown) - np.array(BACKGROUND)).sum(-1)
+    assert (away > 60).mean() > 0.5  # the close-up fills the corner
+    assert np.abs(_corner(off) - np.array(BACKGROUND)).sum(-1).max() < 12
+    assert np.abs(face[SIZE // 2, SIZE // 2] - np.array(BACKGROUND)).sum() > 60  # the head in the middle
+    assert first("on.gif", "--view", "face", "--face-inset", "on").tolist() == face.tolist()

@@ -16,18 +16,18 @@ import pytest
 torch = pytest.importorskip("torch")
 
 sys.path.insert(0, str(Path(__file__).parent))
-from synthetic import synthetic_clips  # noqa: E402
+from synthetic import synthetic_clips
 
-from core.controls import ControlArrays  # noqa: E402
-from core.skeleton import FPS, POSE_DIM, normalize_pose  # noqa: E402
-from core.words import TimedWord  # noqa: E402
-from model import flow, neural  # noqa: E402
-from model.features import speech_inputs  # noqa: E402
-from model.flow_net import FlowNet  # noqa: E402
-from model.generate import EngineInputs, GenerateError, engine_function  # noqa: E402
-from model.runtime import OnnxRunner, TorchRunner, export_onnx, largest_difference, load_runner, onnx_path  # noqa: E402
-from model.training.train_flow import FlowConfig, train_flow  # noqa: E402
-from model.weights import WeightsError, load_weights, save_weights  # noqa: E402
+from core.controls import ControlArrays
+from core.skeleton import FPS, POSE_DIM, normalize_pose
+from core.words import TimedWord
+from model import flow, neural
+from model.features import speech_inputs
+from model.flow_net import FlowNet
+from model.generate import EngineInputs, GenerateError, engine_function
+from model.runtime import OnnxRunner, TorchRunner, export_onnx, largest_difference, load_runner, onnx_path
+from model.training.train_flow import FlowConfig, train_flow
+from model.weights import WeightsError, load_weights, save_weights
 
 TINY = {"hidden": 32, "word_dim": 8, "enc_layers": 2, "layers": 2, "time_dim": 16}
 

@@ -14,15 +14,15 @@ import pytest
 
 pytest.importorskip("torch")
 
-from core.controls import ControlArrays  # noqa: E402
-from core.skeleton import FPS, JOINTS  # noqa: E402
-from dsl.compiler import compile_file  # noqa: E402
-from model import flow, neural  # noqa: E402
-from model.generate import EngineInputs  # noqa: E402
-from model.runtime import OnnxRunner, TorchRunner, onnx_path, random_window, read_export  # noqa: E402
-from model.training.metrics import group_statistics, joint_speeds  # noqa: E402
-from model.weights import DEFAULT_FLOW_WEIGHTS, file_hash, load_weights  # noqa: E402
-from tests.test_shipped_model import EXAMPLE, PAUSES  # noqa: E402
+from core.controls import ControlArrays
+from core.skeleton import FPS, JOINTS
+from dsl.compiler import compile_file
+from model import flow, neural
+from model.generate import EngineInputs
+from model.runtime import OnnxRunner, TorchRunner, onnx_path, random_window, read_export
+from model.training.metrics import group_statistics, joint_speeds
+from model.weights import DEFAULT_FLOW_WEIGHTS, file_hash, load_weights
+from tests.test_shipped_model import EXAMPLE, PAUSES
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED_ONNX = onnx_path(DEFAULT_FLOW_WEIGHTS)

@@ -5,7 +5,9 @@ Every example and 300 generated scripts (random spacing inside and around tags, 
 any order, directives in every accepted form, comments, escapes, continuation lines, CRLF)
 are compiled before and after formatting (estimated timing): the plans, less the line and
 column numbers, are equal, the spoken text is equal up to whitespace, the diagnostics are
-the same rules, and a second formatting changes nothing.
+the same rules, and a second formatting changes nothing. And a line's layout never depends on
+another line: for scripts built by hypothesis from the language's pieces, adding or removing
+one line changes only that line of the output.
 """
 
 from __future__ import annotations
@@ -14,10 +16,13 @@ import random
 import subprocess
 import sys
 from collections import Counter
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from dsl import compile_text
 from dsl.fmt import FormatError, format_source
@@ -228,8 +233,8 @@ def test_the_canonical_layout():
              "\t[pose:nod x3 flip x2] end#tight\n"
              "merchant:    [pose:shrug hold=200ms x2 hold=300ms] Hm.   \n\n")
     assert format_source(messy) == (
-        "# header\n@voice en-us  # default\n@voice knight:   en-gb+m3\n@voice merchant: en-us+f2\n"
-        "@rate merchant: 175\n@preset shy  = space:-2 handedness:-1\n@preset bold = speed:+2\n\n"
+        "# header\n@voice en-us  # default\n@voice knight: en-gb+m3\n@voice merchant: en-us+f2\n"
+        "@rate merchant: 175\n@preset shy = space:-2 handedness:-1\n@preset bold = speed:+2\n\n"
         "knight: [pose:wave x2 flip hold=1s] Hello, there! <calm speed:-1>slowly</calm>  # c1\n"
         "    and on [pause 300ms] it goes. \\[x\\] \\# not a comment\n"
         "    # inside the utterance\n"
@@ -309,3 +314,164 @@ def test_the_documented_layout_is_canonical():
     doc = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
     block = doc.split("## Canonical layout", 1)[1].split("```sgt\n", 1)[1].split("```", 1)[0]
     assert format_source(block) == block
+
+
+# -- one line's change is one line's change ------------------------------------------------------------
+# Scripts built from the language's pieces, each line of one kind: header directives (several
+# @voice/@rate/@pitch/@preset lines, written with messy spacing), comment lines, utterances with
+# marks and their continuation lines, single blank lines between statements.
+
+SPEAKER_NAMES = ["guide", "knight", "merchant", "Robot_2", "a_very_long_speaker_name", "x"]
+_space = st.sampled_from([" ", "  ", "\t", " \t "])
+_colon = st.sampled_from([":", " :", "  :", ":  ", ": ", " : "])
+_tail = st.sampled_from(["", "", "", " ", "\t", "  # note", "# tight", "\t#  a spaced comment  ", " # a much longer note"])
+_word = st.sampled_from(WORDS + ["a", "supercalifragilistic", "there,", "now."])
+_value = st.sampled_from(["en-us", "en-gb+m3", "en-us+f2", "'en gb'", "en"])
+
+
+@st.composite
+def _directive(draw) -> str:
+    kind = draw(st.sampled_from(["voice_for", "rate_for", "pitch_for", "preset", "voice", "rate", "pitch", "seed", "gap"]))
+    sp, who = draw(_space), draw(st.sampled_from(SPEAKER_NAMES))
+    if kind == "voice_for":
+        line = f"@voice{sp}{who}{draw(_colon)}{draw(_space)}{draw(_value)}"
+    elif kind in ("rate_for", "pitch_for"):
+        line = f"@{kind[:-4]}{sp}{who}{draw(_colon)}{draw(_space)}{draw(st.integers(20, 300))}"
+    elif kind == "preset":
+        name = draw(st.sampled_from(["shy", "bold", "a_much_longer_preset_name", "p2"]))
+        items = draw(st.lists(st.sampled_from(["speed:+1", "space:-2", "handedness:0.5", "speed:-0.5"]), min_size=1, max_size=3))
+        line = f"@preset{sp}{name}{draw(st.sampled_from([' = ', '=', ' =', '= ', '   =   ']))}{draw(_space).join(items)}"
+    elif kind == "voice":
+        line = f"@voice{sp}{draw(_value)}"
+    elif kind in ("rate", "pitch"):
+        line = f"@{kind}{sp}{draw(st.integers(20, 300))}"
+    elif kind == "seed":
+        line = f"@seed{sp}{draw(st.integers(0, 99))}"
+    else:
+        line = f"@gap{sp}{draw(st.sampled_from(['0.3s', '600ms']))}"
+    return line + draw(_tail)
+
+
+@st.composite
+def _marks(draw) -> str:
+    parts = []
+    for _ in range(draw(st.integers(1, 6))):
+        kind = draw(st.sampled_from(["word", "word", "pose", "pause", "style"]))
+        if kind == "pose":
+            options = draw(st.lists(st.sampled_from(["x2", "flip", "hold = 300ms", "x3"]), max_size=2, unique=True))
+            parts.append("[" + draw(_space).join([f"pose{draw(_colon)}{draw(st.sampled_from(GESTURES))}"] + options) + "]")
+        elif kind == "pause":
+            parts.append(f"[ pause{draw(_space)}{draw(st.sampled_from(['300ms', '0.2s']))}]")
+        elif kind == "style":
+            parts.append(f"< speed :{draw(st.sampled_from(['-1', '+0.5']))}>{draw(_word)}</ speed >")
+        else:
+            parts.append(draw(_word))
+    return draw(_space).join(parts)
+
+
+@st.composite
+def _utterance_line(draw) -> str:
+    speaker = draw(st.sampled_from(SPEAKER_NAMES + [None]))
+    head = f"{speaker}{draw(_colon)}{draw(_space)}" if speaker else ""
+    return head + draw(_word) + " " + draw(_marks()) + draw(_tail)
+
+
+@st.composite
+def _continuation(draw) -> str:
+    return draw(st.sampled_from([" ", "  ", "\t", "        ", " \t"])) + draw(_marks()) + draw(_tail)
+
+
+_comment_line = st.sampled_from(["# a comment line", "#tight", "  # an indented comment", "#", "# " + "long " * 12])
+
+
+@st.composite
+def _statement(draw) -> list[str]:
+    """Body lines: an utterance (perhaps continued), a comment line, a @gap, a blank line."""
+    kind = draw(st.sampled_from(["utterance", "utterance", "utterance", "comment", "gap", "blank"]))
+    if kind == "utterance":
+        return [draw(_utterance_line())] + draw(st.lists(_continuation(), max_size=2))
+    if kind == "comment":
+        return [draw(_comment_line)]
+    if kind == "gap":
+        return [f"@gap{draw(_space)}{draw(st.sampled_from(['-200ms', '1s']))}{draw(_tail)}"]
+    return [""]
+
+
+def _is_code(line: str) -> bool:
+    return bool(line.strip()) and not line.lstrip().startswith("#")
+
+
+def _is_continuation(line: str) -> bool:
+    return line[:1] in (" ", "\t") and _is_code(line)
+
+
+@st.composite
+def _script_and_edit(draw):
+    """(the script's lines, the lines after the edit, the index of the line added or removed;
+    None when no line could be removed)."""
+    header = draw(st.lists(st.one_of(_directive(), _directive(), _comment_line), min_size=1, max_size=8))
+    body: list[str] = []
+    for statement in draw(st.lists(_statement(), min_size=1, max_size=8)):
+        if statement != [""] or (body and body[-1]):  # blank lines: single, between statements
+            body += statement
+    while body and not body[-1]:
+        body.pop()
+    lines = header + ([""] if body and draw(st.booleans()) else []) + body
+    if draw(st.booleans()):  # add a line
+        at = draw(st.integers(0, len(lines)))
+        before, following = (lines[at - 1] if at else ""), (lines[at] if at < len(lines) else "")
+        kinds = ["comment"] + (["directive"] * 3 if at <= len(header) else ["utterance"] * 2)
+        if at > len(header) and _is_code(before) and not before.startswith("@"):
+            kinds.append("continuation")  # after a line of an utterance
+        if before and following and not _is_continuation(following):
+            kinds.append("blank")
+        line = {"comment": _comment_line, "directive": _directive(), "utterance": _utterance_line(),
+                "continuation": _continuation(), "blank": st.just("")}[draw(st.sampled_from(kinds))]
+        return lines, lines[:at] + [draw(line)] + lines[at:], at
+
+    # remove a line, but not one whose removal makes blank lines meet (or begin or end the
+    # script), nor the first line of an utterance with continuation lines
+    def removable(i: int) -> bool:
+        rest = lines[:i] + lines[i + 1:]
+        if not rest or not rest[0] or not rest[-1] or any(not a and not b for a, b in pairwise(rest)):
+            return False
+        following = next((x for x in lines[i + 1:] if _is_code(x)), "")
+        return _is_continuation(lines[i]) or not _is_continuation(following)
+
+    candidates = [i for i in range(len(lines)) if removable(i)]
+    if not candidates:
+        return lines, lines, None
+    at = draw(st.sampled_from(candidates))
+    return lines, lines[:at] + lines[at + 1:], at
+
+
+@settings(max_examples=400, deadline=None)
+@given(case=_script_and_edit())
+def test_adding_or_removing_one_line_changes_only_that_line(case):
+    lines, edited, at = case
+    before = format_source("\n".join(lines) + "\n").splitlines()
+    after = format_source("\n".join(edited) + "\n").splitlines()
+    assert len(before) == len(lines) and len(after) == len(edited)  # no blank lines collapse here
+    if at is None:
+        return
+    if len(edited) > len(lines):  # added at `at`: every other line as it was
+        assert after[:at] + after[at + 1:] == before, (lines, edited)
+    else:
+        assert before[:at] + before[at + 1:] == after, (lines, edited)
+
+
+def test_one_speakers_new_voice_is_a_one_line_diff():
+    """The case users met: a script typed by hand is canonical, and a @voice line added to it
+    is the only line of the diff `sgt fmt --check` would show."""
+    typed = "@voice en-us\n@voice knight: en-gb+m3\n@rate knight: 150  # slow\n\nknight: Halt!  # loud\nx: [pose:nod] Yes.\n"
+    assert format_source(typed) == typed
+    grown = typed.replace("@voice knight:", "@voice a_very_long_speaker_name: en-us+f2\n@voice knight:")
+    assert format_source(grown) == grown
+
+
+def test_the_shipped_scripts_are_canonical():
+    """`sgt fmt --check` on the examples and the scripts in docs/ (what CI runs on a project's
+    scripts): nothing to change."""
+    r = _sgt("fmt", "--check", "examples", "docs")
+    assert (r.returncode, r.stdout) == (0, ""), r.stdout
+    assert r.stderr.startswith("0 of ") and int(r.stderr.split()[2]) >= 4  # the three examples and docs/*.sgt

@@ -98,7 +98,7 @@ def test_commands_and_the_editor_worker_make_the_same_motion_and_errors(tmp_path
     path.write_text(TEXT)
     assert main(["generate", str(path), "-o", str(tmp_path / "g.json"), "--engine", "rules", "--seed", "4"]) == 0
     assert main(["export", str(path), "-o", str(tmp_path / "e.json"), "--engine", "rules", "--seed", "4"]) == 0
-    clips, indices, timing = _clips({"id": "1", "path": str(path), "source": TEXT, "engine": "rules", "seed": 4},
+    clips, indices, timing, _ = _clips({"id": "1", "path": str(path), "source": TEXT, "engine": "rules", "seed": 4},
                                     lambda event: None)
     by_generate, by_export = load_motion(tmp_path / "g.json"), load_motion(tmp_path / "e.json")
     assert indices == [0, 1] and timing == "espeak-ng"

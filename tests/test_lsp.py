@@ -315,6 +315,27 @@ async def test_code_action_re_times_a_gesture_whose_stroke_misses_its_word(clien
     assert await _diagnostics(client, uri) == []  # the stroke now lands on its word
 
 
+async def test_re_timing_a_later_line_leaves_the_first_lines_recording_to_it(client: LanguageClient, workspace):
+    """An `@audio` before the first line is that line's: the action's trial of a later line
+    (the header and that line) does not give it the recording, whose words it does not say."""
+    import wave  # lazy: only this test writes a recording
+
+    (workspace / "rec").mkdir()
+    with wave.open(str(workspace / "rec" / "rec.wav"), "wb") as w:  # two seconds of silence, timed by rec.json
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(16000)
+        w.writeframes(b"\0\0" * 32000)
+    (workspace / "rec" / "rec.json").write_text(
+        '[{"word": "hello", "start": 0.2, "end": 0.6}, {"word": "there", "start": 0.7, "end": 1.2}]', encoding="utf-8")
+    text = ("@audio rec/rec.wav timings=rec/rec.json\nbot: Hello there.\n"
+            "guide: [pose:beat_both] one [pose:sweep] two three four.\n")
+    uri = await _open(client, workspace, text)
+    assert [(d.code, d.range.start.line) for d in client.diagnostics[uri]] == [("SGT401", 2)]
+    titles = {a.title for a in await _actions(client, uri, text, "[pose:beat_both")}
+    assert "re-time 'sweep' to x2 ('beat_both' then makes its word)" in titles
+
+
 async def test_a_rejected_recording_can_be_timed_by_the_aligners_times_in_one_action(client: LanguageClient, workspace):
     """SGT407 (the check rejects a recording's transcript) offers to write the times the
     aligner found (sgt align's file) and name it on the @audio directive: the command writes

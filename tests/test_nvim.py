@@ -77,6 +77,19 @@ def test_neovim_sees_a_diagnostic_a_completion_and_a_definition(tmp_path):
     assert result["definition"] == (ROOT / "library" / "gestures" / "wave.toml").as_uri()
 
 
+def test_neovim_shows_sgt_checks_verdict_on_look_marks(tmp_path):
+    """`[look:bob]` on ann's line names bob, who speaks a later line: no warning, as `sgt check`
+    says; `[look:cara]` names nobody: the one warning (the server judges a look mark among all
+    the script's speakers, not those of its own line)."""
+    script = tmp_path / "min.sgt"
+    script.write_text("ann: [look:bob] Hello there.\nbob: Hi. [look:cara] Who?\n", encoding="utf-8")
+    result = _run_nvim(tmp_path, script, INIT, timeout=120)
+    check = subprocess.run([sys.executable, "-m", "sgt_tui.cli", "check", "--format", "json", str(script)], check=False,
+                           capture_output=True, text=True, timeout=120)
+    expected = [(d["code"], d["line"] - 1, d["col"] - 1) for d in json.loads(check.stdout)["diagnostics"]]
+    assert sorted((d["code"], d["lnum"], d["col"]) for d in result["diagnostics"]) == expected == [("SGT214", 1, 15)]
+
+
 # Neovim takes the language server's action for a recording the check rejects (SGT407): the
 # command writes the aligner's times, Neovim applies the edit the server sends, and the
 # diagnostic goes away.

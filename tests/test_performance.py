@@ -185,28 +185,3 @@ def test_a_long_script_has_no_wrist_jump_at_boundaries():
     assert worst < 0.05, f"{100 * worst:.1f} cm"
 
 
-def test_the_neural_engine_starts_an_utterance_from_its_track():
-    from model import neural
-    from model.generate import EngineInputs
-    from model.weights import WeightsError, load_weights
-
-    try:
-        load_weights(None)
-    except WeightsError as exc:  # pragma: no cover
-        pytest.skip(str(exc))
-    u = compile_text("guide: well, that is [pose:point_right] over there\n", timing="estimate").plan.utterances[0]
-    track = listening(u.n_frames, [], np.random.default_rng(5))
-    free = np.flatnonzero(u.arrays.pose_mask[:15] < 0.5)
-    assert 0 in free  # the gesture starts later
-    seeded = neural.generate(EngineInputs.from_plan(u, track[:15]), seed=1)
-    plain = neural.generate(EngineInputs.from_plan(u), seed=1)
-    assert np.abs(seeded[0] - track[0]).max() < 1e-3  # it starts where the track is
-    assert np.abs(plain[0] - track[0]).max() > 1e-2
-    # and still makes the same gesture later: the bones the gesture controls (a layered gesture
-    # leaves the others to the network, which the seed may steer elsewhere) are where it puts them
-    bones = u.arrays.bone_mask
-    later = np.arange(len(bones)) >= 15
-    controlled = np.repeat(bones > 0.5, 3, axis=1) & later[:, None]
-    assert controlled.sum() > 30
-    assert np.abs(seeded[controlled] - plain[controlled]).max() < 1e-4
-    assert u.arrays.pose_mask[free].max() == 0  # the plan's own arrays are untouched

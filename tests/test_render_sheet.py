@@ -80,17 +80,25 @@ def test_a_labelled_picture_at_every_stroke_of_every_speaker(take, tracks, sheet
     assert sorted((p.label, p.gesture, p.frame) for p in panels) == _expected_strokes(take)
     assert len(panels) == 5 == sum(1 for c in take.clips for k in c.controls if k.kind == "pose")
     assert {(p.label, p.gesture): p.word for p in panels} == MARKED
-    # Each picture is the speaker's track at that frame, in the speaker's tint (the part above
-    # the timeline, which shows the playhead).
-    from renders.mannequin import FaceFrames, speaker_tint
+    # Each picture is the speaker's track at that frame, in the speaker's tint, with the close-up
+    # of its face (the part above the timeline, which shows the playhead).
+    from PIL import Image
+
+    from renders.animate import label_color
+    from renders.face_closeup import FaceInset, inset_side
+    from renders.mannequin import DEFAULT_VIEW, FaceFrames, speaker_tint
     from renders.overlay import timeline_geometry
 
     top = timeline_geometry(*SIZE, 2).top - 12
+    inset = FaceInset(inset_side("auto", DEFAULT_VIEW, *SIZE), *SIZE)  # on at this size
     for p in panels:
         track = tracks[p.row]
         hands = hand_positions(track.positions[p.frame : p.frame + 1], track.hands.take(slice(p.frame, p.frame + 1)))
         face = FaceFrames(track.face)[p.frame] if track.face is not None else None  # the face too
-        want = mannequin.render(track.positions[p.frame], hands[0], tint=speaker_tint(p.row), face=face).astype(int)
+        tint = speaker_tint(p.row)
+        want = Image.fromarray(mannequin.render(track.positions[p.frame], hands[0], tint=tint, face=face))
+        inset.draw(want, mannequin, track.positions[p.frame], hands[0], face, tint, label_color(tint))
+        want = np.asarray(want).astype(int)
         x0, y0, x1, y1 = p.box
         # (column 0 of a picture after the first of a line is the line between pictures)
         assert np.abs(img[y0 : y0 + top, x0 + 1 : x1] - want[:top, 1:]).max() <= 2, (p.gesture, p.frame)
@@ -123,9 +131,14 @@ def test_the_labels_are_on_the_sheet(sheet):
 
 
 def _body_color(region: np.ndarray) -> np.ndarray:
-    """Mean colour of the mannequin's clothes in ``region``: not background, not skin, not text."""
-    from renders.mannequin import BACKGROUND
+    """Mean colour of the mannequin's clothes in ``region`` (the top of a picture): not background,
+    not skin, not text, not the face's close-up in the corner (renders.face_closeup)."""
+    from renders.face_closeup import FaceInset, inset_side
+    from renders.mannequin import BACKGROUND, DEFAULT_VIEW
 
+    inset = FaceInset(inset_side("auto", DEFAULT_VIEW, *SIZE), *SIZE)
+    region = region.copy()
+    region[: inset.top + inset.side + inset.border, SIZE[0] - inset.side - inset.margin - inset.border:] = BACKGROUND
     r, g, b = region[..., 0], region[..., 1], region[..., 2]
     background = np.abs(region - np.array(BACKGROUND)).sum(-1) < 20
     skin = (r > b + 40) & (r > 120) & (g > 90)
@@ -155,6 +168,7 @@ def test_a_gif_of_two_speakers_tints_each_and_its_label(tmp_path, mannequin, tra
 
     from renders.animate import label_color, render_gif
     from renders.mannequin import speaker_tint
+    from renders.overlay import label_layout
 
     tints = [speaker_tint(0), speaker_tint(1)]
     render_gif(tracks[0], tmp_path / "two.gif", size=SIZE, others=tracks[1:], labels=("guide", "robot"),
@@ -165,8 +179,9 @@ def test_a_gif_of_two_speakers_tints_each_and_its_label(tmp_path, mannequin, tra
     left, right = rgb[:, : SIZE[0]], rgb[:, SIZE[0]:]
     assert _body_color(left[:90])[2] > _body_color(left[:90])[0] + 30
     assert _body_color(right[:90])[1] > _body_color(right[:90])[0] + 20
-    for half, tint in ((left, tints[0]), (right, tints[1])):  # the label's box: the tint's dark shade
-        assert np.abs(half[3, 3] - np.array(label_color(tint))).max() <= 12, (half[3, 3], label_color(tint))
+    for half, tint, name in ((left, tints[0], "guide"), (right, tints[1], "robot")):  # the label's box: the tint's dark shade
+        x0, y0, _, _ = (round(v) for v in label_layout(*SIZE, name).box)  # its top left corner, under the word's band
+        assert np.abs(half[y0 + 1, x0 + 1] - np.array(label_color(tint))).max() <= 12, (half[y0 + 1, x0 + 1], label_color(tint))
 
 
 def test_even_frames_and_a_row_without_gestures(tmp_path, mannequin, tracks):

@@ -122,12 +122,14 @@ def test_missing_weights_are_reported_as_before(tmp_path):
 
 def test_generate_imports_neither_torch_nor_scipy_signal(tmp_path):
     """The fast cold start (benchmarks/bench_cold_start.py): a one-utterance `sgt generate`
-    with the shipped weights loads onnxruntime, not torch, and resamples without scipy."""
+    resamples without scipy and loads no torch; the default (matching) engine loads no
+    network runtime at all, the neural engine onnxruntime."""
     script = tmp_path / "one.sgt"
     script.write_text("guide: Welcome to the mall! [pose:point_right] The shops are over there.\n")
     code = ("import sys; from sgt_tui.cli import main; rc = main(sys.argv[1:]); "
             "print(sorted({m.split('.')[0] for m in sys.modules} & {'torch', 'onnxruntime', 'librosa'}), "
             "'scipy.signal' in sys.modules, rc)")
-    r = subprocess.run([sys.executable, "-c", code, "generate", str(script), "-o", str(tmp_path / "m.json")],
-                       capture_output=True, text=True, cwd=ROOT, timeout=300)
-    assert r.stdout.strip().splitlines()[-1] == "['onnxruntime'] False 0", r.stderr
+    for extra, runtimes in (((), "[]"), (("--engine", "neural"), "['onnxruntime']")):
+        r = subprocess.run([sys.executable, "-c", code, "generate", str(script), "-o", str(tmp_path / "m.json"), *extra],
+                           capture_output=True, text=True, cwd=ROOT, timeout=300)
+        assert r.stdout.strip().splitlines()[-1] == f"{runtimes} False 0", r.stderr

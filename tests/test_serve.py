@@ -396,7 +396,7 @@ def test_stream_of_audio_chunks_with_their_words(api):
     words = [w.to_dict(6) for w in u.words]  # the audio starts at the utterance's first frame here
     chunk = int(0.2 * rate)
     with api.websocket_connect("/v1/stream") as ws:
-        ws.send_json({"type": "start", "seed": 4})
+        ws.send_json({"type": "start", "seed": 4, "engine": "neural"})  # compared below with the network's own stream
         ws.receive_json()
         pending = list(words)
         for at in range(0, len(pcm), chunk):

@@ -90,7 +90,8 @@ def test_a_speech_worker_killed_mid_request_costs_that_request_only(tmp_path):
     import threading
     import time
 
-    with bench.Server(env={"SGT_CACHE_DIR": str(tmp_path / "cache")}) as server:
+    # the text is about 22 minutes of speech: over the service's default --max-seconds (10 minutes)
+    with bench.Server("--max-seconds", "1800", env={"SGT_CACHE_DIR": str(tmp_path / "cache")}) as server:
         long_text = "The quick brown fox jumps over the lazy dog near the old river bank. " * 250  # ~16 s of synthesis
         answer = {}
         request = threading.Thread(target=lambda: answer.update(r=bench.post(server.url + "/v1/generate", {"text": long_text})))

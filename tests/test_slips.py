@@ -154,3 +154,34 @@ def test_the_editor_reports_the_whole_scripts_speakers_as_check_does():
         full = compile_text(text, "t.sgt", timing="estimate").diagnostics
         assert sorted(map(repr, mine)) == sorted(map(repr, full)), text
     assert [d.code for d in mine] == ["SGT409", "SGT410"]  # the interruptions, from the plans laid out together
+
+
+def test_a_speaker_colon_right_before_a_mark_is_the_same_slip():
+    """`guide:[pose:nod] Yes.` has no speaker and says "guide": SGT116, as `guide:hello`, with
+    its fixes (make 'guide' the speaker, or speak the colon), in check and in the editor."""
+    text = "guide:[pose:nod] Yes.\nguide:<happy>Good.</happy>\nguide\\:[pose:nod] Said.\n"
+    first, second = _diags(text)
+    assert (first.code, first.line, first.col, first.length) == ("SGT116", 1, 1, len("guide:[pose:nod]"))
+    assert first.message == "'guide:[pose:nod]' looks like a speaker without a space after the colon: it is spoken as text"
+    assert first.hint == "write 'guide: [pose:nod]' for a speaker, or 'guide\\:[pose:nod]' to speak it"
+    assert (second.code, second.line) == ("SGT116", 2)  # a style tag too; the escaped colon is meant
+    spoken = compile_text(text, "s.sgt", timing="estimate").script.utterances[0]
+    assert spoken.speaker is None and [w.text for w in spoken.words] == ["guide", "Yes"]
+    made = compile_text(apply_fix(text, first.fixes[0]), "s.sgt", timing="estimate")
+    assert made.script.utterances[0].speaker == "guide" and [w.text for w in made.script.utterances[0].words] == ["Yes"]
+    assert "SGT116" not in [(d.code, d.line) for d in made.diagnostics if d.line == 1]
+    assert apply_fix(text, first.fixes[1]).startswith("guide\\:[pose:nod] Yes.")
+    assert Analyser("s.sgt").run(text).diagnostics == _diags(text)
+
+
+def test_say_prints_a_line_without_a_speaker_with_every_word_it_speaks(tmp_path, capsys, monkeypatch):
+    """`sgt say` shows who speaks each line and what it says: a line without a speaker that
+    starts with a name says so, never reading as that speaker's line."""
+    monkeypatch.setenv("SGT_CACHE_DIR", str(tmp_path / "cache"))
+    script = tmp_path / "slip.sgt"
+    script.write_text("guide:[pose:nod] Yes.\nguide: Fine.\n")
+    assert cli.main(["say", str(script), "-o", str(tmp_path / "wav")]) == 0
+    out, err = capsys.readouterr()
+    assert "[0] (no speaker) guide: Yes.\n" in out and "[1] guide: Fine.\n" in out
+    assert [line.split()[0] for line in out.split("[1]")[0].splitlines()[3:] if line.strip()] == ["guide", "Yes"]
+    assert "SGT116" in err

@@ -222,7 +222,7 @@ def test_each_speaker_of_a_performance_draws_one_take():
     plan = compile_file(EXAMPLE).plan
     keys = {}
     for u in plan.utterances:
-        key = EngineInputs.from_plan(u, None, 11).take_key
+        key = EngineInputs.from_plan(u, 11).take_key
         assert keys.setdefault(u.speaker, key) == key
     assert len(set(keys.values())) == len(keys) >= 1
     assert EngineInputs.from_plan(plan.utterances[0]).take_key is None  # no base seed: the engine's seed draws it

@@ -116,7 +116,9 @@ def test_generate_with_the_users_database_plays_the_users_motion(user_db, tmp_pa
     mine = _generated(tmp_path, "--database", str(path))
     shipped = _generated(tmp_path)
     arm, nearest = measure(mine)
-    later = slice(len(mine) // 3, 2 * len(mine) // 3)  # the middle third: the performance eases at both ends
+    # from the middle to two thirds: the performance eases the line in from the listening pose over as
+    # many frames as the distance needs (28 of its 69 here, the arm turning 80 degrees) and out at its end
+    later = slice(len(mine) // 2, 2 * len(mine) // 3)
     assert np.median(arm) < 10 and arm[later].max() < 10, np.round(arm)
     assert nearest[later].max() < 8, np.round(nearest)
     arm, nearest = measure(shipped)

@@ -22,7 +22,7 @@ from core.face import ARKIT_INDEX, N_BLENDSHAPES
 from core.motion import load_motion_file
 from core.skeleton import FPS
 from renders import face_rig
-from renders.clips import track_clip
+from renders.clips import speaker_name, track_clip
 from renders.mannequin import VIEWS
 from sgt_tui.cli import main
 from sgt_tui.serve.app import create_app
@@ -65,7 +65,21 @@ def test_the_page_gets_every_speaker_on_the_performance_clock(take):
     assert point["stroke"] == pytest.approx(point["stroke_frame"] / FPS)
     style = next(c for c in doc["controls"] if c["kind"] == "style")
     assert style["speaker"] == "visitor" and style["label"] == "speed:+1"
-    assert doc["scene"]["views"] == {k: {"azimuth": v.azimuth, "elevation": v.elevation} for k, v in VIEWS.items()}
+    assert doc["scene"]["views"] == {k: {"azimuth": v.azimuth, "elevation": v.elevation, "distance": v.distance,
+                                         "on_head": v.on_head} for k, v in VIEWS.items()}
+
+
+def test_the_pages_words_are_sgt_renders_to_the_bit(take):
+    """The page captions a frame with the word whose span holds its middle, as sgt render does
+    (renders.overlay.frame_word, viewer/src/caption.js): with the words' times rounded, a word that
+    starts a hair after a frame's middle would caption that frame on the page and not in sgt's
+    render. JSON carries a float exactly, so the page gets the very times sgt render has."""
+    motion = load_motion_file(take)
+    words = json.loads(json.dumps(page_take(motion, "talk.json")))["words"]
+    for track in motion.tracks:
+        clip = track_clip(track, motion.clips)
+        own = [(w["word"], w["start"], w["end"]) for w in words if w["speaker"] == speaker_name(track.speaker)]
+        assert own == [(w.word, w.start, w.end) for w in clip.words]
 
 
 def test_the_page_gets_each_speakers_face_as_the_mannequin_draws_it(take):

@@ -57,6 +57,8 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium is not installed (apt-get install chromium)")
 
 ROOT = Path(__file__).resolve().parent.parent
+DIALOGUE = ("@seed 3\nguide: Look at the shelf [pose:point_right] over there, by the lifts.\n@gap -600ms\n"
+            "visitor: Thanks, [pose:nod] I see it [pose:point_left] now.\n")
 SCRIPT = ("@seed 5\nguide: Hello and welcome! [pose:open_arms] Look at the shelf [pose:point_right] over there.\n"
           "guide: It has everything you need for the garden, and the lifts are right behind you.\n")
 WIDTH, HEIGHT = 800, 640
@@ -178,13 +180,14 @@ class View:
     def __init__(self, *args: str) -> None:
         self.proc = subprocess.Popen([sys.executable, "-m", "sgt_tui", "view", *args], cwd=ROOT, stdout=subprocess.DEVNULL,
                                      stderr=subprocess.PIPE, text=True)
-        lines: queue.Queue = queue.Queue()
-        threading.Thread(target=lambda: [lines.put(line) for line in self.proc.stderr], daemon=True).start()
+        self.lines: queue.Queue = queue.Queue()  # what it prints
+        self.reader = threading.Thread(target=lambda: [self.lines.put(line) for line in self.proc.stderr], daemon=True)
+        self.reader.start()
         said = []
         deadline = time.monotonic() + 90
         while True:
             try:
-                line = lines.get(timeout=max(0.1, deadline - time.monotonic()))
+                line = self.lines.get(timeout=max(0.1, deadline - time.monotonic()))
             except queue.Empty:
                 self.stop()
                 pytest.fail(f"sgt view printed no address: {''.join(said)}")
@@ -193,7 +196,8 @@ class View:
                 self.url = line.split()[2]
                 return
 
-    def stop(self) -> None:
+    def stop(self) -> str:
+        """Ctrl+c; what it printed after its address."""
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGINT)  # as ctrl+c
             try:
@@ -201,6 +205,8 @@ class View:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+        self.reader.join(10)
+        return "".join(self.lines.get() for _ in range(self.lines.qsize()))
 
 
 @pytest.fixture(scope="module")
@@ -393,6 +399,153 @@ def test_the_page_reloads_when_the_script_is_saved(folder, browser):
         assert "unknown gesture 'wavee'" in browser.js("document.getElementById('details').textContent")
     finally:
         view.stop()
+
+
+def _timeline(browser) -> dict:
+    """The timeline as drawn: the playhead's x on the screen, the span of it in view (from the
+    labels' right edge to the timeline's right edge), and where time 0 is and the pixels a second
+    (from the ruler's ticks and their seconds)."""
+    return browser.js("""(() => {
+      const root = document.getElementById('timeline');
+      const ticks = [...root.querySelectorAll('.tl-tick')].map((e) => [e.getBoundingClientRect().x, parseFloat(e.textContent)]);
+      const head = root.querySelector('.tl-playhead').getBoundingClientRect();
+      const pps = (ticks[1][0] - ticks[0][0]) / (ticks[1][1] - ticks[0][1]);
+      const right = root.getBoundingClientRect().x + root.clientLeft + root.clientWidth - head.width; // no scroll bar
+      return {head: head.x, left: root.querySelector('.tl-label').getBoundingClientRect().right, right,
+              zero: ticks[0][0] - ticks[0][1] * pps, pps};
+    })()""")
+
+
+def _followed(browser, what: str) -> dict:
+    """After a jump while paused: the page drew its time, and the timeline's playhead is there, in view."""
+    state = browser.state()
+    assert not state["playing"], what
+    line = _timeline(browser)
+    at = line["zero"] + state["time"] * line["pps"]
+    assert abs(line["head"] - at) < 1.5, f"{what}: the playhead is at x {line['head']:.1f}, not at {state['time']:.3f} s (x {at:.1f})"
+    assert line["left"] - 0.5 <= line["head"] <= line["right"] + 0.5, \
+        f"{what}: the playhead (x {line['head']:.1f}) is out of the timeline's view ({line['left']:.1f} to {line['right']:.1f})"
+    return state
+
+
+def test_the_timeline_follows_jumps_and_scrubs_while_paused(server, browser, take):
+    clip, _ = take
+    strokes = sorted(c.stroke_frame for c in clip.controls if c.kind == "pose" and c.stroke_frame is not None)
+    browser.open(server.url)
+    for _ in range(3):  # zoomed in 8x: the take is several timelines wide
+        browser.key("+", "Equal", 187)
+    assert browser.js("(() => { const r = document.getElementById('timeline'); return r.scrollWidth > 3 * r.clientWidth; })()")
+    _followed(browser, "at the start")
+
+    def jump(what: str, press, until: str) -> dict:
+        press()
+        browser.wait(until, 10, what)
+        time.sleep(0.15)  # a frame drawn since
+        return _followed(browser, what)
+
+    jump("End", lambda: browser.key("End", "End", 35), "sgtView.state().time === sgtView.state().duration")
+    jump("Home", lambda: browser.key("Home", "Home", 36), "sgtView.state().time === 0")
+    for f in strokes:  # '.': the next stroke
+        assert jump(f"'.' to frame {f}", lambda: browser.key(".", "Period", 190), f"sgtView.state().frame === {f}")["frame"] == f
+    jump("shift+left", lambda: browser.cmd("Input.dispatchKeyEvent", type="keyDown", key="ArrowLeft", code="ArrowLeft",
+                                           windowsVirtualKeyCode=37, modifiers=8), "sgtView.state().frame === "
+         f"{strokes[-1] - FPS}")
+    browser.cmd("Input.dispatchKeyEvent", type="keyUp", key="ArrowLeft", code="ArrowLeft", windowsVirtualKeyCode=37, modifiers=8)
+    browser.js("document.getElementById('timeline').scrollLeft = 0")  # the stroke's control out of view, then clicked
+    point = next(c for c in clip.controls if c.name == "point_right")
+    browser.key("End", "End", 35)
+    jump("a click on point_right", lambda: browser.click('.tl-pose[data-name="point_right"]'),
+         f"sgtView.state().frame === {point.stroke_frame}")
+    if SHOTS:
+        browser.screenshot(Path(SHOTS) / "view_jumped.png")
+    # a scrub: the slider pressed at 30 % of its length, dragged to 90 %, let go
+    x0, y, width = browser.js("(() => { const r = document.getElementById('scrub').getBoundingClientRect(); "
+                              "return [r.x, r.y + r.height / 2, r.width]; })()")
+    browser.cmd("Input.dispatchMouseEvent", type="mousePressed", x=x0 + 0.3 * width, y=y, button="left", clickCount=1)
+    for k in range(1, 7):
+        browser.cmd("Input.dispatchMouseEvent", type="mouseMoved", x=x0 + (0.3 + 0.1 * k) * width, y=y, button="left")
+    browser.cmd("Input.dispatchMouseEvent", type="mouseReleased", x=x0 + 0.9 * width, y=y, button="left", clickCount=1)
+    state = jump("a scrub", lambda: None, "sgtView.state().time > 0.8 * sgtView.state().duration")
+    if SHOTS:
+        browser.screenshot(Path(SHOTS) / "view_scrubbed.png")
+    assert abs(state["time"] / state["duration"] - 0.9) < 0.05, state
+
+
+def test_pages_open_when_sgt_view_stops_say_so_and_it_stops_quietly(folder, browser):
+    """Ctrl+c with the page open (its long poll waiting) and a second tab just closed."""
+    view = View(str(folder / "take.json"))
+    browser.open(view.url)
+    other = Browser(400, 300)
+    try:
+        other.open(view.url)
+    finally:
+        other.close()  # a tab just gone
+    started = time.monotonic()
+    said = view.stop()
+    assert view.proc.returncode == 0 and said.count("\n") <= 1 and "Traceback" not in said, said
+    assert time.monotonic() - started < 3
+    problem = browser.wait("sgtView.state().problem", 10, "the page to say that sgt view stopped")
+    assert problem.startswith("sgt view is stopping"), problem
+
+
+def _captions_by_frame(browser, n_frames: int) -> list[list[str]]:
+    """The caption over the view at every frame, as the page drew it after a seek to the frame."""
+    return browser.js(f"""(async () => {{
+      const out = [];
+      for (let f = 0; f < {n_frames}; f++) {{
+        sgtView.seek(f / {FPS});
+        await new Promise((resolve) => requestAnimationFrame(() => resolve()));
+        if (sgtView.state().frame !== f) throw new Error(`drew frame ${{sgtView.state().frame}}, not ${{f}}`);
+        out.push([...document.querySelectorAll('#caption .spoken')].map((e) => e.textContent));
+      }}
+      return out;
+    }})()""")
+
+
+def _rendered_captions(motion) -> list[list[str]]:
+    """The word `sgt render` captions each frame with (renders.overlay), per speaker's track, as
+    the page shows them: the word, or 'speaker: word' for each speaker of a dialogue."""
+    from renders.clips import speaker_name
+    from renders.overlay import frame_word
+
+    clips = [track_clip(t, motion.clips) for t in motion.tracks]
+    out = []
+    for f in range(motion.tracks[0].n_frames):
+        words = [(speaker_name(c.speaker), frame_word(c.words, f)) for c in clips]
+        out.append([w if len(clips) == 1 else f"{who}: {w}" for who, w in words if w])
+    return out
+
+
+@pytest.fixture(scope="module")
+def dialogue(folder):
+    """A take of two speakers, the second interrupting the first (their words overlap)."""
+    (folder / "dialogue.sgt").write_text(DIALOGUE)
+    assert main(["generate", str(folder / "dialogue.sgt"), "-o", str(folder / "dialogue.json")]) == 0
+    view = View(str(folder / "dialogue.json"))
+    yield view, load_motion_file(folder / "dialogue.json")
+    view.stop()
+
+
+@pytest.mark.parametrize("which", ["guide", "dialogue"])
+def test_the_caption_is_the_word_sgt_render_shows_at_every_frame_and_at_every_stroke(which, folder, server, dialogue, browser):
+    view, motion = (server, load_motion_file(folder / "take.json")) if which == "guide" else dialogue
+    expected = _rendered_captions(motion)
+    browser.open(view.url)
+    got = _captions_by_frame(browser, len(expected))
+    wrong = [(f, got[f], expected[f]) for f in range(len(expected)) if got[f] != expected[f]]
+    assert not wrong, f"{len(wrong)} frames captioned otherwise than sgt render's (frame, page, render): {wrong[:6]}"
+    assert sum(bool(c) for c in expected) > len(expected) / 3  # words to compare
+    assert which == "guide" or any(len(c) == 2 for c in expected)  # the dialogue: both speaking at once
+    controls = browser.js("[...document.querySelectorAll('.tl-pose')].map((e) => e.dataset.strokeFrame)")
+    assert len(controls) >= 2
+    for stroke in controls:  # a click on each pose control: the caption at its stroke
+        if not stroke:
+            continue
+        browser.click(f".tl-pose[data-stroke-frame='{stroke}']")
+        browser.wait(f"sgtView.state().frame === {stroke}", 10, f"the stroke at frame {stroke}")
+        time.sleep(0.1)
+        shown = browser.js("[...document.querySelectorAll('#caption .spoken')].map((e) => e.textContent)")
+        assert shown == expected[int(stroke)], f"at the stroke of frame {stroke} the page says {shown}, sgt render {expected[int(stroke)]}"
 
 
 #: The VRM preset expressions the test character has (with no morph targets bound: the weights

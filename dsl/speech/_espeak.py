@@ -401,16 +401,41 @@ def _run_fresh(request: bytes, timeout: float) -> bytes:
     """The answer to ``request`` from a new process (this file run as a script)."""
     import subprocess
     import sys
+    import time
 
+    proc = subprocess.Popen([sys.executable, "-I", "-S", os.path.abspath(__file__)], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + timeout
+    given = request
     try:
-        proc = subprocess.run([sys.executable, "-I", "-S", os.path.abspath(__file__)], input=request,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=timeout, check=False)
-    except subprocess.TimeoutExpired:
-        raise _too_long(timeout) from None
+        while True:  # looking every _POLL seconds whether the work was cancelled (core.cancel)
+            _check_cancelled()
+            try:
+                out, _ = proc.communicate(given, timeout=max(0.0, min(_POLL, deadline - time.monotonic())))
+                break
+            except subprocess.TimeoutExpired:
+                given = None  # sent already: communicate goes on where it was
+                if time.monotonic() >= deadline:
+                    raise _too_long(timeout) from None
+    except BaseException:  # too long, cancelled or interrupted: the process is not needed any more
+        proc.kill()
+        proc.communicate()
+        raise
     # what the engine printed on stderr is not passed on: it can quote files (see _Engine.set_voice)
-    if proc.returncode != 0 or not _whole(proc.stdout):
+    if proc.returncode != 0 or not _whole(out):
         raise EngineError("crash", _died(-proc.returncode if proc.returncode < 0 else proc.returncode << 8))
-    return proc.stdout
+    return out
+
+
+#: How often a synthesis that is waited for looks whether its work was cancelled, seconds.
+_POLL = 0.1
+
+
+def _check_cancelled() -> None:
+    """:func:`core.cancel.check` (imported here: this file also runs alone, as a stdlib-only script)."""
+    from core import cancel  # lazy: this file also runs as a script without the project on its path
+
+    cancel.check()
 
 
 def _died(status: int) -> str:
@@ -493,16 +518,24 @@ class _ForkServer:
         except (OSError, ValueError, EOFError):
             self.stop()
             return None
+        except BaseException:  # the work was cancelled (core.cancel) or interrupted: the answer is not wanted
+            self.stop()
+            raise
 
     def _fill(self, deadline: float) -> None:
-        """More bytes from the server into the buffer, waiting at most until ``deadline``."""
+        """More bytes from the server into the buffer, waiting at most until ``deadline``, and
+        looking every :data:`_POLL` seconds whether the work was cancelled (:mod:`core.cancel`)."""
         import select
         import time
 
         fd = self.proc.stdout.fileno()
-        left = deadline - time.monotonic()
-        if left <= 0 or not select.select([fd], [], [], left)[0]:
-            raise TimeoutError
+        while True:
+            _check_cancelled()
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise TimeoutError
+            if select.select([fd], [], [], min(left, _POLL))[0]:
+                break
         chunk = os.read(fd, 1 << 20)
         if not chunk:
             raise EOFError

@@ -48,6 +48,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from core import cancel
 from core.interrupts import import_optional
 
 from . import audio
@@ -283,6 +284,7 @@ class _Aligner:
                 raise SpeechError("none of the transcript's words can be aligned; supply a TextGrid or JSON timings file")
             try:
                 decoder.set_align_text(" ".join(usable))
+                cancel.check()  # each pass is a long call into pocketsphinx: look before it
                 decoder.start_utt()
                 decoder.process_raw(_padded(pcm), full_utt=True)
                 decoder.end_utt()
@@ -345,6 +347,7 @@ class _Aligner:
         audio fits well scores near 0."""
         try:
             decoder.set_alignment()
+            cancel.check()  # each pass is a long call into pocketsphinx: look before it
             decoder.start_utt()
             decoder.process_raw(_padded(pcm), full_utt=True)
             decoder.end_utt()
@@ -476,6 +479,7 @@ class _Aligner:
         try:
             decoder.add_jsgf_string("transcript", grammar)
             decoder.activate_search("transcript")
+            cancel.check()  # each pass is a long call into pocketsphinx: look before it
             decoder.start_utt()
             decoder.process_raw(pcm, full_utt=True)
             decoder.end_utt()
@@ -544,6 +548,7 @@ class _Aligner:
         if self._free is None:  # a single forward pass, bounded: ~0.15 s per second of audio; see fresh()
             self._free = self.ps.Decoder(loglevel="FATAL", fwdflat=False, maxhmmpf=3000)
         try:
+            cancel.check()  # each pass is a long call into pocketsphinx: look before it
             self._free.start_utt()
             self._free.process_raw(pcm, full_utt=True)
             self._free.end_utt()

@@ -134,16 +134,49 @@ def read_wav(path) -> tuple[np.ndarray, int] | None:
     """(float32 samples (n, channels) in -1..1, sample rate) of a 16-bit PCM WAV file, read with
     the standard library (the same numbers as ``soundfile.read(dtype="float32")``); None for any
     other kind of file, which the caller reads with soundfile."""
+    got = wav_blocks(path)
+    if got is None:
+        return None
+    blocks, rate = got
+    parts = list(blocks)
+    return (np.concatenate(parts) if len(parts) != 1 else parts[0]), rate
+
+
+#: Frames :func:`wav_blocks` reads at a time.
+WAV_BLOCK = 1 << 16
+
+
+def wav_blocks(path, frames: int = WAV_BLOCK):
+    """:func:`read_wav`'s samples ``frames`` at a time: (an iterator of float32 (k, channels)
+    blocks, sample rate), or None for a file that is no 16-bit PCM WAV. The file stays open
+    until the iterator is used up (or dropped)."""
     try:
-        with wave.open(str(path), "rb") as w:
-            if w.getsampwidth() != 2 or w.getcomptype() != "NONE":
-                return None
-            channels, rate = w.getnchannels(), w.getframerate()
-            raw = w.readframes(w.getnframes())
+        w = wave.open(str(path), "rb")  # noqa: SIM115 (closed by the blocks' generator, or below)
     except (wave.Error, EOFError):
         return None
-    data = np.frombuffer(raw, "<i2")[: len(raw) // (2 * channels) * channels]
-    return (data.astype(np.float32) / 32768.0).reshape(-1, channels), rate
+    try:
+        ok = w.getsampwidth() == 2 and w.getcomptype() == "NONE"
+        channels, rate = w.getnchannels(), w.getframerate()
+    except BaseException:
+        w.close()
+        raise
+    if not ok:
+        w.close()
+        return None
+
+    def blocks():
+        with w:
+            while True:
+                try:
+                    raw = w.readframes(frames)
+                except (wave.Error, EOFError):
+                    return
+                data = np.frombuffer(raw, "<i2")[: len(raw) // (2 * channels) * channels]
+                if not len(data):
+                    return
+                yield (data.astype(np.float32) / 32768.0).reshape(-1, channels)
+
+    return blocks(), rate
 
 
 @lru_cache(maxsize=8)

@@ -26,7 +26,8 @@ from typing import Sequence
 
 import numpy as np
 
-from core.fileio import atomic_write, json_text
+from core import cancel, limits
+from core.fileio import Inside, atomic_write, json_text
 from core.reading import InputFileError, loads_json, read_bytes
 from core.words import TimedWord
 
@@ -48,19 +49,58 @@ def normalise_word(w: str) -> str:
 # -- audio ----------------------------------------------------------------------------------
 
 
+#: Frames decoded at a time (the channels are mixed down block by block).
+_BLOCK = 1 << 16
+
+
 def read_audio(path: Path) -> tuple[np.ndarray, int]:
-    """Mono float32 samples and the sample rate; SpeechError naming the file if unreadable."""
+    """Mono float32 samples and the sample rate; SpeechError naming the file if unreadable.
+
+    A recording longer than :func:`core.limits.current`'s ``recording_seconds_at`` its sample
+    rate is refused ("too-long") from its header, before it is decoded, and decoding stops at
+    the limit when the header says less than the file holds; the channels are mixed down
+    block by block, so memory holds the mono samples only."""
     import soundfile as sf
 
     try:
-        data, sr = sf.read(str(path), dtype="float32", always_2d=True)
+        with sf.SoundFile(str(path)) as f:
+            sr, channels = int(f.samplerate), int(f.channels)
+            longest = limits.current().recording_seconds_at(sr)
+            most = int(longest * sr)
+            if f.frames > most:
+                raise _too_long(path, f"it lasts {limits.duration_text(f.frames / sr)}", longest, sr)
+            blocks, total = [], 0
+            while True:
+                cancel.check()
+                block = f.read(min(_BLOCK, most + 1 - total), dtype="float32", always_2d=True)
+                if not len(block):
+                    break
+                total += len(block)
+                if total > most:
+                    raise _too_long(path, "it lasts longer than its header says", longest, sr)
+                blocks.append(block.mean(axis=1) if channels > 1 else block[:, 0])
+    except SpeechError:
+        raise
     except Exception as e:  # soundfile raises LibsndfileError/RuntimeError/OSError/TypeError
         reason = re.sub(r"^Error opening .*?: ", "", str(e)).rstrip(".")  # the file is named by the caller
         raise SpeechError(f"cannot read the audio file {str(path)!r}: {e}", kind="audio", file=path, reason=reason) from None
-    if data.shape[0] == 0:
+    if total == 0:
         raise SpeechError(f"the audio file {str(path)!r} is empty", kind="audio", file=path, reason="the file holds no samples")
-    mono = data.mean(axis=1) if data.shape[1] > 1 else data[:, 0]
-    return np.ascontiguousarray(mono, dtype=np.float32), int(sr)
+    mono = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+    return np.ascontiguousarray(mono, dtype=np.float32), sr
+
+
+def _too_long(path, lasts: str, longest: float, sr: int) -> SpeechError:
+    at = f" at {sr} Hz" if longest < limits.current().recording_seconds else ""
+    reason = f"{lasts}; sgt reads at most {limits.duration_text(longest)} of a recording{at}"
+    return SpeechError(f"the audio file {str(path)!r} is too long: {reason}", kind="too-long", file=path, reason=reason)
+
+
+def recording_length(path) -> float | None:
+    """Seconds of a recording as its header says (None when it cannot be read: that is
+    reported where it is decoded, :func:`read_audio`)."""
+    info = _info(path)
+    return info.frames / info.samplerate if info is not None and info.samplerate > 0 else None
 
 
 # -- timings files --------------------------------------------------------------------------
@@ -354,12 +394,18 @@ def load_recording(audio_path: Path, text: str, word_spans: list[tuple[int, int]
 
 
 def _channels(path: Path) -> int:
+    info = _info(path)
+    return info.channels if info is not None else 0
+
+
+def _info(path):
+    """soundfile's header of a recording, None when it cannot be read."""
     import soundfile as sf
 
     try:
-        return sf.info(str(path)).channels
-    except Exception:
-        return 0
+        return sf.info(str(path))
+    except Exception:  # soundfile raises LibsndfileError/RuntimeError/OSError/TypeError
+        return None
 
 
 def _insert_pauses(samples, sr, starts, ends, boundaries: dict[int, float]):
@@ -428,6 +474,29 @@ def timings_path(audio_path, fmt: str = "json", folder: Path | None = None) -> P
     :data:`TIMINGS_SUFFIX`, in ``folder`` (default: the recording's own)."""
     audio_path = Path(audio_path)
     return (audio_path.parent if folder is None else Path(folder)) / (audio_path.stem + TIMINGS_SUFFIX[fmt])
+
+
+def write_timings_file(target: Path, text: str, *, replace: bool = False) -> None:
+    """Write the timings file ``target`` that ``sgt align`` (or the language server) derived from
+    a recording: in ``target``'s folder by :class:`core.fileio.Inside`'s rule, so a symbolic link
+    at ``target`` (dangling or not) is refused (:class:`core.fileio.LinkRefused`), with or without
+    ``replace``, never written through; without ``replace`` the file is created only where
+    nothing is, atomically (:class:`core.fileio.OutputExists` otherwise, even if it appeared a
+    moment ago); with it, a regular file there is replaced atomically."""
+    target = Path(target)
+    with Inside(target.parent, create=True) as d:
+        d.write(target.name, text.encode("utf-8"), exclusive=not replace)
+
+
+def check_timings_target(target: Path) -> None:
+    """Raise :class:`core.fileio.LinkRefused` (or another :class:`core.fileio.OutputError`) when
+    :func:`write_timings_file` would refuse ``target`` whatever is in it: a link there or on the way,
+    a folder or a device; writes nothing (a folder that is not there yet is fine)."""
+    target = Path(target)
+    if not target.parent.is_dir():
+        return
+    with Inside(target.parent) as d:
+        d.check(target.name)
 
 
 def aligner_timings(audio_path: Path, text: str, word_spans, fmt: str = "json", cache_dir: Path | None = None):

@@ -53,7 +53,8 @@ class SpeechError(Exception):
     ``message`` is meant to be shown as is, without a traceback. ``word_index`` (index into the
     word spans) and ``time`` (seconds into the audio) locate the problem when known. ``kind``
     says what it is about, so that a diagnostic can point at the right place: "voice" (an
-    unknown voice), "audio" (the recording cannot be read), "timings" (the timings file is
+    unknown voice), "audio" (the recording cannot be read), "too-long" (the recording is longer
+    than :mod:`core.limits` lets it be), "timings" (the timings file is
     malformed), "mismatch" (the timings do not fit the transcript or the recording), "crash" (the
     process synthesizing died), "engine" (anything else: the engine or the aligner failed). ``file`` is the file it is about;
     ``reason`` the message without the file's name (for a diagnostic that names it itself).

@@ -44,7 +44,6 @@ import json
 import math
 import re
 import tempfile
-import zipfile
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from pathlib import Path
 
@@ -52,6 +51,8 @@ import numpy as np
 
 from core.controls import STYLE_LIMIT, STYLE_NAMES
 from core.fileio import atomic_write, atomic_write_text, json_text
+from core.npz import load_npz
+from core.reading import InputFileError, loads_json, read_bytes
 from core.skeleton import FPS, frame_count, mirror_pose
 from core.words import TimedWord
 from dsl.parser import WORD_RE
@@ -406,9 +407,9 @@ def build_shard(out: str, k: int, config: dict, sentences: list[str], voices: li
     return {"k": k, "frames": int(offsets[-1]), "metas": metas}
 
 
-#: What reading a damaged or foreign shard file raises (np.load, zipfile, json; measured by
-#: reading truncated and corrupted shards); such a shard is built again.
-_DAMAGED_SHARD = (OSError, EOFError, ValueError, LookupError, RuntimeError, zipfile.BadZipFile)
+#: What reading a damaged or foreign shard file raises (core.npz's NpzError is a ValueError;
+#: json; a missing array); such a shard is built again.
+_DAMAGED_SHARD = (OSError, ValueError, LookupError)
 
 
 def _read_shard_summary(path: Path, config: dict) -> dict | None:
@@ -417,14 +418,37 @@ def _read_shard_summary(path: Path, config: dict) -> dict | None:
     if not path.is_file():
         return None
     try:
-        with np.load(path) as z:
-            if json.loads(str(z["config"])) != json.loads(json.dumps(config, sort_keys=True)):
-                return None
-            offsets = z["offsets"]
-            metas = json.loads(str(z["meta"]))
-            return {"frames": int(offsets[-1]), "metas": metas}
+        z = load_npz(path, "corpus shard", keys={"config", "offsets", "meta"})
+        if loads_json(str(z["config"])) != json.loads(json.dumps(config, sort_keys=True)):
+            return None
+        return {"frames": int(z["offsets"][-1]), "metas": loads_json(str(z["meta"]))}
     except _DAMAGED_SHARD:
         return None
+
+
+def _read_shard(root: Path, name) -> dict[str, np.ndarray]:
+    """The arrays of shard file ``name`` (a plain file name in the corpus folder ``root``), read
+    by :func:`core.npz.load_npz`, every float value checked to be a finite number:
+    :class:`CorpusError` naming the shard otherwise."""
+    if not isinstance(name, str) or Path(name).name != name or name in ("", ".", ".."):
+        raise CorpusError(f"the manifest of {root} names the shard {name!r}; shards are files in the corpus folder")
+    path = root / name
+    try:
+        arrays = load_npz(path, "corpus shard", keys={"offsets", *ARRAY_KEYS})  # format 1 has no accent
+    except InputFileError as exc:
+        raise CorpusError(f"{path}: {exc.reason}") from None
+    except (OSError, ValueError) as exc:  # missing, NpzError
+        raise CorpusError(f"cannot read the corpus shard {path}: {exc}; build the corpus again with "
+                          f"`sgt corpus -o {root}`") from None
+    for key, arr in arrays.items():
+        if arr.dtype.kind == "f" and not np.isfinite(arr).all():
+            frame = int(np.argwhere(~np.isfinite(arr))[0][0])
+            raise CorpusError(f"{path}: {key} at frame {frame} is not a finite number; build the corpus "
+                              f"again with `sgt corpus -o {root}`")
+    missing = [k for k in ("offsets", *ARRAY_KEYS[:-1]) if k not in arrays]
+    if missing:
+        raise CorpusError(f"{path} has no {', '.join(missing)}: build the corpus again with `sgt corpus -o {root}`")
+    return arrays
 
 
 class _InlineExecutor(Executor):
@@ -565,13 +589,21 @@ def build_corpus(out, *, hours: float = 2.0, seed: int = 0, jobs: int = 1, clips
 
 
 def load_manifest(path) -> dict:
+    """The corpus's ``manifest.json``, read by :func:`core.reading.read_bytes` (a regular file of
+    at most ``LIMITS["corpus manifest"]``); :class:`CorpusError` for anything else."""
     p = Path(path)
     mp = p / "manifest.json" if p.is_dir() else p
     try:
-        m = json.loads(mp.read_text())
+        m = loads_json(read_bytes(mp, "corpus manifest"))
     except FileNotFoundError:
         raise CorpusError(f"no corpus manifest at {mp} (build one with `sgt corpus -o {p}`)") from None
-    if m.get("format") != "sgt-corpus":
+    except InputFileError as exc:
+        raise CorpusError(f"{mp}: {exc.reason}") from None
+    except OSError as exc:
+        raise CorpusError(f"cannot read {mp}: {exc.strerror or exc}") from None
+    except ValueError as exc:  # JSON, UTF-8, nesting
+        raise CorpusError(f"{mp} is not valid JSON: {exc}") from None
+    if not isinstance(m, dict) or m.get("format") != "sgt-corpus":
         raise CorpusError(f"{mp} is not an sgt corpus manifest")
     return m
 
@@ -587,6 +619,14 @@ def load_corpus(path, split: str | None = "train", *, dtype=np.float32) -> list[
     root = Path(path)
     m = load_manifest(root)
     root = root if root.is_dir() else root.parent
+    try:
+        return _load_clips(root, m, split, dtype)
+    except (KeyError, TypeError, IndexError) as exc:  # a manifest or shard whose entries are not what sgt corpus writes
+        raise CorpusError(f"the corpus at {root} is malformed ({exc.__class__.__name__}: {exc}): "
+                          f"build it again with `sgt corpus -o {root}`") from None
+
+
+def _load_clips(root: Path, m: dict, split: str | None, dtype) -> list[dict]:
     want: dict[str, list[dict]] = {}
     for c in m["clips"]:
         if split is None or c["split"] == split:
@@ -596,11 +636,13 @@ def load_corpus(path, split: str | None = "train", *, dtype=np.float32) -> list[
         entries = want.get(shard["file"])
         if not entries:
             continue
-        with np.load(root / shard["file"]) as z:
-            offsets = z["offsets"]
-            arrays = {k: z[k] for k in ARRAY_KEYS if k in z}  # corpora of format 1 have no accent
+        arrays = _read_shard(root, shard["file"])
+        offsets = arrays["offsets"]
         for c in entries:
             a, b = int(offsets[c["position"]]), int(offsets[c["position"] + 1])
+            if not 0 <= a <= b <= len(arrays["poses"]):
+                raise CorpusError(f"{root / shard['file']}: clip {c['id']!r} spans frames {a} to {b} of "
+                                  f"{len(arrays['poses'])}: build the corpus again with `sgt corpus -o {root}`")
             out.append({
                 "id": c["id"], "split": c["split"],
                 "audio": arrays["audio"][a:b].astype(dtype),

@@ -33,6 +33,7 @@ from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
 from model import flow, keyframe, matching, neural, postprocess
+from model.engines import DEFAULT_ENGINE
 from model.runtime import TorchRunner
 from model.style import style as style_of
 from model.teacher import teach
@@ -189,7 +190,7 @@ def format_style_following(result: dict) -> str:
 
 def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, extractor="default", seed: int = 0,
                     progress=None, limit: int | None = None, smoothing: str = "one_euro",
-                    with_style: bool = False, takes: bool = True, engine: str = "neural",
+                    with_style: bool = False, takes: bool = True, engine: str = DEFAULT_ENGINE,
                     database=None) -> list[dict] | tuple[list[dict], dict]:
     """Table rows (see :func:`model.training.metrics.report`) for every condition on ``split``
     ("all": every clip of the corpus, for a held-out corpus built with another seed),
@@ -199,14 +200,17 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
     ``smoothing`` is the neural engine's post-filter for the model rows (``model+pose raw`` is
     always unsmoothed and unblended: the network's own pose following). ``takes``: draw
     each clip's take posture from the weights' training takes, as generation does
-    (:mod:`model.take_posture`); false: the network alone. ``engine``: "neural" (``weights``)
-    or "matching" (the database at ``database``, default the shipped one; ``takes``: each clip
-    draws the take its free frames follow; ``smoothing`` None: the engine's default, none)."""
+    (:mod:`model.take_posture`); false: the network alone. ``engine``: "neural" (``weights``),
+    "flow" (``weights``: flow weights, default the shipped ``model/weights/flow.pt``; it draws no
+    take posture) or "matching" (the database at ``database``, default the shipped one; ``takes``:
+    each clip draws the take its free frames follow; ``smoothing`` None: the engine's default, none)."""
     clips = load_corpus(corpus, None if split == "all" else split)
     if limit:
         clips = clips[:limit]
     if engine == "matching":
         model = MatchingModel(matching.load(database), takes)
+    elif engine == "flow":
+        model = FlowModel(flow.load(weights))
     else:
         net, info = load_weights(weights)
         model = TorchRunner(net, takes_of(weights or DEFAULT_WEIGHTS, info) if takes else None)

@@ -30,6 +30,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from core.fileio import atomic_write
+from core.reading import InputFileError, read_bytes
 from core.skeleton import FPS, JOINTS, POSE_DIM
 from model.training.corpus import load_corpus
 
@@ -204,7 +205,13 @@ def load(path: Path | str | None = None) -> FGDExtractor:
     if not path.exists():
         raise ExtractorError(f"FGD feature extractor not found: {path}; {fix}")
     try:
-        blob = torch.load(str(path), map_location="cpu", weights_only=True)
+        data = read_bytes(path, "weights")  # a FIFO or a device is refused unread (torch.load would block on it)
+    except InputFileError as exc:
+        raise ExtractorError(f"{path}: {exc.reason}; {fix}") from None
+    except OSError as exc:
+        raise ExtractorError(f"cannot read FGD feature extractor {path}: {exc.strerror or exc}; {fix}") from None
+    try:
+        blob = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - torch.load on a damaged file: see model.weights.load_weights
         raise ExtractorError(f"cannot read FGD feature extractor {path} ({exc.__class__.__name__}): the file is corrupt; {fix}") from None
     if not isinstance(blob, dict) or blob.get("format") != FORMAT:

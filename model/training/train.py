@@ -28,12 +28,13 @@ import numpy as np
 
 from core.controls import STYLE_NAMES
 from core.fileio import atomic_write
+from core.reading import InputFileError, read_bytes
 from model.style import style as style_of
 from model.training.metrics import pcs_frames
 from model.training.speed_hist import soft_speed_hellinger
 from model.training.takes import record_takes
 from model.training.train_config import WINDOW, TrainConfig  # noqa: F401  (re-exported)
-from model.weights import save_weights
+from model.weights import not_torch_archive, save_weights
 
 # -- data -------------------------------------------------------------------------------------
 
@@ -238,6 +239,76 @@ def _checkpoint_difference(state: dict, config: dict, world: int) -> str:
     return f"{len(state.get('rngs', []))} processes (now {world})"
 
 
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be resumed; one line naming the file and what to do."""
+
+
+class TrainingDiverged(ValueError):
+    """The loss or the validation score stopped being a finite number; one line saying when, and
+    which files (if any) hold weights."""
+
+
+#: What to do with a checkpoint that cannot be resumed.
+_FRESH = "start afresh with --fresh (which replaces it), or train into another folder"
+
+
+def read_checkpoint(path: Path) -> dict:
+    """The dict :func:`train` saved in ``path``, loaded by torch's weights-only unpickler (tensors,
+    numbers, strings, lists and dicts: a pickle that would build anything else, and so run code,
+    is refused before any of it runs). Read by :func:`core.reading.read_bytes` (a FIFO or a
+    device is refused unread), checked to be an uncompressed zip archive as ``torch.save``
+    writes (memory is then bounded by the file's size), and its entries checked.
+    :class:`CheckpointError` otherwise, in one line."""
+    import pickle
+
+    import torch
+
+    try:
+        data = read_bytes(path, "checkpoint")
+    except InputFileError as exc:
+        raise CheckpointError(f"{path}: {exc.reason}; {_FRESH}") from None
+    except OSError as exc:
+        raise CheckpointError(f"cannot read {path}: {exc.strerror or exc}; {_FRESH}") from None
+    why = not_torch_archive(data)
+    if why:
+        raise CheckpointError(f"{path} is not a checkpoint of sgt train ({why}); {_FRESH}")
+    try:
+        state = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError:
+        raise CheckpointError(f"{path} holds something other than tensors and plain values (torch's weights-only "
+                              f"loader refused it, so nothing in it ran); {_FRESH}") from None
+    except Exception as exc:  # noqa: BLE001 - torch.load on a damaged file: see model.weights.load_weights
+        raise CheckpointError(f"{path} is damaged ({exc.__class__.__name__}); {_FRESH}") from None
+    bad = _checkpoint_fault(state)
+    if bad:
+        raise CheckpointError(f"{path} is not a checkpoint of sgt train ({bad}); {_FRESH}")
+    return state
+
+
+def _checkpoint_fault(state) -> str | None:
+    """What a loaded checkpoint lacks of what :func:`train` saves, or None."""
+    if not isinstance(state, dict):
+        return f"it holds a {type(state).__name__}, not a dict"
+    kinds = {"model": dict, "opt": dict, "rngs": list, "epoch": int, "config": dict, "best": float}
+    wrong = [k for k, kind in kinds.items() if not isinstance(state.get(k), kind) or isinstance(state.get(k), bool)]
+    if wrong:
+        return f"{', '.join(wrong)} missing or of another type"
+    if state["epoch"] < 0 or not all(isinstance(r, dict) for r in state["rngs"]):
+        return "its epoch or random states are malformed"
+    return None
+
+
+def _diverged(out_dir: Path, epoch: int, what: str) -> str:
+    """The line of a run that stopped in ``epoch`` (0-based) because ``what`` is not a number."""
+    if epoch > 0:
+        kept = (f"the files in {out_dir} are those of epoch {epoch}, the last that finished "
+                "(generator.pt: the best epoch up to it)")
+    else:
+        kept = "no weights were written"
+    return (f"training diverged in epoch {epoch + 1}, {what}; {kept}. Check the takes for extreme values "
+            "(units, a wild joint) and the loss weights, or try another --seed")
+
+
 def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bool = True, progress=None, log=print):
     """Train (or resume) and return the model. Writes in ``out_dir``: checkpoint.pt (to resume),
     metrics.jsonl (a row per epoch), last.pt (the last epoch's weights) and generator.pt (the
@@ -276,26 +347,30 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
     rng = np.random.default_rng([cfg.seed, dist.rank])
     epoch0 = 0
     best = float("inf")
-    if resume and ckpt_path.exists():
-        state = torch.load(str(ckpt_path), map_location="cpu", weights_only=False)
-        if state.get("config") == asdict(cfg) | {"minutes": state["config"].get("minutes")} and \
-                len(state.get("rngs", [])) == dist.world:
-            model.load_state_dict(state["model"])
-            opt.load_state_dict(state["opt"])
-            if enc is not None:
-                enc.load_state_dict(state["enc"])
-            if disc is not None and state.get("disc") is not None:
-                disc.load_state_dict(state["disc"])
-                opt_d.load_state_dict(state["opt_d"])
-            rng.bit_generator.state = state["rngs"][dist.rank]
+    if resume and (ckpt_path.exists() or ckpt_path.is_symlink()):
+        state = read_checkpoint(ckpt_path)
+        if state["config"] == asdict(cfg) | {"minutes": state["config"].get("minutes")} and \
+                len(state["rngs"]) == dist.world:
+            try:
+                model.load_state_dict(state["model"])
+                opt.load_state_dict(state["opt"])
+                if enc is not None:
+                    enc.load_state_dict(state["enc"])
+                if disc is not None and state.get("disc") is not None:
+                    disc.load_state_dict(state["disc"])
+                    opt_d.load_state_dict(state["opt_d"])
+                rng.bit_generator.state = state["rngs"][dist.rank]
+            except (RuntimeError, KeyError, ValueError, TypeError, AttributeError, IndexError) as exc:
+                first = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
+                raise CheckpointError(f"{ckpt_path} does not fit the network of its own settings ({first[:200]}); "
+                                      f"{_FRESH}") from None
             epoch0 = state["epoch"]
-            best = state.get("best", best)
+            best = state["best"]
             log(f"resumed from {ckpt_path} after epoch {epoch0}")
         else:
             # refused rather than started afresh: the first epoch would replace the checkpoint
-            raise ValueError(f"{ckpt_path} was made with {_checkpoint_difference(state, asdict(cfg), dist.world)}; "
-                             "give the settings it was made with to resume it, or start afresh with --fresh "
-                             "(which replaces it), or train into another folder")
+            raise CheckpointError(f"{ckpt_path} was made with {_checkpoint_difference(state, asdict(cfg), dist.world)}; "
+                                  f"give the settings it was made with to resume it, or {_FRESH}")
     # wrapped after loading: DistributedDataParallel broadcasts rank 0's weights to every rank
     net, encoder, critic = dist.wrap(model), (dist.wrap(enc) if enc is not None else None), \
         (dist.wrap(disc) if disc is not None else None)
@@ -372,7 +447,11 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
                 sums["disc"] += d_loss.item()
             opt.zero_grad()
             loss.backward()
-            torch.nn.utils.clip_grad_norm_(gen_params, 1.0)
+            # the gradients are averaged over the ranks before this: every rank sees the same norm and stops together
+            norm = torch.nn.utils.clip_grad_norm_(gen_params, 1.0)
+            if not torch.isfinite(norm):  # before the step: the weights stay those of the last good step
+                raise TrainingDiverged(_diverged(out_dir, epoch, f"step {step + 1}: the loss is {loss.item():g} "
+                                                                f"and its gradient's norm {norm.item():g}"))
             opt.step()
             if disc is not None:
                 disc.requires_grad_(True)
@@ -385,6 +464,8 @@ def train(train_clips, val_clips, out_dir: Path, cfg: TrainConfig, *, resume: bo
         row = {"epoch": epoch + 1, **{k: v / cfg.steps_per_epoch for k, v in sums.items()},
                **validate(model, val, cfg, device=dev)}
         row["score"] = selection_score(row)
+        if not math.isfinite(row["score"]):  # checked before anything of the epoch is written
+            raise TrainingDiverged(_diverged(out_dir, epoch, f"validation: the score is {row['score']:g}"))
         row["best"] = row["score"] < best
         row["minutes"] = (time.monotonic() - started) / 60
         if dist.world > 1:

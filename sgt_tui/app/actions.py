@@ -20,8 +20,9 @@ from textual.content import Content
 from textual.markup import escape
 
 from dsl.presets import BUILTIN_PRESETS
+from model.engines import ENGINES
 
-ENGINE_ORDER = ("neural", "matching", "keyframe", "rules")  # the order ctrl+e cycles through (sgt_tui.commands.common.ENGINE_CHOICES)
+ENGINE_ORDER = tuple(ENGINES)  # the order ctrl+e cycles through: the default first (model.engines)
 
 
 @dataclass(frozen=True)

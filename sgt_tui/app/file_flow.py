@@ -56,7 +56,8 @@ class FileFlow:
 
         def answer(target: str | None) -> None:
             if target is None:
-                app.say(f"not saved; your text is kept in the editor and in {app.recovery.file.path}")
+                kept = "" if app.recovery.file.problem else f" and in {app.recovery.file.path}"
+                app.say(f"not saved; your text is kept in the editor{kept}")
             else:
                 self.save_as(Path(target), then=then)
 

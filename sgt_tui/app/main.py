@@ -30,6 +30,7 @@ from textual.widgets.text_area import Selection
 
 from core.diagnostics import Diagnostic, summary
 from library.words import WordRulesError, load_word_rules
+from model.engines import DEFAULT_ENGINE
 from sgt_tui.app.actions import ACTION_NAMES, ACTIONS, ENGINE_ORDER, EditorCommands, bindings
 from sgt_tui.app.file_flow import FileFlow
 from sgt_tui.app.job_flow import JobFlow, weights_exist
@@ -77,7 +78,7 @@ class EditorApp(App):
                  cursor_blink: bool = True, gif_size: tuple[int, int] = (320, 320), weights: str | None = None) -> None:
         super().__init__()
         self.script, self.doc = script, script.document
-        self.engine = engine or "neural"
+        self.engine = engine or DEFAULT_ENGINE
         self.gif_size = gif_size
         self.weights = weights  # generator weights for the neural engine (None: the shipped file)
         self.cursor_blink = cursor_blink
@@ -247,6 +248,8 @@ class EditorApp(App):
         name = display_name(self.script.path)
         if len(name) > 32:  # keep room for the rest of the line
             name = "…/" + self.script.path.name
+            if len(name) > 40:  # a very long file name: its start and its end
+                name = name[:20] + "…" + name[-19:]
         parts = [name + (" [+]" if self.doc.modified else "") + (" (new)" if self.script.is_new else "")]
         if a is None and not self.analyses.inline_first:
             parts.append(f"analysing… {self.analyses.progress:.0%}")
@@ -258,6 +261,8 @@ class EditorApp(App):
                                                   else " (no weights)"))
         if self.disk_warned:
             parts.append("CHANGED ON DISK")
+        if self.recovery.told:
+            parts.append("NO CRASH RECOVERY")
         self._w(StatusLine).update(" │ ".join(parts))
 
     @on(TextArea.SelectionChanged)

@@ -227,14 +227,26 @@ class RecoveryService:
     def __init__(self, app: App, doc: Document, path: Path, directory: Path | None = None) -> None:
         self.app, self.doc = app, doc
         self.file = RecoveryFile(path, directory)
+        self.told = False  # the user was told that the recovery file cannot be written
 
     def start(self) -> None:
         self.app.set_interval(INTERVAL, self.write)
         self.app.call_after_refresh(self.look)
 
     def write(self) -> None:
-        """Write the text when it changed since the last write and is unsaved (remove it when saved)."""
+        """Write the text when it changed since the last write and is unsaved (remove it when
+        saved). A write that fails is said once (a notification, and the status line while it
+        lasts) and tried again every :data:`INTERVAL`; one that works again is said too."""
         self.file.update(self.doc.text, self.doc.version, self.doc.modified)
+        if self.file.problem is not None and not self.told:
+            self.told = True
+            self.app.say(f"crash recovery is off: {self.file.problem}; save your work (ctrl+s) or set "
+                         f"SGT_RECOVERY_DIR to a writable folder", "warning")
+            self.app.update_status()
+        elif self.file.problem is None and self.told:
+            self.told = False
+            self.app.say(f"crash recovery works again ({self.file.path})")
+            self.app.update_status()
 
     def look(self) -> None:
         found = self.file.load()

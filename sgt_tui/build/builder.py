@@ -59,6 +59,7 @@ class Report:
     cached: int = 0
     up_to_date: int = 0  # scripts left alone
     errors: list[str] = field(default_factory=list)  # one-line problems other than diagnostics
+    warnings: list[str] = field(default_factory=list)  # one-line notes (a stale output behind a link, left alone)
     # outputs (relative to OUT) that did not match the manifest when the build started, and were
     # made again: (path, "changed" or "removed")
     repaired: list[tuple[str, str]] = field(default_factory=list)
@@ -163,7 +164,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
     def files(path) -> str:
         key = os.path.abspath(path)
         if key not in file_hashes:
-            file_hashes[key] = file_sha256(path)
+            file_hashes[key] = file_sha256(path, "audio")
         return file_hashes[key]
 
     def mismatched(prev: dict) -> list[str]:
@@ -241,8 +242,9 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
         if before is not None and before == _read_bytes(path):  # not edited while it was analysed
             s.inputs = {"sha256": inputs.fingerprint(before, deps, token, looked), "deps": deps}
 
-    # The build's own files are written whatever happens: one that is an input refuses the build.
+    # The build's own files are written whatever happens: one that is an input, or a link, refuses the build.
     for name, what in ((outputs.MANIFEST, "manifest"), (outputs.STATE, "state file")):
+        outputs.check_writable(out, name)
         found = guard.reader(out / name)
         if found is not None:
             input_ = f"the script {found[0]}" if found[2] == "script" else f"the {found[2]} {found[0]} that {found[1]} reads"
@@ -402,7 +404,7 @@ def _build(sources, out, settings, jobs, ray, exports, cache, show, progress, po
     report.failed.sort()
     keep = {r["path"] for rec in records for r in rec.get("outputs") or ()}
     report.repaired = sorted((rel, why) for rel, why in repaired.items() if rel in keep)
-    outputs.remove_stale(out, old, keep, guard)
+    outputs.remove_stale(out, old, keep, guard, warn=report.warnings.append)
     outputs.write_manifest(out, described, records)
     outputs.write_state(out, records, new_inputs, state, written)
     return report
@@ -529,7 +531,7 @@ def _write(out: Path, s: _Script, exports: tuple[str, ...], settings: Settings, 
     with threadpool_limits(limits=1):  # the performance: the clips become views of the tracks, as sgt generate's
         clips, tracks = perform(plan, clips, seed, listening, exact_for(settings.engine, settings.options()))
     records = outputs.write_motion_outputs(out, s.rel, clips, tuple(e for e in exports if e != "wav"), tracks,
-                                           state=state, guard=guard)
+                                           state=state, guard=guard, source=s.path, engine=settings.engine)
     if "wav" in exports:  # the speech the layout was made from
         for u in utts:
             records.append(outputs.write_wav(out, s.rel, u.index, placed[u.index].audio_path, state=state, guard=guard))

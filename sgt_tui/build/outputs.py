@@ -7,7 +7,10 @@ its extension replaced: ``sgt build game -o out`` writes ``game/act1/intro.sgt``
 ``out/act1/intro.glb`` and its ``--wav`` speech to ``out/act1/intro_000.wav``,
 ``intro_001.wav``, ... (one per utterance, named as ``sgt say`` names them).
 
-Every file is written by :mod:`core.fileio` (atomically), the manifest last. The manifest is
+Every file is written, read back and removed under ``OUT`` by :class:`core.fileio.Inside`:
+atomically, and never through a symbolic link (a link in ``OUT`` where an output goes, or on
+the way to it, is refused with one line and left alone, so nothing outside ``OUT`` is ever
+written, read as an output or deleted); the manifest is written last. The manifest is
 deterministic (sorted, no times, no absolute paths): two builds of the same inputs differ
 only in the ``cached`` flags.
 
@@ -20,13 +23,16 @@ output that is an input of the build (:class:`.inputs.Guard`) is never written
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import re
+import stat
 import time
 from pathlib import Path
 
-from core.fileio import atomic_write
+from core.fileio import Inside, OutputError
+from core.reading import loads_json
 
 MANIFEST = "manifest.json"
 #: What this build saw of each output, so that a rebuild trusts an output without reading it
@@ -43,7 +49,10 @@ MANIFEST_VERSION = 1
 #: on old ones) keeps its size and times ("racy git").
 RACY_NS = 2_000_000_000
 
-#: The temporary files :func:`core.fileio.atomic_write` makes next to an output (``.NAME.XXXXXXXX.tmp``).
+#: The largest manifest or state file read (a build of 100,000 utterances writes about 15 MiB).
+MAX_RECORD_BYTES = 256 << 20
+
+#: The temporary files :class:`core.fileio.Inside` makes next to an output (``.NAME.XXXXXXXX.tmp``).
 _TEMP = re.compile(r"^\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp$")
 
 
@@ -92,11 +101,16 @@ def _seen(st: os.stat_result) -> list[int]:
     return [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
 
 
-def _read(path: Path) -> tuple[bytes, list[int] | None, int]:
-    """The file's bytes, its :func:`_seen` (None if it changed while it was read) and the time
-    just before it was looked at."""
+def _read(out: Path, rel: str) -> tuple[bytes, list[int] | None, int]:
+    """The bytes of the output ``rel`` (never through a link: :class:`core.fileio.Inside`),
+    its :func:`_seen` (None if it changed while it was read) and the time just before it was
+    looked at. OSError when it is not there or cannot be read."""
     now = time.time_ns()
-    with open(path, "rb") as f:
+    with Inside(out) as d:
+        f = d.open(rel)
+    if f is None:
+        raise FileNotFoundError(f"{Path(out) / rel} is not there")
+    with f:
         before = os.fstat(f.fileno())
         data = f.read()
         after = os.fstat(f.fileno())
@@ -106,7 +120,7 @@ def _read(path: Path) -> tuple[bytes, list[int] | None, int]:
 def file_record(out: Path, rel: str, state: dict | None = None) -> dict:
     """``{"path", "sha256", "bytes"}`` of a written output, from the file as it is now (read
     back); what was seen of it goes into ``state``."""
-    data, seen, now = _read(out / rel)
+    data, seen, now = _read(out, rel)
     record = {"path": rel, "sha256": sha256(data), "bytes": len(data)}
     if state is not None:
         state[rel] = seen + [record["sha256"], now] if seen else None
@@ -124,31 +138,43 @@ def trusted(seen, st: os.stat_result, digest) -> bool:
 def intact(out: Path, record: dict, state: dict | None = None) -> bool:
     """Whether the output a manifest lists is there with the content the manifest gives it
     (size and sha256): trusted from ``state`` when it vouches for the file (:func:`trusted`),
-    else read and hashed, and what was seen recorded in ``state``."""
+    else read and hashed, and what was seen recorded in ``state``. A file reached through a
+    link is not intact (:class:`core.fileio.Inside`)."""
     try:
-        path = out / record["path"]
-        st = os.stat(path)
+        rel = record["path"]
+        with Inside(out) as d:
+            st = d.lstat(rel)
     except (OSError, KeyError, TypeError, ValueError):
         return False
-    if state is not None and trusted(state.get(record["path"]), st, record.get("sha256")):
+    if st is None or not stat.S_ISREG(st.st_mode):
+        return False
+    if state is not None and trusted(state.get(rel), st, record.get("sha256")):
         return True
     try:
-        data, seen, now = _read(path)
+        data, seen, now = _read(out, rel)
     except OSError:
         return False
     ok = len(data) == record.get("bytes") and sha256(data) == record.get("sha256")
     if state is not None:
-        state[record["path"]] = seen + [record["sha256"], now] if ok and seen else None
+        state[rel] = seen + [record["sha256"], now] if ok and seen else None
     return ok
+
+
+def _read_json(out: Path, name: str):
+    """The JSON document ``OUT/name`` (the manifest, the state), None when it is not there, is
+    not JSON or is reached through a link (the build then refuses to write it)."""
+    try:
+        with Inside(out) as d:
+            data = d.read(name, MAX_RECORD_BYTES)
+        return loads_json(data) if data is not None else None
+    except (OSError, ValueError):
+        return None
 
 
 def read_state(out: Path) -> tuple[dict, dict]:
     """What the last build recorded beside the manifest (not part of the result): what it saw
     of each output (see :data:`STATE`), and each script's inputs fingerprint (see :mod:`.inputs`)."""
-    try:
-        state = json.loads((out / STATE).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}, {}
+    state = _read_json(out, STATE)
     if not isinstance(state, dict) or not isinstance(state.get("outputs"), dict):
         return {}, {}
     inputs = state.get("inputs")
@@ -171,18 +197,36 @@ def write_state(out: Path, records: list[dict], inputs: dict[str, dict], state: 
                 continue
             if r["path"] in written:
                 try:
-                    if _seen(os.stat(out / r["path"])) == seen[:4]:
-                        seen = seen[:5] + [now]
+                    with Inside(out) as d:
+                        st = d.lstat(r["path"])
                 except OSError:
                     continue
+                if st is None:
+                    continue
+                if _seen(st) == seen[:4]:
+                    seen = seen[:5] + [now]
             kept[r["path"]] = seen
     doc = {"outputs": kept, "inputs": inputs}
-    atomic_write(out / STATE, json.dumps(doc, separators=(",", ":"), ensure_ascii=True).encode("ascii"))
+    write(out, STATE, json.dumps(doc, separators=(",", ":"), ensure_ascii=True).encode("ascii"))
+
+
+def check_writable(out: Path, rel: str) -> None:
+    """Raise :class:`core.fileio.LinkRefused` (one line) when ``OUT/rel`` is, or is reached
+    through, a symbolic link: the build would refuse to write it (checked before any work)."""
+    with Inside(out) as d:
+        d.check(rel)
+
+
+def write(out: Path, rel: str, data: bytes) -> None:
+    """Write the file ``OUT/rel`` by :class:`core.fileio.Inside`'s rule (never through a link)."""
+    with Inside(out, create=True) as d:
+        d.write(rel, data)
 
 
 def write_motion_outputs(out: Path, rel: str, clips: list, exports: tuple[str, ...], tracks=(), *,
-                         state: dict | None = None, guard=None) -> list[dict]:
-    """The motion file (utterances on the performance clock and the speakers' ``tracks``) and
+                         state: dict | None = None, guard=None, source=None, engine: str | None = None) -> list[dict]:
+    """The motion file (utterances on the performance clock and the speakers' ``tracks``, the
+    script it was made from, ``source``, and the ``engine``: the file ``sgt generate`` writes) and
     the ``exports`` (``bvh``, ``glb``) of one script: one file per speaker's track as ``sgt
     export`` writes them (``NAME.bvh`` for one speaker, ``NAME.SPEAKER.bvh`` for several; the
     utterances joined when there are no tracks); their records. Nothing is written when one
@@ -202,25 +246,27 @@ def write_motion_outputs(out: Path, rel: str, clips: list, exports: tuple[str, .
                                      for kind in ("bvh", "glb") if kind in exports]
     for name in names:
         _not_an_input(out, name, guard)
-    save_motion(out / names[0], clips, format="json", tracks=list(tracks))
+    motion = io.BytesIO()
+    save_motion(motion, clips, format="json", tracks=list(tracks), source=source, engine=engine, at=out / names[0])
+    write(out, names[0], motion.getvalue())
     for suffix, make in parts:
         clip = make()
         if "bvh" in exports:
             from renders.export import bvh_text  # lazy: numpy
 
-            atomic_write(out / f"{stem(rel)}{suffix}.bvh", bvh_text(clip).encode("utf-8"))
+            write(out, f"{stem(rel)}{suffix}.bvh", bvh_text(clip).encode("utf-8"))
         if "glb" in exports:
             from renders.gltf import glb_bytes  # lazy: numpy
             from renders.rigs import get_rig  # lazy: numpy
 
-            atomic_write(out / f"{stem(rel)}{suffix}.glb", glb_bytes(clip, get_rig("sgt")))
+            write(out, f"{stem(rel)}{suffix}.glb", glb_bytes(clip, get_rig("sgt")))
     return [file_record(out, name, state) for name in names]
 
 
 def write_wav(out: Path, rel: str, index: int, audio_path: Path, *, state: dict | None = None, guard=None) -> dict:
     name = wav_name(rel, index)
     _not_an_input(out, name, guard)
-    atomic_write(out / name, Path(audio_path).read_bytes())
+    write(out, name, Path(audio_path).read_bytes())
     return file_record(out, name, state)
 
 
@@ -232,10 +278,7 @@ def _not_an_input(out: Path, name: str, guard) -> None:
 
 def read_manifest(out: Path) -> dict:
     """The previous build's manifest, or an empty one (missing, damaged, another format)."""
-    try:
-        doc = json.loads((out / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
+    doc = _read_json(out, MANIFEST)
     if not isinstance(doc, dict) or doc.get("format") != MANIFEST_FORMAT or doc.get("version") != MANIFEST_VERSION:
         return {}
     return doc
@@ -261,47 +304,54 @@ def write_manifest(out: Path, settings: dict, scripts: list[dict]) -> None:
         data = json_with_lines(doc, lambda x: items(x, False), ensure_ascii=False).encode("utf-8")
     except UnicodeEncodeError:  # a file name that is not UTF-8 (Python keeps its bytes as lone surrogates)
         data = json_with_lines(doc, lambda x: items(x, True)).encode("ascii")
-    atomic_write(out / MANIFEST, data + b"\n")
+    write(out, MANIFEST, data + b"\n")
 
 
-def remove_stale(out: Path, old: dict, keep: set[str], guard=None) -> list[str]:
+def remove_stale(out: Path, old: dict, keep: set[str], guard=None, warn=None) -> list[str]:
     """Remove outputs the previous manifest lists that this build no longer makes (their script
     is gone or failed), when they are unchanged since (a file edited by hand stays), unless
-    they are inputs of this build (``guard``)."""
+    they are inputs of this build (``guard``). Only files inside ``OUT`` are removed, never
+    through a link: a path that leads out or through a link is left, and ``warn(line)`` told."""
     removed = []
-    for script in old.get("scripts") or ():
-        if not isinstance(script, dict):
-            continue
-        for record in script.get("outputs") or ():
-            rel = record.get("path") if isinstance(record, dict) else None
-            if not isinstance(rel, str) or rel in keep or not _inside(out, rel):
+    with Inside(out) as d:
+        for script in old.get("scripts") or ():
+            if not isinstance(script, dict):
                 continue
-            if guard is not None and guard.reader(out / rel) is not None:
-                continue
-            if intact(out, record):
-                os.unlink(out / rel)
-                removed.append(rel)
+            for record in script.get("outputs") or ():
+                rel = record.get("path") if isinstance(record, dict) else None
+                if not isinstance(rel, str) or rel in keep:
+                    continue
+                if guard is not None and guard.reader(out / rel) is not None:
+                    continue
+                try:
+                    if d.remove(rel, check=lambda f, record=record: _holds(f, record)):
+                        removed.append(rel)
+                except OutputError as exc:
+                    if warn is not None:
+                        warn(f"{exc} (a stale output the manifest lists)")
     return removed
+
+
+def _holds(f, record: dict) -> bool:
+    """Whether the open file ``f`` has the size and sha256 the manifest ``record`` gives it."""
+    data = f.read()
+    return len(data) == record.get("bytes") and sha256(data) == record.get("sha256")
 
 
 def remove_temporaries(out: Path, folders: set[Path], guard=None) -> None:
     """Delete the temporary files that a killed build left next to its outputs (``kill -9``
-    stops :func:`core.fileio.atomic_write` before it can clean up); never an input of the build."""
-    for folder in folders:
-        try:
-            entries = list(os.scandir(out / folder))
-        except OSError:
-            continue
-        for e in entries:
-            if _TEMP.match(e.name) and e.is_file(follow_symlinks=False) and (guard is None or guard.reader(e.path) is None):
-                try:
-                    os.unlink(e.path)
-                except OSError:
-                    pass
-
-
-def _inside(out: Path, rel: str) -> bool:
-    if os.path.isabs(rel):
-        return False
-    full = os.path.normpath(os.path.join(out, rel))
-    return full.startswith(os.path.normpath(out) + os.sep)
+    stops :class:`core.fileio.Inside` before it can clean up); never an input of the build,
+    never through a link."""
+    with Inside(out) as d:
+        for folder in folders:
+            try:
+                entries = d.entries(str(folder))
+            except OSError:
+                continue  # a link on the way: the outputs there are refused when written
+            for name, regular in entries:
+                rel = os.path.join(folder, name)
+                if regular and _TEMP.match(name) and (guard is None or guard.reader(out / rel) is None):
+                    try:
+                        d.remove(rel)
+                    except OSError:
+                        pass

@@ -24,6 +24,8 @@ from pathlib import Path
 
 from core.fileio import atomic_write
 from core.interrupts import import_optional
+from core.reading import read_bytes
+from model.engines import NETWORK_ENGINES
 from sgt_tui.build.keys import database_hash, weights_hash
 from sgt_tui.build.work import Task, TaskResult, run_task, warm_up
 
@@ -65,7 +67,7 @@ def _spawn_context(started: list):
         return multiprocessing.get_context("spawn")
 
     class QuietSpawn(SpawnContext):
-        def Process(self, *args, **kwargs):  # noqa: N802 - the name the executor calls
+        def Process(self, *args, **kwargs):
             proc = _QuietProcess(*args, **kwargs)
             _RECORD[proc] = started
             return proc
@@ -257,18 +259,18 @@ def run_ray(tasks: Sequence[Task], address: str | None, on_result: OnResult, *, 
     try:
         weights = None
         settings = tasks[0].settings if tasks else None
-        if settings is not None and settings.engine == "neural":
-            from model.weights import DEFAULT_WEIGHTS  # lazy: numpy
+        if settings is not None and settings.engine in NETWORK_ENGINES:
+            from model.weights import default_weights  # lazy: numpy
 
-            source = Path(settings.weights) if settings.weights else DEFAULT_WEIGHTS
-            holder = [ray.put(source.read_bytes())]
+            source = Path(settings.weights) if settings.weights else default_weights(settings.engine)
+            holder = [ray.put(read_bytes(source, "weights"))]
             export = source.with_suffix(".onnx")  # model.runtime.onnx_path: inference uses it when fresh
             if export.is_file():
-                holder.append(ray.put(export.read_bytes()))
-            weights = (weights_hash(settings.weights), holder)
+                holder.append(ray.put(read_bytes(export, "weights")))
+            weights = (weights_hash(settings.weights, settings.engine), holder)
         database = None
         if settings is not None and settings.engine == "matching" and settings.database:  # (the shipped one is in the checkout)
-            database = (database_hash(settings.database), [ray.put(Path(settings.database).read_bytes())])
+            database = (database_hash(settings.database), [ray.put(read_bytes(settings.database, "matching database"))])
         remote = ray.remote(num_cpus=1, max_retries=3)(_ray_task)
         pending = [remote.remote(task, weights, database) for task in tasks]
         while pending:

@@ -102,7 +102,7 @@ def run_task(task: Task, weights: str | None = None, database: str | None = None
         options = dataclasses.replace(options, weights=weights or options.weights, database=database or options.database)
     try:
         take = generate(Path(task.path), source=task.source, engine=settings.engine, utterances=sorted(task.keys),
-                        seed=settings.seed, options=options, seed_poses=False, perform=False)
+                        seed=settings.seed, options=options, perform=False)
     except GenerateError as exc:
         return TaskResult(task.number, diagnostics=[d.to_dict() for d in exc.diagnostics], error=str(exc))
     entries = {}

@@ -18,7 +18,10 @@ that you know is right (the aligner is not perfect: docs/language.md measures ho
 this is the way forward: review the times (listen in Praat, or read them), correct any
 that are off, and name the file on the directive, '@audio REC timings=TIMINGS'; the
 recording is then timed by the file and not checked by the aligner. Existing timings
-files are never replaced without --force."""
+files are never replaced without --force (a file that appears while the aligner works is
+not replaced either). A symbolic link where a timings file goes (dangling or not) is
+refused, with or without --force: sgt never writes through a link it did not make; remove
+it, or write elsewhere with -o DIR."""
 
 def register(sub) -> None:
     from dsl.speech.recording import TIMINGS_SUFFIX
@@ -36,13 +39,14 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    import os
     import sys
 
-    from core.fileio import atomic_write_text
+    from core.fileio import OutputError, OutputExists
     from dsl.compiler import load_script
-    from dsl.speech import SpeechError
     from dsl.resources import shown_from
-    from dsl.speech.recording import aligner_timings, timings_path
+    from dsl.speech import SpeechError
+    from dsl.speech.recording import aligner_timings, check_timings_target, timings_path, write_timings_file
     from sgt_tui.commands.common import (
         check_utterances,
         existing_file,
@@ -81,7 +85,8 @@ def run(args) -> int:
         if target in targets:
             raise UsageError(f"utterances {targets[target].index} and {u.index} would both write {target}: "
                              "give them recordings of other names, or use --utterance")
-        if target.exists() and not args.force:
+        check_timings_target(target)  # a link there: refused with one line, --force or not
+        if os.path.lexists(target) and not args.force:
             raise UsageError(f"{target} exists (a timings file you may have corrected): add --force to replace it, "
                              "or write elsewhere with -o DIR")
         output_file(str(target), "--out-dir", inputs=inputs)
@@ -94,7 +99,17 @@ def run(args) -> int:
             print(f"[{u.index}] line {u.line}: {exc.message}", file=sys.stderr)
             failed += 1
             continue
-        atomic_write_text(target, text)
+        try:
+            write_timings_file(target, text, replace=args.force)
+        except OutputExists:
+            print(f"[{u.index}] line {u.line}: {target} appeared while the recording was aligned: not replaced "
+                  "(add --force to replace it)", file=sys.stderr)
+            failed += 1
+            continue
+        except OutputError as exc:
+            print(f"[{u.index}] line {u.line}: {exc}", file=sys.stderr)
+            failed += 1
+            continue
         named = shown_from(target.resolve(), path)
         print(f"[{u.index}] line {u.line}: wrote {shown(target)}: {len(times)} words, "
               f"{times[0][0]:.2f}-{times[-1][1]:.2f} s" if times else f"[{u.index}] line {u.line}: wrote {shown(target)}")

@@ -30,7 +30,7 @@ work on Ray (a local instance, or a cluster at ADDRESS; pip install -e '.[ray]')
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import ENGINE_CHOICES, add_database_option, add_post_options, add_seed_option, positive_int
+    from sgt_tui.commands.common import DEFAULT_ENGINE, ENGINE_CHOICES, add_database_option, add_post_options, add_seed_option, positive_int
     from sgt_tui.commands.generate import ENGINE_HELP
 
     p = sub.add_parser("build", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -43,7 +43,7 @@ def register(sub) -> None:
     p.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
                    help="run on Ray: a local instance, or the cluster at ADDRESS ('auto', 'ray://HOST:10001')")
     p.add_argument("--cache", metavar="DIR", help="the utterance cache (default: build/ in the sgt cache, $SGT_CACHE_DIR)")
-    p.add_argument("--engine", choices=ENGINE_CHOICES, default="neural", help=ENGINE_HELP)
+    p.add_argument("--engine", choices=ENGINE_CHOICES, default=DEFAULT_ENGINE, help=ENGINE_HELP)
     add_seed_option(p, "random seed for every script (default: each script's @seed)")
     add_post_options(p)
     p.add_argument("--weights", metavar="PATH", help="generator weights (default: the shipped model/weights/generator.pt)")
@@ -103,6 +103,8 @@ def run(args) -> int:
         for rel, why in report.repaired:
             print(f"sgt build: warning: {out / rel} did not match the manifest ({why} since the last build): "
                   f"made again", file=sys.stderr)
+    for line in report.warnings:
+        print(f"sgt build: warning: {line}", file=sys.stderr)
     for line in report.errors:
         print(f"sgt build: error: {line}", file=sys.stderr)
     if not args.quiet or report.failed:

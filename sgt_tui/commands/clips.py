@@ -69,7 +69,7 @@ def load_performance(path_text: str, utterance: int | None = None, *, engine: st
                                seed=seed, options=options)
         if not take.clips:
             raise InputError(f"{path}: no utterances (a script with only a header makes no motion)")
-        return MotionFile(take.clips, take.tracks if tracks and utterance is None else [], str(path))
+        return MotionFile(take.clips, take.tracks if tracks and utterance is None else [], str(path), engine=take.engine)
     if suffix not in MOTION_SUFFIXES:
         raise UsageError(f"{path}: unknown input type '{suffix or '(none)'}' (use .json, .npz or .sgt)")
     from core.motion import MotionFile, MotionFileError, load_motion_file  # lazy: numpy
@@ -84,6 +84,6 @@ def load_performance(path_text: str, utterance: int | None = None, *, engine: st
     if utterance is None:
         return whole
     try:
-        return MotionFile(pick(whole.clips, utterance), [], whole.source, whole.version)
+        return MotionFile(pick(whole.clips, utterance), [], whole.source, whole.version, whole.engine)
     except IndexError as exc:
         raise UsageError(f"{path}: {exc}") from None

@@ -28,6 +28,7 @@ from pathlib import Path
 
 from core.fileio import check_not_input, check_output, check_output_folder
 from core.seeds import SEED_MAX
+from model.engines import DEFAULT_ENGINE, ENGINES, EVAL_ENGINES  # noqa: F401  (EVAL_ENGINES: for the commands)
 from sgt_tui.errors import InputError, UsageError
 
 #: ``--smoothing`` choices of the neural engine, first the default. The same names as
@@ -35,11 +36,8 @@ from sgt_tui.errors import InputError, UsageError
 #: does not import numpy.
 SMOOTHING_CHOICES = ("one_euro", "moving_average", "none")
 
-#: ``--engine`` choices: the names of ``model.generate.ENGINES`` (a test checks), spelt out here
-#: for the same reason.
-ENGINE_CHOICES = ("neural", "matching", "flow", "keyframe", "rules")
-#: ``sgt eval --engine`` choices: the engines whose model rows it measures.
-EVAL_ENGINES = ("neural", "matching", "flow")
+#: ``--engine`` choices, the default first (``model.engines``: names only, no numpy).
+ENGINE_CHOICES = tuple(ENGINES)
 
 #: The output name that means standard output.
 STDOUT = "-"
@@ -186,7 +184,6 @@ def database_option(path: str | None, engine: str | None) -> str | None:
     if path is None:
         return None
     from model import matching  # lazy: numpy, the engine
-    from model.generate import DEFAULT_ENGINE  # lazy: numpy, the engines
 
     if (engine or DEFAULT_ENGINE) != "matching":
         raise UsageError(f"--database is the matching engine's database; the {engine or DEFAULT_ENGINE} engine "

@@ -17,18 +17,17 @@ the editor for every key, ctrl+p for the command palette. See docs/editor.md."""
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import ENGINE_CHOICES
+    from sgt_tui.commands.common import DEFAULT_ENGINE, ENGINE_CHOICES
 
     p = sub.add_parser("edit", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="script file (.sgt); created on the first save if missing")
     p.add_argument("--engine", choices=ENGINE_CHOICES, default=None,
-                   help="generation engine (default neural when its weights exist, else rules)")
+                   help=f"generation engine (default {DEFAULT_ENGINE}; ctrl+e cycles through them in the editor)")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     import signal
-    from pathlib import Path
 
     from sgt_tui.editor.files import FileError, ScriptFile
 
@@ -40,12 +39,7 @@ def run(args) -> int:
     if not sys.stdin.isatty() or not sys.stdout.isatty():
         print("sgt edit: error: needs a terminal (stdin and stdout must be a TTY)", file=sys.stderr)
         return 2
-    engine = args.engine
-    if engine is None:
-        from model.weights import DEFAULT_WEIGHTS
-
-        engine = "neural" if DEFAULT_WEIGHTS.exists() else "rules"
-
+    engine = args.engine  # None: the default engine (model.engines.DEFAULT_ENGINE)
     from sgt_tui.app.main import EditorApp
 
     app = EditorApp(script, engine=engine)

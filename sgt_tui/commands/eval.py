@@ -19,15 +19,15 @@ docs/metrics.md."""
 
 
 def register(sub) -> None:
-    from sgt_tui.commands.common import EVAL_ENGINES, SMOOTHING_CHOICES, add_take_posture_option, positive_int, seed
+    from sgt_tui.commands.common import DEFAULT_ENGINE, EVAL_ENGINES, SMOOTHING_CHOICES, add_take_posture_option, positive_int, seed
 
     p = sub.add_parser("eval", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--corpus", default="data/corpus", help="corpus folder (default data/corpus)")
     p.add_argument("--split", default="test", choices=("test", "val", "train", "all"),
                    help="which clips (default test); 'all': every clip, for a held-out corpus built with another "
                         "seed (sgt corpus -o data/heldout --hours 1 --seed 1), whose FGD is steadier: see docs/metrics.md")
-    p.add_argument("--engine", choices=EVAL_ENGINES, default="neural",
-                   help="the engine of the model rows: neural (default: the network) or matching (motion matching)")
+    p.add_argument("--engine", choices=EVAL_ENGINES, default=DEFAULT_ENGINE,
+                   help=f"the engine of the model rows: {' or '.join(EVAL_ENGINES)} (default {DEFAULT_ENGINE})")
     p.add_argument("--weights", help="generator weights (default: the shipped ones)")
     p.add_argument("--database", metavar="PATH",
                    help="the matching engine's database (default: the shipped model/weights/matching_db.npz)")

@@ -105,6 +105,14 @@ def run(args) -> int:
     inputs = inputs_of(args.input)
     out = output_file(args.output, binary=binary, inputs=inputs)
     sidecar = None if args.output == STDOUT else output_file(str(timeline_path(out)), "-o", inputs=inputs)
+    if sidecar is not None:  # named by sgt, not the user: never written through a link planted there
+        from core.fileio import Inside
+
+        from pathlib import Path
+
+        if Path(sidecar).parent.is_dir():  # (a folder still to be made holds no link)
+            with Inside(Path(sidecar).parent) as folder:
+                folder.check(Path(sidecar).name)
     take = load_performance(args.input, args.utterance, engine=args.engine, seed=args.seed)
 
     from core.motion import save_motion
@@ -118,7 +126,7 @@ def run(args) -> int:
         tracks = [t for t in tracks if speaker_name(t.speaker) == args.speaker]
         clips = [c for c in clips if speaker_name(c.speaker) == args.speaker]
     if face is None and rig == "sgt" and fmt in ("json", "npz"):
-        save_motion(out, clips, format=fmt, tracks=tracks, source=take.source)
+        save_motion(out, clips, format=fmt, tracks=tracks, source=take.source, engine=take.engine)
         print(f"wrote {shown(out)}: {len(clips)} utterance(s), {len(tracks)} track(s)", file=sys.stderr)
         return 0
     if not tracks:  # one utterance, or a version 1 file: the utterances one after another
@@ -229,7 +237,7 @@ def _write_timeline(path, clips, files, tracked: bool) -> None:
     offset on the exported files' clock, and which file holds each speaker."""
     from pathlib import Path
 
-    from core.fileio import atomic_write, json_bytes
+    from core.fileio import Inside, json_bytes
     from core.skeleton import FPS
     from renders.clips import speaker_name
 
@@ -241,4 +249,6 @@ def _write_timeline(path, clips, files, tracked: bool) -> None:
                      "start_frame": start, "frames": c.n_frames, "start": round(start / FPS, 6),
                      "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6)})
     doc = {"fps": FPS, "files": {speaker_name(s): Path(str(p)).name for p, s in files}, "utterances": rows}
-    atomic_write(path, json_bytes(doc, indent=1) + b"\n")
+    path = Path(path)
+    with Inside(path.parent, create=True) as folder:  # a name sgt chose: no link planted there is followed
+        folder.write(path.name, json_bytes(doc, indent=1) + b"\n")

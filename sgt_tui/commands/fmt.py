@@ -9,12 +9,15 @@ HELP = "rewrite scripts in the canonical layout (--check for CI, --stdin for edi
 DESCRIPTION = """\
 Rewrite .sgt scripts in place in one canonical layout: tags without inner padding and
 pose options in the order speed, flip, hold=; one space between words; 'speaker: text';
-directives one space apart, per-speaker values and preset '=' signs lined up; continuation
-lines indented by four spaces; comments kept; at most one blank line in a row.
+directives one space apart; continuation lines indented by four spaces; comments kept, two
+spaces after code; at most one blank line in a row. Nothing is lined up across lines, so a
+change to one line never rewrites another.
 
 Only whitespace and the order of pose options of different kinds change: what is spoken
-and gestured stays the same. A script with a syntax error is not touched: its errors are
-printed and the status is 1. Folders are searched for *.sgt files.
+and gestured stays the same. A script with a syntax error (an unknown escape such as \\q
+and a closing tag that closes nothing among them) is not touched: its errors are printed
+and the status is 1. A script with other hard links is rewritten in place, so that every
+link keeps showing the same text. Folders are searched for *.sgt files.
 
 --check writes nothing: it prints a unified diff of what would change and exits 1 when a
 file is not formatted (for CI and pre-commit). --stdin formats standard input to standard
@@ -122,7 +125,8 @@ def _one(path, args) -> tuple[int, int]:
     if args.check:
         sys.stdout.write(_diff(source, formatted, name))
         return 1, 1
-    atomic_write(path, (("\ufeff" if bom else "") + formatted).encode("utf-8", "surrogatepass"))
+    # in place: a script with other hard links keeps them (core.fileio: the same file, rewritten)
+    atomic_write(path, (("\ufeff" if bom else "") + formatted).encode("utf-8", "surrogatepass"), keep_hard_links=True)
     if not args.quiet:
         print(f"reformatted {name}", file=sys.stderr)
     return 0, 1

@@ -20,8 +20,8 @@ the 27-number poses, and each speaker's continuous track over the whole performa
 --threads sets torch's thread count (default 1: on a shared or small machine more threads
 wait for each other; benchmarks/bench_threads.py measures it)."""
 
-ENGINE_HELP = ("neural (default: the trained generator), matching (motion matching over a database of takes: the shipped "
-               "one or --database), keyframe (splines through your pose controls), rules (procedural)")
+ENGINE_HELP = ("matching (default: motion matching over a database of takes, the shipped one or --database), neural (the "
+               "trained network), keyframe (splines through your pose controls), rules (the procedural teacher)")
 
 
 def register(sub) -> None:

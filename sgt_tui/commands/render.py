@@ -21,7 +21,10 @@ the gesture, the word it marks and the frame; with --sheet-at even, 8 evenly spa
 with the word spoken then. Speakers are told apart by a label and the colour of the body.
 --view chooses the camera: three-quarter (default: from the front-left and a little above,
 so a reach towards the listener stands out from the body), front, side (the character's right side:
-depth shows left-right) or top. --compare renders a second take beside the first,
+depth shows left-right), top, or face (a close-up of the head that follows it).
+--face-inset draws a close-up of each speaker's face in the top right corner of every
+picture: auto (default) where the head is drawn under 96 pixels tall (at the default
+320x320 it is about 50), on, or off. --compare renders a second take beside the first,
 labelled (one speaker).
 
 Without --utterance the whole performance is rendered: each speaker's track, listening
@@ -32,7 +35,9 @@ Offscreen GL: EGL, falling back to OSMesa (set SGT_GL=egl|osmesa to choose)."""
 
 
 #: The camera views (renders.mannequin.VIEWS; spelled out here so that --help imports no numpy).
-VIEWS = ("three-quarter", "front", "side", "top")
+VIEWS = ("three-quarter", "front", "side", "top", "face")
+#: The face's close-up (renders.face_closeup.INSET_MODES, spelled out for the same reason).
+FACE_INSETS = ("auto", "on", "off")
 
 
 def register(sub) -> None:
@@ -47,7 +52,9 @@ def register(sub) -> None:
     p.add_argument("--sheet-at", choices=("strokes", "even"), default="strokes",
                    help="the sheet's pictures: every pose control's stroke (default) or 8 evenly spaced frames")
     p.add_argument("--view", choices=VIEWS, default="three-quarter",
-                   help="camera: three-quarter (default), front, side (depth left-right) or top")
+                   help="camera: three-quarter (default), front, side (depth left-right), top or face (a close-up)")
+    p.add_argument("--face-inset", choices=FACE_INSETS, default="auto",
+                   help="a close-up of the face in each picture's corner: auto (default: where the head is small), on, off")
     p.add_argument("--compare", metavar="MOTION", help="render this second take side by side")
     p.add_argument("--size", metavar="WxH", default="320x320", help="frame size in pixels, WxH or N (default 320x320)")
     p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (0-based)")
@@ -142,20 +149,22 @@ def run(args) -> int:
         if video:
             try:
                 info = render_mp4(clips, out, labels=labels, audio=audio, sample_rate=rate, size=size,
-                                  progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints)
+                                  progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints,
+                                  face_inset=args.face_inset)
             except VideoError as exc:
                 raise InputError(str(exc)) from None
             sound = "with sound" if audio is not None else "no sound"
         else:
             info = render_gif(clips[0], out, size=size, others=clips[1:], labels=labels,
-                              progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints)
+                              progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints,
+                              face_inset=args.face_inset)
             sound = ""
         print(f"wrote {shown(out)}: {info['frames']} frames, {info['duration_s']:.2f} s, "
               f"{info['width']}x{info['height']}, {info['bytes'] / 1024:.0f} KiB"
               f"{', ' + sound if sound else ''} ({info['platform']})", file=sys.stderr)
         if sheet_out is not None:
             s = render_sheet(clips, sheet_out, labels=rows, size=size, at=args.sheet_at, view=args.view, tints=tints,
-                             title=f"{Path(args.input).name} · {args.view} view", mannequin=m)
+                             title=f"{Path(args.input).name} · {args.view} view", mannequin=m, face_inset=args.face_inset)
             what = "strokes" if args.sheet_at == "strokes" else "frames"
             print(f"wrote {shown(sheet_out)}: {len(s['frames'])} {what} of {len(clips)} "
                   f"{'row' if len(clips) == 1 else 'rows'}, {s['width']}x{s['height']}", file=sys.stderr)
@@ -186,9 +195,10 @@ def _panel_clips(take, speaker: str | None, name: str):
     return [concat_clips(chosen)], None, [tint]
 
 
-def _audio(take, name: str):
+def _audio(take, name: str, within=None):
     """The performance's speech mixed on the clock of what is rendered: (samples, rate), or
-    (None, None) for a take without audio offsets (a version 1 motion file)."""
+    (None, None) for a take without audio offsets (a version 1 motion file). ``within``: the
+    folder the take's script must be in (see :func:`script_of`)."""
     from core.skeleton import FPS
     from renders.audio_mix import mix
 
@@ -196,7 +206,7 @@ def _audio(take, name: str):
         print(f"note: {name} is a motion file from before the performance clock: the video has no sound "
               "(generate it again for sound)", file=sys.stderr)
         return None, None
-    paths = _speech_files(take, name)
+    paths = _speech_files(take, name, within)
     if take.tracks:
         parts = [(paths[c.index], c.start + c.audio_offset) for c in take.clips]
         frames = take.tracks[0].n_frames
@@ -209,23 +219,47 @@ def _audio(take, name: str):
     return mix(parts, frames)
 
 
-def _speech_files(take, name: str) -> dict:
-    """Utterance number -> its speech audio, from the script the take was generated from
-    (compiled again; its speech is cached), checked against the take."""
+def script_of(take, name: str, within=None):
+    """The script a motion file names as the one it was generated from (its ``"source"``), as
+    a path to compile for its speech: a ``.sgt`` file (links resolved), inside the folder
+    ``within`` when given (a build folder ``sgt view`` shows); an InputError (one line, the
+    take then has no speech) for anything else, which is never read."""
+    import os
     from pathlib import Path
 
-    from dsl.compiler import compile_file
-    from sgt_tui.commands.common import print_diagnostics
+    from core.fileio import LinkRefused, resolved_inside
     from sgt_tui.errors import InputError
-    from sgt_tui.progress import ProgressBar
 
     if not take.source:
         raise InputError(f"{name} does not name the script it was generated from, so its speech is unknown; "
                          "render the script, or a GIF")
     source = Path(take.source)
-    if not source.is_file():
+    if within is not None:
+        try:
+            real = Path(resolved_inside(within, source))
+        except LinkRefused:
+            raise InputError(f"{name} names {source} as its script, outside {within}: not read, so the take has no "
+                             "speech; view the script itself, or build with --wav") from None
+    else:
+        real = Path(os.path.realpath(source))
+    if real.suffix.lower() != ".sgt":
+        raise InputError(f"{name} names {source} as its script, which is not a .sgt script: not read, so the take "
+                         "has no speech; render a GIF, or generate the take again")
+    if not real.is_file():
         raise InputError(f"{name} was generated from {source}, which is not there any more; render a GIF, "
                          "or generate the take again")
+    return real
+
+
+def _speech_files(take, name: str, within=None) -> dict:
+    """Utterance number -> its speech audio, from the script the take was generated from
+    (:func:`script_of`, compiled again; its speech is cached), checked against the take."""
+    from dsl.compiler import compile_file
+    from sgt_tui.commands.common import print_diagnostics
+    from sgt_tui.errors import InputError
+    from sgt_tui.progress import ProgressBar
+
+    source = script_of(take, name, within)
     result = compile_file(source, timing="speech", utterances=[c.index for c in take.clips], progress=ProgressBar("speech"))
     if result.plan is None:
         print_diagnostics(result.diagnostics, {str(source): result.script.source})

@@ -30,7 +30,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from pathlib import Path
 
-    from core.fileio import atomic_write, json_text
+    from core.fileio import Inside, atomic_write, json_text
     from dsl.compiler import compile_file
     from sgt_tui.commands.common import (
         STDOUT,
@@ -60,15 +60,27 @@ def run(args) -> int:
     if result.plan is None:
         return exit_code(result.diagnostics) or 1
     report = []
-    for u in result.plan.utterances:
-        wav = out_dir / f"{path.stem}_{u.index:03d}.wav"
-        if u.audio_path is not None and Path(u.audio_path).resolve() != wav.resolve():
-            atomic_write(wav, Path(u.audio_path).read_bytes())
-        # the plan's words are on the motion timeline (after the lead-in); the table is the audio's
-        lead = u.lead_in
-        speech_end = u.duration - u.speech.get("tail", 0.0) - lead
-        report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav), "duration": round(speech_end, 3),
-                       "start": round(u.start + lead, 6), "words": [w.shifted(-lead).to_dict() for w in u.words]})
+    # -o DIR: the user's folder, written as a named output is (a link, FIFO or device there is
+    # theirs); the default folder is sgt's: no link planted in it is followed
+    folder = Inside(out_dir, create=True) if args.out_dir is None else None
+    try:
+        for u in result.plan.utterances:
+            wav = out_dir / f"{path.stem}_{u.index:03d}.wav"
+            if u.audio_path is not None and Path(u.audio_path).resolve() != wav.resolve():
+                data = Path(u.audio_path).read_bytes()
+                if folder is not None:
+                    folder.write(wav.name, data)
+                else:
+                    atomic_write(wav, data)
+            # the plan's words are on the motion timeline (after the lead-in); the table is the audio's
+            lead = u.lead_in
+            speech_end = u.duration - u.speech.get("tail", 0.0) - lead
+            report.append({"index": u.index, "speaker": u.speaker, "text": u.text, "audio": str(wav),
+                           "duration": round(speech_end, 3), "start": round(u.start + lead, 6),
+                           "words": [w.shifted(-lead).to_dict() for w in u.words]})
+    finally:
+        if folder is not None:
+            folder.close()
     if mix_out is not None:
         import sys
 
@@ -85,7 +97,9 @@ def run(args) -> int:
         print(json_text(report, indent=2))
         return exit_code(result.diagnostics)
     for r in report:
-        who = f"{r['speaker']}: " if r["speaker"] else ""
+        # what is spoken, after who speaks it: a line without a speaker says so, so that a name
+        # it speaks ('guide:[pose:nod] Yes.' says "guide") never reads as its speaker
+        who = f"{r['speaker']}: " if r["speaker"] else "(no speaker) "
         print(f"[{r['index']}] {who}{r['text']}")
         print(f"    {r['audio']}  ({r['duration']:.2f}s, starts at {r['start']:.2f}s in the performance)")
         print(f"    {'word':<20} {'start':>7} {'end':>7}")

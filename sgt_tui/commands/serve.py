@@ -40,6 +40,9 @@ def register(sub) -> None:
     p.add_argument("--max-text", type=positive_int, default=20_000, metavar="CHARS", help="longest script or text (default 20000)")
     p.add_argument("--timeout", type=positive_float, default=30.0, metavar="SECONDS",
                    help="longest a request may take, its body included (default 30; then 408)")
+    p.add_argument("--max-seconds", type=positive_float, default=600.0, metavar="SECONDS",
+                   help="the longest performance a request may make, pauses and gaps included (default 600, at most "
+                        "3600; longer: 422 with the error at the mark that passes it)")
     p.add_argument("--header-timeout", type=positive_float, default=10.0, metavar="SECONDS",
                    help="a client must send a request's headers within this time of connecting or of its "
                         "previous answer, or it is disconnected (default 10)")
@@ -69,7 +72,7 @@ def run(args) -> int:
                                      workers=args.workers, queue=args.queue, max_body=args.max_body, max_text=args.max_text,
                                      timeout=args.timeout, header_timeout=args.header_timeout, weights=weights,
                                      database=database, allow_hosts=tuple(args.allow_host), max_streams=args.max_streams,
-                                     max_client_streams=args.max_client_streams))
+                                     max_client_streams=args.max_client_streams, max_seconds=args.max_seconds))
     except ConfigError as exc:
         raise UsageError(str(exc)) from None
     try:

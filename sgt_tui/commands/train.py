@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 
 HELP = "train the gesture generator on a corpus"
 DESCRIPTION = """\
@@ -37,6 +38,7 @@ than a segment (1.2 s) are left out with a warning. Generate with it:
 
 
 def register(sub) -> None:
+    from model.engines import NETWORK_ENGINES
     from model.training.train_config import FlowConfig, TrainConfig
     from sgt_tui.commands.common import non_negative_float, non_negative_int, positive_float, positive_int, seed, share
 
@@ -49,7 +51,7 @@ def register(sub) -> None:
                           "the last tenth of the takes (at least one) is the validation split (with --engine matching: "
                           "none, every take goes into the database)")
     p.add_argument("-o", "--out", default="runs/default", help="output folder (default runs/default)")
-    p.add_argument("--engine", choices=("neural", "matching", "flow"), default="neural",
+    p.add_argument("--engine", choices=(*NETWORK_ENGINES, "matching"), default="neural",
                    help="neural (default): train the network, OUT/generator.pt; flow: train the flow engine's "
                         "network, OUT/flow.pt; matching: build the matching engine's database of the takes, "
                         "OUT/matching_db.npz (for 'sgt generate --engine matching --database OUT/matching_db.npz'); "
@@ -126,7 +128,7 @@ def _times(text: str) -> list[float]:
         values = [float(v) for v in text.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(f"'{text}' is not a comma-separated list of numbers") from None
-    if values[0] != 0.0 or any(b <= a for a, b in zip(values, values[1:])) or values[-1] >= 1.0:
+    if values[0] != 0.0 or any(b <= a for a, b in itertools.pairwise(values)) or values[-1] >= 1.0:
         raise argparse.ArgumentTypeError(f"'{text}': the times must start at 0 and rise below 1 (e.g. 0,0.4,0.7,0.9)")
     return values
 
@@ -177,11 +179,15 @@ def run(args) -> int:
     try:
         train(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
               log=lambda s: print(s, file=sys.stderr))
-    except ValueError as exc:  # e.g. no clip as long as a training window
+    except ValueError as exc:  # no clip as long as a training window, a checkpoint not resumed, a loss that diverged
         print(f"sgt train: error: {exc}", file=sys.stderr)
         return 1
-    print(f"weights: {Path(args.out) / 'generator.pt'} (best validation epoch); last epoch: {Path(args.out) / 'last.pt'}",
-          file=sys.stderr)
+    weights = Path(args.out) / "generator.pt"
+    if not weights.is_file():  # (a checkpoint whose epochs were all done, resumed in a folder without its weights)
+        print(f"sgt train: error: no weights: {weights} is missing and the checkpoint in {args.out} has no epoch left "
+              "to train; train afresh with --fresh", file=sys.stderr)
+        return 1
+    print(f"weights: {weights} (best validation epoch); last epoch: {Path(args.out) / 'last.pt'}", file=sys.stderr)
     return 0
 
 

@@ -51,6 +51,7 @@ def add_allow_host_option(p) -> None:
 
 def run(args) -> int:
     import os
+    import signal
     import sys
     from pathlib import Path
 
@@ -85,7 +86,7 @@ def run(args) -> int:
     import uvicorn
 
     from sgt_tui.serve.listen import BACKLOG, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
-    from sgt_tui.view.server import create_view_app
+    from sgt_tui.view.server import ViewServer, create_view_app
 
     try:
         sock = bind(config.host, config.port)
@@ -94,20 +95,24 @@ def run(args) -> int:
     port = sock.getsockname()[1]
     host = f"[{config.host}]" if ":" in config.host else config.host
     address = f"http://{host}:{port}/"
-    print(f"sgt view: {address}" + (f" (token required: open {address}#token=TOKEN)" if config.token else ""), file=sys.stderr)
-    print(f"  {len(viewer.slots)} take{'s' if len(viewer.slots) != 1 else ''} of {path}; reloads when "
-          f"{'its files change' if viewer.folder or path.suffix.lower() != '.sgt' else 'the script is saved'}; ctrl+c stops."
-          f" Over SSH: ssh -L {port}:127.0.0.1:{port} THIS_HOST, then open the address on your machine.", file=sys.stderr)
-    sys.stderr.flush()
-    server = uvicorn.Server(uvicorn.Config(create_view_app(viewer, config), log_level="warning", timeout_graceful_shutdown=1,
-                                           http=protocol(config.header_timeout, connection_limit()),
-                                           timeout_keep_alive=KEEP_ALIVE, backlog=BACKLOG, loop="asyncio"))
-    viewer.start()
+    server = ViewServer(uvicorn.Config(create_view_app(viewer, config), log_level="warning", timeout_graceful_shutdown=1,
+                                       http=protocol(config.header_timeout, connection_limit()),
+                                       timeout_keep_alive=KEEP_ALIVE, backlog=BACKLOG, loop="asyncio"), viewer)
+    # From here ctrl+c stops the server and raises nothing: before uvicorn runs too, where a
+    # KeyboardInterrupt could land in an import (and CPython then ends by SIGINT, whatever caught it).
+    previous = signal.signal(signal.SIGINT, server.handle_exit)
     try:
-        server.run(sockets=[sock])
-    except KeyboardInterrupt:  # uvicorn re-raises the ctrl+c it stopped on: a clean stop
-        pass
+        print(f"sgt view: {address}" + (f" (token required: open {address}#token=TOKEN)" if config.token else ""),
+              file=sys.stderr)
+        print(f"  {len(viewer.slots)} take{'s' if len(viewer.slots) != 1 else ''} of {path}; reloads when "
+              f"{'its files change' if viewer.folder or path.suffix.lower() != '.sgt' else 'the script is saved'}; ctrl+c "
+              f"stops. Over SSH: ssh -L {port}:127.0.0.1:{port} THIS_HOST, then open the address on your machine.",
+              file=sys.stderr)
+        sys.stderr.flush()
+        viewer.start()
+        server.run(sockets=[sock])  # its own handler while it runs, ours again after (it re-raises the signal to it)
     finally:
+        signal.signal(signal.SIGINT, previous)
         viewer.stop()
         sock.close()
     return 0

@@ -3,9 +3,15 @@
 While a document has unsaved changes, the editor writes its text every few seconds to a
 recovery file in ``$SGT_RECOVERY_DIR`` (default ``~/.cache/sgt/editor/recovery``; see
 :func:`editor_cache_dir`), one file per script (named by a hash of its absolute path, so it
-never lands in the user's git working tree). Saving or closing cleanly removes it. When the
-editor opens a script whose recovery file holds text that differs from the file, it offers to
-restore it.
+never lands in the user's git working tree, and a script of any name has one: the name's
+readable part is cut to :data:`NAME_BYTES` bytes, the hash tells scripts apart). Saving or
+closing cleanly removes it. When the editor opens a script whose recovery file holds text
+that differs from the file, it offers to restore it.
+
+A recovery file that cannot be written (the folder read-only, the disk full) is not silent:
+:meth:`RecoveryFile.update` keeps the reason in :attr:`RecoveryFile.problem` (None once a
+write succeeds again), which the editor shows once and in its status line, and the next
+change tries again.
 """
 
 from __future__ import annotations
@@ -17,13 +23,16 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.fileio import atomic_write, json_bytes
+from core.fileio import OutputError, atomic_write, json_bytes
 from core.paths import cache_dir
 
 FORMAT = "sgt-recovery"
 VERSION = 1
 #: Seconds between recovery writes while there are unsaved changes.
 INTERVAL = 3.0
+#: The most bytes of the script's name kept in its recovery file's name (file names are at
+#: most 255 bytes; the rest is a hash of the whole path, the ``.json`` and atomic writes' temporaries).
+NAME_BYTES = 200
 
 
 def editor_cache_dir() -> Path:
@@ -62,8 +71,9 @@ class RecoveryFile:
     def __init__(self, script: Path | str, directory: Path | None = None) -> None:
         self.script = Path(script).resolve()
         key = hashlib.sha256(str(self.script).encode("utf-8", "surrogateescape")).hexdigest()[:16]
-        self.path = (directory or recovery_dir()) / f"{self.script.name}.{key}.json"
+        self.path = (directory or recovery_dir()) / f"{_short(self.script.name)}.{key}.json"
         self.written_version: int | None = None
+        self.problem: str | None = None  # why the last write failed (None: it did not)
 
     def write(self, text: str, version: int | None = None) -> None:
         blob = {"format": FORMAT, "version": VERSION, "path": str(self.script), "saved_at": time.time(), "text": text}
@@ -101,6 +111,16 @@ class RecoveryFile:
             return False
         try:
             self.write(text, version)
-        except OSError:
+        except OSError as exc:
+            self.problem = str(exc) if isinstance(exc, OutputError) else f"cannot write {self.path}: {exc.strerror or exc}"
             return False
+        self.problem = None
         return True
+
+
+def _short(name: str) -> str:
+    """``name`` cut to at most :data:`NAME_BYTES` bytes of UTF-8 (whole characters)."""
+    raw = name.encode("utf-8", "surrogateescape")
+    if len(raw) <= NAME_BYTES:
+        return name
+    return raw[:NAME_BYTES].decode("utf-8", "ignore")

@@ -54,16 +54,16 @@ def _clips(req: dict, emit):
     take = generate(req["path"], source=req["source"], engine=req.get("engine"), utterances=req.get("utterances"),
                     seed=req.get("seed"), timing=req.get("timing", "speech"), options=Options(weights=req.get("weights")),
                     progress=_progress(emit, rid, "motion"), speech_progress=_progress(emit, rid, "speech"))
-    return take.clips, take.utterances, take.timing
+    return take.clips, take.utterances, take.timing, take.engine
 
 
 def handle(raw: dict, emit) -> JobResult:
     """Run one request (the JSON object as read: ``_clips`` reads it as it is)."""
     req = JobRequest.from_dict(raw)  # raises ProtocolError for an unknown operation
-    clips, indices, timing = _clips(raw, emit)
+    clips, indices, timing, engine = _clips(raw, emit)
     result = JobResult(utterances=tuple(indices), frames=sum(c.n_frames for c in clips), timing=timing)
     if req.out:
-        save_motion(req.out, clips)
+        save_motion(req.out, clips, engine=engine)
         result = dataclasses.replace(result, motion=req.out)
     if req.op == "render":
         info = render_gif(concat_clips(clips), req.gif, size=req.size, progress=_progress(emit, raw["id"], "render"))

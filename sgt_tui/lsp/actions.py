@@ -10,17 +10,20 @@ its word (SGT401: offered only when the warning then goes away), and closing an 
 
 from __future__ import annotations
 
-import difflib
 import re
+from bisect import bisect_left
+from collections import Counter
 from pathlib import Path
 
 from lsprotocol import types as lsp
 
 from core import rules
-from core.diagnostics import ERROR, WARNING, Diagnostic
+from core.diagnostics import ERROR, WARNING, Diagnostic, sort_key
 from dsl.compiler import compile_text
 from dsl.fmt import format_source
+from dsl.lines import split_statements
 from dsl.speech.recording import timings_path
+from sgt_tui.editor.analysis import header_audio
 from sgt_tui.editor.tokens import line_tokens
 from sgt_tui.lsp import knowledge
 from sgt_tui.lsp.documents import Document, uri_of
@@ -59,9 +62,12 @@ def _plain_span(line: int, col: int, length: int) -> lsp.Range:
 
 def published(doc: Document) -> dict[str, list[lsp.Diagnostic]]:
     """The diagnostics to publish, by URI: the script's, and those of other files its analysis
-    read (a malformed gesture spec)."""
+    read (a malformed gesture spec). A recording the aligner failed on is reported on its
+    ``@audio`` line (:mod:`sgt_tui.lsp.aligning`)."""
     out: dict[str, list[lsp.Diagnostic]] = {doc.uri: []}
-    for d in doc.analysis().diagnostics:
+    analysis = doc.analysis()
+    failed = [rules.SPEECH.at(str(doc.path), r.line, r.col, r.length, detail=why) for r, why in doc.failed]
+    for d in sorted(analysis.diagnostics + failed, key=sort_key):
         uri = doc.uri if d.file == str(doc.path) else uri_of(d.file)
         out.setdefault(uri, []).append(to_lsp(doc, d))
     return out
@@ -191,15 +197,28 @@ def _late_strokes(doc: Document, info, change) -> int:
     lines = list(doc.lines)
     first = analysis.utterances[0].line
     keep = set(range(first - 1)) | set(range(info.chunk_line - 1, info.last_line))
+    if info.index:  # the first utterance's recording is not this one's
+        keep -= {n - 1 for n in header_audio(split_statements(doc.text)[0])}
     trial = [line if n in keep else "" for n, line in enumerate(lines)]
     if change is not None:
         row, s, e, text = change
         trial[row] = trial[row][:s] + text + trial[row][e:]
-    result = compile_text("\n".join(trial), doc.path, timing="estimate", library=analysis.library)
+    result = compile_text(doc.analysed("\n".join(trial)), doc.path, timing="estimate", library=analysis.library)
     return sum(1 for x in result.diagnostics if x.code == rules.OVERLAP.code and info.line <= x.line <= info.last_line)
 
 
 # -- formatting -------------------------------------------------------------------------------
+
+#: A stretch of changed lines is matched line by line (the longest common subsequence) when its
+#: lines before times its lines after stay under this; a larger one is cut at the lines that
+#: occur once on both sides.
+SMALL_STRETCH = 10_000
+#: How many such line pairs one formatting compares in all, and how many lines it looks at per
+#: line of the script: beyond them, what is left is replaced whole, so the time stays about
+#: linear whatever the lines repeat.
+PAIRS = 250_000
+WORK_PER_LINE = 64
+
 
 def formatting(doc: Document) -> list[lsp.TextEdit]:
     """The edits that make the script ``sgt fmt``'s layout, line by line (so the rest of the
@@ -213,12 +232,104 @@ def formatting(doc: Document) -> list[lsp.TextEdit]:
     else:
         end = doc.position(len(before) - 1, len(before[-1]))
     edits = []
-    for op, i1, i2, j1, j2 in difflib.SequenceMatcher(None, before, after, autojunk=False).get_opcodes():
-        if op != "equal":
-            start = lsp.Position(i1, 0) if i1 < len(before) else end
-            edits.append(lsp.TextEdit(lsp.Range(start, lsp.Position(i2, 0) if i2 < len(before) else end), "".join(after[j1:j2])))
+    for i1, i2, j1, j2 in _changes(before, after):
+        start = lsp.Position(i1, 0) if i1 < len(before) else end
+        edits.append(lsp.TextEdit(lsp.Range(start, lsp.Position(i2, 0) if i2 < len(before) else end), "".join(after[j1:j2])))
     return edits
 
 
 def _lines_with_ends(text: str) -> list[str]:
     return re.findall(r"[^\n]*\n|[^\n]+$", text)
+
+
+def _changes(a: list[str], b: list[str]) -> list[tuple[int, int, int, int]]:
+    """Where lines ``a[i1:i2]`` become ``b[j1:j2]``, in order (the lines between are kept)."""
+    out = []
+    i = j = 0
+    for x, y in _kept(a, b) + [(len(a), len(b))]:
+        if x > i or y > j:
+            out.append((i, x, j, y))
+        i, j = x + 1, y + 1
+    return out
+
+
+def _kept(a: list[str], b: list[str]) -> list[tuple[int, int]]:
+    """Pairs (i, j) of lines kept (``a[i] == b[j]``), increasing in both. The first and last
+    lines two stretches share are kept; a small stretch (:data:`SMALL_STRETCH`) is matched
+    exactly (:func:`_common`), a larger one at the lines that occur once in both (the longest
+    run of them in the same order: a patience diff), and the stretches between them the same
+    way. (difflib's ``SequenceMatcher(autojunk=False)`` took minutes on 20,000 equal lines.)"""
+    kept: list[tuple[int, int]] = []
+    budget, pairs = WORK_PER_LINE * (len(a) + len(b) + 1), PAIRS
+    todo = [(0, len(a), 0, len(b))]
+    while todo:
+        alo, ahi, blo, bhi = todo.pop()
+        while alo < ahi and blo < bhi and a[alo] == b[blo]:
+            kept.append((alo, blo))
+            alo, blo = alo + 1, blo + 1
+        while alo < ahi and blo < bhi and a[ahi - 1] == b[bhi - 1]:
+            ahi, bhi = ahi - 1, bhi - 1
+            kept.append((ahi, bhi))
+        budget -= (ahi - alo) + (bhi - blo)
+        size = (ahi - alo) * (bhi - blo)
+        if not size or budget < 0:
+            continue
+        if size <= SMALL_STRETCH:
+            if size <= pairs:
+                pairs -= size
+                kept += [(alo + i, blo + j) for i, j in _common(a[alo:ahi], b[blo:bhi])]
+            continue
+        anchors = _anchors(a, b, alo, ahi, blo, bhi)
+        kept += anchors
+        starts = [(alo, blo)] + [(i + 1, j + 1) for i, j in anchors]
+        ends = anchors + [(ahi, bhi)]
+        todo += [(i0, i1, j0, j1) for (i0, j0), (i1, j1) in zip(starts, ends) if anchors]
+    kept.sort()
+    return kept
+
+
+def _common(a: list[str], b: list[str]) -> list[tuple[int, int]]:
+    """A longest common subsequence of ``a`` and ``b`` as pairs (i, j): the fewest lines
+    changed (time: ``len(a) * len(b)``)."""
+    m = len(b)
+    longest = [[0] * (m + 1) for _ in range(len(a) + 1)]  # longest[i][j]: of a[i:] and b[j:]
+    for i in range(len(a) - 1, -1, -1):
+        row, below, line = longest[i], longest[i + 1], a[i]
+        for j in range(m - 1, -1, -1):
+            row[j] = below[j + 1] + 1 if line == b[j] else max(below[j], row[j + 1])
+    out, i, j = [], 0, 0
+    while i < len(a) and j < m:
+        if a[i] == b[j]:
+            out.append((i, j))
+            i, j = i + 1, j + 1
+        elif longest[i + 1][j] >= longest[i][j + 1]:
+            i += 1
+        else:
+            j += 1
+    return out
+
+
+def _anchors(a: list[str], b: list[str], alo: int, ahi: int, blo: int, bhi: int) -> list[tuple[int, int]]:
+    """The longest increasing run of pairs (i, j) of lines that occur once in ``a[alo:ahi]`` and
+    once in ``b[blo:bhi]``."""
+    in_a, in_b = Counter(a[alo:ahi]), Counter(b[blo:bhi])
+    at_b = {line: j for j, line in enumerate(b[blo:bhi], blo) if in_b[line] == 1}
+    pairs = [(i, at_b[line]) for i, line in enumerate(a[alo:ahi], alo) if in_a[line] == 1 and line in at_b]
+    # the longest increasing subsequence of the j's (patience sorting), pairs already by i
+    tops: list[int] = []  # tops[k]: the smallest j ending a run of k + 1
+    ends: list[int] = []  # ends[k]: the index in pairs of that run's last pair
+    back = [-1] * len(pairs)
+    for n, (_, j) in enumerate(pairs):
+        k = bisect_left(tops, j)
+        if k == len(tops):
+            tops.append(j)
+            ends.append(n)
+        else:
+            tops[k], ends[k] = j, n
+        back[n] = ends[k - 1] if k else -1
+    run = []
+    n = ends[-1] if ends else -1
+    while n >= 0:
+        run.append(pairs[n])
+        n = back[n]
+    return run[::-1]

@@ -7,7 +7,9 @@ when the client offers them). Every conversion goes through :class:`Document`.
 
 The analysis is the editor's (:class:`sgt_tui.editor.analysis.Analyser`, one per document):
 the same diagnostics as ``sgt check``, and after a change only the utterances that changed
-are analysed again.
+are analysed again. In the server, an ``@audio`` recording that the aligner checks is left out
+of the analysis until a child process has aligned it (:mod:`sgt_tui.lsp.aligning`): no request
+waits for the aligner.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from lsprotocol import types as lsp
 from pygls.uris import from_fs_path, to_fs_path
 
 from sgt_tui.editor.analysis import Analyser, Analysis
+from sgt_tui.lsp.aligning import Aligner, Recording, recordings
 
 
 def units(text: str, encoding: str) -> int:
@@ -61,10 +64,18 @@ class Document:
     text: str
     version: int | None = None
     encoding: str = lsp.PositionEncodingKind.Utf16
+    #: The server's aligner (None: recordings are aligned where the analysis runs, as ``sgt check``).
+    aligner: Aligner | None = None
+    opened: bool = True  # the client opened it (else read from its file for one request: nothing is aligned for it)
     path: Path = field(init=False)
     analyser: Analyser = field(init=False)
+    #: Of the last analysis: the recordings still aligning, and those that failed with why
+    #: (both left out of it).
+    aligning: list[Recording] = field(default_factory=list, init=False)
+    failed: list[tuple[Recording, str]] = field(default_factory=list, init=False)
     _lines: list[str] | None = field(default=None, init=False, repr=False)
-    _analysis: tuple[str, Analysis] | None = field(default=None, init=False, repr=False)
+    _analysis: tuple[str, tuple, Analysis] | None = field(default=None, init=False, repr=False)
+    _recordings: tuple[str, list[Recording]] | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.path = path_of(self.uri)
@@ -89,11 +100,34 @@ class Document:
         return lines[row] if 0 <= row < len(lines) else ""
 
     def analysis(self) -> Analysis:
-        """The analysis of the current text (analysed once per text)."""
+        """The analysis of the current text (analysed once per text and state of its
+        recordings), never waiting for the aligner when the server has one."""
+        text = self.text
+        left_out: tuple = ()
+        if self.aligner is not None:
+            recs = self._recordings
+            if recs is None or recs[0] is not text:
+                recs = self._recordings = (text, recordings(text, self.path))
+            self.aligning, self.failed = self.aligner.state(self.uri, recs[1], queue=self.opened)
+            left_out = tuple(sorted({r.line for r in self.aligning} | {r.line for r, _ in self.failed}))
         hit = self._analysis
-        if hit is None or hit[0] is not self.text:
-            hit = self._analysis = (self.text, self.analyser.run(self.text))
-        return hit[1]
+        if hit is None or hit[0] is not text or hit[1] != left_out:
+            hit = self._analysis = (text, left_out, self.analyser.run(self.analysed(text, left_out)))
+        return hit[2]
+
+    def analysed(self, text: str, left_out: tuple | None = None) -> str:
+        """``text`` as the server analyses it: the ``@audio`` lines of the recordings it waits
+        for (or that failed) blanked, so that no line moves (``left_out``: 1-based lines;
+        default: those of the last analysis)."""
+        if left_out is None:
+            left_out = self._analysis[1] if self._analysis is not None else ()
+        if not left_out:
+            return text
+        lines = text.split("\n")
+        for n in left_out:
+            if 0 < n <= len(lines):
+                lines[n - 1] = ""
+        return "\n".join(lines)
 
     # -- positions -----------------------------------------------------------------------------
     def position(self, row: int, col: int) -> lsp.Position:
@@ -121,16 +155,23 @@ class Document:
 class Documents:
     """The open documents by URI."""
 
-    def __init__(self) -> None:
+    def __init__(self, aligner: Aligner | None = None) -> None:
         self.by_uri: dict[str, Document] = {}
         self.encoding = lsp.PositionEncodingKind.Utf16
+        self.aligner = aligner
 
     def open(self, uri: str, text: str, version: int | None) -> Document:
-        doc = self.by_uri[uri] = Document(uri, text, version, self.encoding)
+        doc = self.by_uri[uri] = Document(uri, text, version, self.encoding, self.aligner)
         return doc
+
+    def unopened(self, uri: str, text: str) -> Document:
+        """A document the client did not open (read from its file), not kept."""
+        return Document(uri, text, None, self.encoding, self.aligner, opened=False)
 
     def get(self, uri: str) -> Document | None:
         return self.by_uri.get(uri)
 
     def close(self, uri: str) -> None:
         self.by_uri.pop(uri, None)
+        if self.aligner is not None:
+            self.aligner.forget(uri)

@@ -10,25 +10,28 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from lsprotocol import types as lsp
+from pygls.uris import to_fs_path
 
 from core.controls import STYLE_NAMES
 from core.face import EXPRESSIONS, LOOK_DIRECTIONS
+from core.reading import read_bytes
 from dsl.directives import NAME_RE as PRESET_NAME_RE
-from dsl.lines import strip_comment
+from dsl.lines import SPEAKER_RE, strip_comment
 from dsl.parser import POSE_OPTIONS
 from dsl.presets import BUILTIN_PRESETS
 from dsl.speech import SpeechError, list_voices
 from dsl.speech.synth import list_variants
 from library import BUILTIN_DIR
+from library.spec import NAME_RE as GESTURE_NAME_RE
 from library.spec import locate
 from sgt_tui.editor.tokens import line_tokens
 from sgt_tui.lsp import knowledge
 from sgt_tui.lsp.documents import Document, units, uri_of
 from sgt_tui.lsp.index import Occurrence, Workspace, line_occurrences, occurrences
 
-_SPEAKER_NAME_RE = re.compile(r"[^\W\d][\w\-]*\Z")
-_GESTURE_NAME_RE = re.compile(r"[a-z][a-z0-9_]*\Z")
 DURATIONS = ("300ms", "500ms", "1s")
+#: The longest name a rename gives (a speaker, a preset, a gesture).
+MAX_NAME = 64
 
 
 @dataclass(frozen=True)
@@ -51,7 +54,8 @@ def target_at(doc: Document, row: int, col: int) -> Target | None:
         return None
     for o in line_occurrences(row, line):
         if o.covers(row, col):
-            return Target("preset" if o.kind == "preset_def" else o.kind, o.name, o.row, o.col, o.length)
+            kind = {"preset_def": "preset", "look": "speaker"}.get(o.kind, o.kind)
+            return Target(kind, o.name, o.row, o.col, o.length)
     tok = line_tokens(line)
     if tok.directive is not None:
         a, b = tok.directive
@@ -362,11 +366,16 @@ def definition(doc: Document, row: int, col: int) -> list[lsp.Location]:
     return []
 
 
-def _spec_location(path: Path, encoding: str) -> lsp.Location:
+def _spec_text(path: Path) -> str:
+    """A gesture spec's text, by the bounded reader ("" when it cannot be read)."""
     try:
-        text = path.read_text(encoding="utf-8")
+        return read_bytes(path, "gesture spec").decode("utf-8", errors="replace")
     except OSError:
-        text = ""
+        return ""
+
+
+def _spec_location(path: Path, encoding: str) -> lsp.Location:
+    text = _spec_text(path)
     line, col, length = locate(text, "name")
     row = max(line - 1, 0)
     start = max(col - 1, 0)
@@ -378,7 +387,7 @@ def _spec_location(path: Path, encoding: str) -> lsp.Location:
 def _places(doc: Document, t: Target, docs, workspace: Workspace) -> dict[str, tuple[list[str], list[Occurrence]]]:
     """uri -> (the script's lines, the occurrences of the target's name there): this script for
     a preset, every script of the workspace (open ones as edited) for speakers and gestures."""
-    kinds = {"preset": ("preset", "preset_def"), "speaker": ("speaker",), "gesture": ("gesture",)}[t.kind]
+    kinds = {"preset": ("preset", "preset_def"), "speaker": ("speaker", "look"), "gesture": ("gesture",)}[t.kind]
     texts = {doc.uri: doc.text}
     if t.kind != "preset":
         for path in workspace.scripts():
@@ -443,16 +452,52 @@ def _renamable(doc: Document, row: int, col: int) -> Target:
     return t
 
 
+def _quoted(name: str) -> str:
+    """A name for a message: quoted, at most 40 characters of it."""
+    return f"'{name}'" if len(name) <= 40 else f"'{name[:37]}...' ({len(name)} characters)"
+
+
+def _check_new_name(doc: Document, t: Target, new_name: str, places) -> None:
+    """Refuse (:class:`RenameRefused`) a new name the language does not read as one, a long one,
+    and one that is taken: renaming a speaker to another speaker of a script it edits merges
+    the two (names that differ only in case too), a gesture to one of the library's shadows a
+    built-in or replaces a gesture of yours, a preset to another of the script's merges them."""
+    new = _quoted(new_name)
+    if len(new_name) > MAX_NAME:
+        raise RenameRefused(f"{new} is too long for a name: at most {MAX_NAME} characters")
+    if new_name == t.name:
+        raise RenameRefused(f"{new} is its name already")
+    if t.kind == "speaker":
+        if new_name != new_name.strip() or not SPEAKER_RE.fullmatch(f"{new_name}:"):
+            raise RenameRefused(f"{new} is not a speaker name (one word: letters, digits, '_', '-', not starting with a digit)")
+        if new_name in LOOK_DIRECTIONS:
+            raise RenameRefused(f"{new} is a direction of [look:...]: a speaker of that name could not be looked at")
+        for uri, (lines, _) in places.items():
+            taken = {o.name for o in occurrences("\n".join(lines)) if o.kind == "speaker"} - {t.name}
+            clash = next((name for name in taken if name.casefold() == new_name.casefold()), None)
+            if clash is not None:
+                where = "this script" if uri == doc.uri else to_fs_path(uri) or uri
+                raise RenameRefused(f"{_quoted(clash)} is a speaker of {where} already: renaming would merge the two speakers")
+    elif t.kind == "preset":
+        if not PRESET_NAME_RE.match(new_name) or new_name in STYLE_NAMES or new_name in BUILTIN_PRESETS:
+            raise RenameRefused(f"{new} cannot name a preset (lowercase letters, digits and '_', not a style element or built-in preset)")
+        if any(o.kind == "preset_def" and o.name == new_name for o in occurrences(doc.text)):
+            raise RenameRefused(f"{new} is a preset of this script already: renaming would merge the two presets")
+    elif t.kind == "gesture":
+        if not GESTURE_NAME_RE.match(new_name):
+            raise RenameRefused(f"{new} cannot name a gesture (lowercase letters, digits and '_', starting with a letter)")
+        library = doc.analysis().library
+        other = library.get(new_name) if library is not None else None
+        if other is not None:
+            what = "a built-in gesture" if Path(other.path).parent == BUILTIN_DIR else f"a gesture of yours ({other.path})"
+            raise RenameRefused(f"{new} is {what}: the renamed gesture would {'shadow' if 'built-in' in what else 'replace'} it")
+
+
 def rename(doc: Document, row: int, col: int, new_name: str, docs, workspace: Workspace,
            resource_operations: bool) -> lsp.WorkspaceEdit:
     t = _renamable(doc, row, col)
-    if t.kind == "speaker" and not _SPEAKER_NAME_RE.match(new_name):
-        raise RenameRefused(f"'{new_name}' is not a speaker name (one word: letters, digits, '_', '-', not starting with a digit)")
-    if t.kind == "preset" and (not PRESET_NAME_RE.match(new_name) or new_name in STYLE_NAMES or new_name in BUILTIN_PRESETS):
-        raise RenameRefused(f"'{new_name}' cannot name a preset (lowercase letters, digits and '_', not a style element or built-in preset)")
-    if t.kind == "gesture" and not _GESTURE_NAME_RE.match(new_name):
-        raise RenameRefused(f"'{new_name}' cannot name a gesture (lowercase letters, digits and '_', starting with a letter)")
     places = _places(doc, t, docs, workspace)
+    _check_new_name(doc, t, new_name, places)
     edits = {uri: [lsp.TextEdit(_range_in(lines, o, doc.encoding), new_name) for o in found]
              for uri, (lines, found) in places.items()}
     if t.kind != "gesture":
@@ -477,7 +522,8 @@ def rename(doc: Document, row: int, col: int, new_name: str, docs, workspace: Wo
 
 def _spec_value_range(spec: Path, key: lsp.Range, encoding: str) -> lsp.Range:
     """The range of the value of ``name = "..."`` on the key's line."""
-    line = spec.read_text(encoding="utf-8").splitlines()[key.start.line]
+    lines = _spec_text(spec).splitlines()
+    line = lines[key.start.line] if key.start.line < len(lines) else ""
     m = re.match(r'(\s*name\s*=\s*)("[^"]*"|\'[^\']*\')', line)
     start, end = (m.start(2), m.end(2)) if m else (0, len(line))
     return lsp.Range(lsp.Position(key.start.line, units(line[:start], encoding)), lsp.Position(key.start.line, units(line[:end], encoding)))

@@ -10,6 +10,7 @@ from core import rules
 from core.controls import STYLE_LIMIT
 from core.fileio import atomic_write
 from core.paths import cache_dir
+from core.reading import read_bytes
 from core.skeleton import FPS, positions_from_pose
 from dsl import presets as presets_module
 from renders.terminal import figure_points, stick_figure
@@ -64,7 +65,11 @@ BUILTIN_PRESETS_FILE = Path(presets_module.__file__)
 
 def builtin_preset_line(name: str) -> int:
     """The 0-based line of a built-in preset's definition in dsl/presets.py (0 when not found)."""
-    for n, line in enumerate(BUILTIN_PRESETS_FILE.read_text(encoding="utf-8").splitlines()):
+    try:
+        text = read_bytes(BUILTIN_PRESETS_FILE, "configuration").decode("utf-8", errors="replace")
+    except OSError:
+        return 0
+    for n, line in enumerate(text.splitlines()):
         if line.strip().startswith(f'"{name}":'):
             return n
     return 0

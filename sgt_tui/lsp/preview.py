@@ -13,7 +13,7 @@ import dataclasses
 import threading
 
 from core.paths import cache_dir
-from model.weights import DEFAULT_WEIGHTS
+from model.engines import DEFAULT_ENGINE
 from sgt_tui.editor.jobs import DONE, JobRefused, JobRunner, plan_job
 from sgt_tui.editor.recovery import editor_cache_dir
 
@@ -38,7 +38,7 @@ class Previews:
     def render(self, doc, row: int, engine: str | None = None, size: int = 320) -> dict:
         """Render the utterance on 0-based ``row``; returns ``{"gif", "utterance", "frames"}``."""
         analysis = doc.analysis()
-        engine = engine or ("neural" if DEFAULT_WEIGHTS.exists() else "rules")
+        engine = engine or DEFAULT_ENGINE
         try:
             plan = plan_job("render", analysis, row, path=doc.path, source=doc.text, engine=engine,
                             gif_size=(size, size), cache=editor_cache_dir() / "motion")

@@ -13,19 +13,22 @@ import hmac
 import json
 import logging
 from contextlib import asynccontextmanager
+from contextvars import ContextVar
+from functools import partial
 
-from fastapi import FastAPI, File, Form, Request, UploadFile, WebSocket, WebSocketDisconnect
+from fastapi import Depends, FastAPI, File, Form, Request, UploadFile, WebSocket, WebSocketDisconnect
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
 from pydantic import ValidationError
 from starlette.exceptions import HTTPException
+from starlette.requests import HTTPConnection
 
 from library import load_library
 from model.runtime import load_runner
 from sgt_tui.serve.config import ServeConfig
 from sgt_tui.serve.jobs import Encoded, check, generate_request
 from sgt_tui.serve.origin import SameOrigin, refuse
-from sgt_tui.serve.pool import Busy, Pool
+from sgt_tui.serve.pool import Busy, ClientGone, Pool
 from sgt_tui.serve.requests import AUDIO_SUFFIXES, CheckRequest, GenerateRequest, RequestError
 from sgt_tui.serve.stream import StreamSession, StreamSlots
 from sgt_tui.view.service import add_view, is_page
@@ -50,6 +53,21 @@ def authorized(config: ServeConfig, header: str | None) -> bool:
         return True
     scheme, _, value = (header or "").partition(" ")
     return scheme.lower() == "bearer" and hmac.compare_digest(value.strip().encode(), config.token.encode())
+
+
+#: The request being answered (every route depends on :func:`_remember_request`): ``work``
+#: watches its client.
+_request: ContextVar[HTTPConnection | None] = ContextVar("sgt_serve_request", default=None)
+
+
+async def _remember_request(connection: HTTPConnection) -> None:
+    _request.set(connection)
+
+
+async def _disconnect(receive) -> None:
+    """Ends when the client disconnects: what the request's ``receive`` says once its body is read."""
+    while (await receive())["type"] != "http.disconnect":
+        pass
 
 
 class Guard:
@@ -122,7 +140,7 @@ def create_app(config: ServeConfig) -> FastAPI:
         state["pool"].shutdown()
 
     app = FastAPI(title="sgt", summary="Co-speech gesture generation for running agents (docs/serve.md)",
-                  version="1", lifespan=lifespan)
+                  version="1", lifespan=lifespan, dependencies=[Depends(_remember_request)])
     app.add_middleware(Guard, config=config)
     app.add_middleware(SameOrigin, config=config, uploads=(UPLOAD,))  # added last: the outermost, before the token
     streams = StreamSlots(config.max_streams, config.max_client_streams)
@@ -145,9 +163,13 @@ def create_app(config: ServeConfig) -> FastAPI:
         return error(500, "internal error; the server's log has the details")
 
     async def work(fn, *args):
+        """``fn(*args)`` in the pool, answered as JSON; the work is cancelled when the request
+        times out (408) or its client disconnects (watched on the request's ASGI ``receive``)."""
         pool: Pool = state["pool"]
+        request = _request.get()
+        gone = partial(_disconnect, request.receive) if isinstance(request, Request) else None
         try:
-            answer = await pool.run(fn, *args, timeout=config.timeout)
+            answer = await pool.run(fn, *args, timeout=config.timeout, gone=gone)
             if isinstance(answer, Encoded):
                 return Response(answer, media_type="application/json")
             return JSONResponse(answer)
@@ -155,6 +177,8 @@ def create_app(config: ServeConfig) -> FastAPI:
             return error(503, str(exc), headers={"Retry-After": str(exc.retry_after)})
         except TimeoutError:
             return error(408, f"the request took longer than this service allows ({config.timeout:g} s)")
+        except ClientGone:  # nobody reads it: the status is for the access log
+            return error(499, "the client went away before the answer was ready")
         except RequestError as exc:
             return error(exc.status, str(exc), exc.diagnostics)
 

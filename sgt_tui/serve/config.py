@@ -8,6 +8,8 @@ import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from core.limits import MAX_SECONDS
+
 #: Environment variable holding the token when ``--token`` is not given.
 TOKEN_ENV = "SGT_SERVE_TOKEN"
 LOOPBACK_NAMES = ("localhost",)
@@ -36,6 +38,7 @@ class ServeConfig:
     allow_hosts: tuple[str, ...] = ()  # more names (NAME or NAME:PORT) the Host and Origin checks take (sgt_tui.serve.origin)
     max_streams: int = 32  # WebSocket streams open at once; more are refused (503)
     max_client_streams: int = 8  # of which from one client address
+    max_seconds: float = 600.0  # the longest performance a request may make (core/limits.py); longer: 422
 
     @property
     def base_dir(self) -> Path | None:
@@ -98,4 +101,6 @@ def checked(config: ServeConfig) -> ServeConfig:
         raise ConfigError("--timeout must be more than 0 seconds")
     if not config.header_timeout > 0:
         raise ConfigError("--header-timeout must be more than 0 seconds")
+    if not 0 < config.max_seconds <= MAX_SECONDS:
+        raise ConfigError(f"--max-seconds must be more than 0 and at most {MAX_SECONDS:g} (the limit of every sgt command)")
     return replace(config, token=token, allow=tuple(allow), allow_hosts=tuple(name.strip().lower() for name in config.allow_hosts))

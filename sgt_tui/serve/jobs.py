@@ -9,12 +9,13 @@ import logging
 import tempfile
 from pathlib import Path
 
-from core import rules
+from core import cancel, limits, rules
 from core.diagnostics import sort_key
+from core.fileio import OutputError
 from core.motion import save_motion
 from dsl.compiler import compile_file
 from dsl.plain import file_references
-from model.generate import GenerateError, NoSuchUtterance, generate
+from model.generate import GenerateError, NoSuchUtterance, check_motion_size, generate
 from model.neural import Options
 from sgt_tui.serve.config import ServeConfig
 from sgt_tui.serve.requests import REQUEST_FILE, GenerateRequest, RequestError, refused_paths, text_script
@@ -39,7 +40,20 @@ def diagnostics_json(diags, path: Path) -> list[dict]:
     return out
 
 
+def service_limits(config: ServeConfig) -> limits.Limits:
+    """What one request may ask for (:mod:`core.limits`): the service's ``--max-seconds`` of
+    performance, and no recording longer than that."""
+    most = limits.current()
+    return limits.Limits(seconds=config.max_seconds, recording_seconds=min(most.recording_seconds, config.max_seconds),
+                         setting="the service's --max-seconds")
+
+
 def check(config: ServeConfig, source: str, library) -> dict:
+    with limits.using(service_limits(config)):
+        return _check(config, source, library)
+
+
+def _check(config: ServeConfig, source: str, library) -> dict:
     refused = refused_paths(source, config.allow)
     if refused:
         raise RequestError(403, "the script names files this service does not read", diagnostics_json(refused, Path(REQUEST_FILE)))
@@ -53,6 +67,11 @@ def check(config: ServeConfig, source: str, library) -> dict:
 def generate_request(config: ServeConfig, req: GenerateRequest, library, upload: dict | None = None) -> dict:
     """Compile and generate a request; ``upload`` holds a recording (``audio``: (suffix, bytes))
     and its timings (``timings``: (suffix, bytes)). Raises :class:`RequestError` for a bad request."""
+    with limits.using(service_limits(config)):
+        return _generate_request(config, req, library, upload)
+
+
+def _generate_request(config: ServeConfig, req: GenerateRequest, library, upload: dict | None) -> dict:
     if upload is None:
         source = req.script if req.script is not None else text_script(req, req.text)
         if req.script is not None:
@@ -93,8 +112,13 @@ def _generate(config: ServeConfig, req: GenerateRequest, source: str, path: Path
             raise RequestError(422, str(exc).replace(str(path), REQUEST_FILE), diagnostics_json(exc.diagnostics, path)) from None
         log.error("the generator cannot run: %s", exc)  # (names the server's files: for its log, not the client)
         raise RequestError(503, "the generator cannot run on the server (the server's log says why)") from None
+    try:
+        check_motion_size(take.clips, take.tracks)
+    except OutputError as exc:
+        raise RequestError(422, str(exc)) from None
+    cancel.check()  # (encoding the motion has no check points of its own)
     buf = io.BytesIO()
-    save_motion(buf, take.clips, format="json", tracks=take.tracks)  # as sgt generate writes it, less the server's path
+    save_motion(buf, take.clips, format="json", tracks=take.tracks, engine=take.engine)  # as sgt generate writes it, less the server's path
     rest = {"timing": take.timing, "diagnostics": diagnostics_json(take.diagnostics, path)}
     if req.outputs:
         rest["outputs"] = _outputs(req.outputs, take)

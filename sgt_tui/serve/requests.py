@@ -18,7 +18,7 @@ from core import rules
 from core.controls import STYLE_LIMIT
 from core.seeds import SEED_MAX
 from dsl.plain import file_references, plain_script
-from model.generate import ENGINES
+from model.engines import DEFAULT_ENGINE, ENGINES
 
 #: The name diagnostics give a request's script.
 REQUEST_FILE = "<request>"
@@ -65,7 +65,7 @@ class GenerateRequest(TextSettings):
     script: str | None = Field(None, max_length=1_000_000, description="an .sgt script")
     text: str | None = Field(None, max_length=1_000_000, description="plain text, spoken as is")
     seed: int | None = Field(None, ge=0, le=SEED_MAX)
-    engine: Literal[tuple(ENGINES)] = "neural"  # type: ignore[valid-type]
+    engine: Literal[tuple(ENGINES)] = DEFAULT_ENGINE  # type: ignore[valid-type]
     timing: Literal["speech", "estimate"] = "speech"
     utterances: list[int] | None = Field(None, max_length=1000)
     outputs: list[Literal[OUTPUTS]] = Field(default_factory=list, max_length=3)  # type: ignore[valid-type]

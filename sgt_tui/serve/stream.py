@@ -31,6 +31,7 @@ from dsl.plain import plain_script
 from dsl.speech.audio import StreamResampler
 from model import matching
 from model.features import SAMPLE_RATE
+from model.engines import DEFAULT_ENGINE
 from model.matching_stream import MatchingStreamGenerator
 from model.streaming import LOOKAHEAD_S, StreamBase, StreamError, StreamGenerator
 
@@ -47,8 +48,8 @@ MAX_TEXT_MESSAGE = 20_000
 MAX_AUDIO_CHUNK = 1_000_000
 #: The sample rates an audio chunk may have (resampled to the model's).
 AUDIO_RATES = (8000, 11025, 16000, 22050, 24000, 32000, 44100, 48000)
-#: The engines a stream may run (``engine`` in ``start``; the first is the default).
-ENGINES = ("neural", "matching")
+#: The engines a stream may run (``engine`` in ``start``; the first is the default, as everywhere).
+ENGINES = (DEFAULT_ENGINE, *(e for e in ("matching", "neural") if e != DEFAULT_ENGINE))
 _DUMMY = "sgtnextword"
 
 

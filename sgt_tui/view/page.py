@@ -2,7 +2,8 @@
 
 A take becomes one document: per speaker its joint positions (frames x 10 x 3) and hand joint
 positions (frames x 2 x 20 x 3, :func:`core.hands.hand_positions`) on the performance clock,
-flattened and rounded to 0.1 mm; every utterance's words and controls on that clock (a pose
+flattened and rounded to 0.1 mm; every utterance's words (their times as ``sgt render`` has them,
+for the page to caption each frame with the word sgt does) and controls on that clock (a pose
 control's ``stroke`` is the second its stroke keyframe plays, where a click on it jumps); and
 sgt's own cameras, lights and colours (:mod:`renders.mannequin`), so that the page's mannequin,
 seen from one of sgt's views, is the picture ``sgt render`` draws of that frame. A speaker with a
@@ -22,6 +23,7 @@ from core.face import ARKIT_INDEX, ARKIT_NAMES, FaceTrack
 from core.hands import hand_positions
 from core.motion import MotionFile
 from core.skeleton import FPS, JOINTS
+from core.words import shift_words
 from dsl.speech.audio import wav_bytes
 from renders.clips import concat_clips, speaker_name, track_clip
 from renders.gltf import glb_bytes
@@ -96,8 +98,10 @@ def page_take(motion: MotionFile, name: str) -> dict:
         utterances.append({"index": index, "speaker": who, "text": c.text or "", "start": round(start, 6),
                            "frames": c.n_frames,
                            "audio_offset": None if c.audio_offset is None else round(c.audio_offset, 6)})
-        words += [{"word": w.word, "start": round(start + w.start, 4), "end": round(start + w.end, 4), "speaker": who,
-                   "utterance": index} for w in c.words]
+        # the words' times as sgt render captions them (renders.clips), not rounded: the page's
+        # caption rule (viewer/src/caption.js) then picks the word sgt render does at every frame
+        words += [{"word": w.word, "start": w.start, "end": w.end, "speaker": who, "utterance": index}
+                  for w in shift_words(c.words, c.start if motion.tracks else start)]
         for k in c.controls:
             stroke = None if k.stroke_frame is None else first + k.stroke_frame
             controls.append({"kind": k.kind, "name": k.name, "label": _label(k.kind, k.name, k.options or {}),
@@ -111,7 +115,9 @@ def page_take(motion: MotionFile, name: str) -> dict:
 
 
 def scene() -> dict:
-    """sgt's cameras, lights and colours (renders.mannequin), for the page to see what sgt renders.
+    """sgt's cameras, lights and colours (renders.mannequin), for the page to see what sgt renders:
+    each view's angles, its distance and whether it looks at the head (``on_head``: the face's
+    close-up, which follows the head; the others look at ``target``).
 
     Each light is given in the camera's own frame (x right, y up, looking along -z): the
     direction towards the light and its radiance (linear RGB); the lights move with the camera,
@@ -120,7 +126,8 @@ def scene() -> dict:
     lights = [{"towards": [round(float(x), 6) for x in cam.T @ -shine], "radiance": [round(float(x), 6) for x in radiance]}
               for shine, radiance in _lights(VIEWS["front"])]
     return {"target": [float(x) for x in TARGET], "distance": DISTANCE, "fov": YFOV,
-            "views": {name: {"azimuth": v.azimuth, "elevation": v.elevation} for name, v in VIEWS.items()},
+            "views": {name: {"azimuth": v.azimuth, "elevation": v.elevation, "distance": v.distance, "on_head": v.on_head}
+                      for name, v in VIEWS.items()},
             "lights": lights, "ambient": list(AMBIENT), "background": list(BACKGROUND)}
 
 

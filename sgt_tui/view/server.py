@@ -15,15 +15,24 @@ the token from its address (``#token=...``, never sent to the server) or asks fo
 path, the page's too, answers only requests that name this server as their Host and come from
 no other origin (:class:`sgt_tui.serve.origin.SameOrigin`: 421, 403). A take or speaker number
 out of range (a negative one too) is a 404.
+
+Ctrl+c (:class:`ViewServer`) stops it at once and quietly: the long polls and the requests that
+wait for a take answer 503 ("sgt view is stopping"), the load under way is cancelled
+(:meth:`sgt_tui.view.takes.Viewer.close`), and a connection still sending its answer after
+:data:`CUT_S` is cut, so that uvicorn, which cancels what runs 1 s after ctrl+c, has nothing
+left to cancel (it would print a traceback per request).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import gzip
 import json
 import logging
+import threading
 
+import uvicorn
 from fastapi import FastAPI, Request
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
@@ -31,11 +40,87 @@ from sgt_tui.serve.app import authorized, error
 from sgt_tui.serve.config import ServeConfig
 from sgt_tui.serve.origin import SameOrigin
 from sgt_tui.view.assets import asset, index_html
-from sgt_tui.view.takes import Viewer, ViewError
+from sgt_tui.view.takes import STOPPING, Viewer, ViewError
 
 log = logging.getLogger("sgt.view")
 #: Seconds a ``/api/wait`` request waits for a change before it answers anyway.
 WAIT_S = 20.0
+#: Seconds between two looks of a waiting request at its page and at ctrl+c.
+LOOK_S = 0.05
+#: Requests whose work runs in threads at once (the others wait their turn).
+THREADS = 16
+#: Seconds after ctrl+c that a connection still sending its answer (to a client that reads
+#: slowly) is given before it is cut.
+CUT_S = 0.5
+
+
+class ViewServer(uvicorn.Server):
+    """uvicorn's server, telling ``viewer`` at ctrl+c (its signal handler) that sgt view stops,
+    and cutting, :data:`CUT_S` after, the connections still busy; ctrl+c again changes nothing."""
+
+    def __init__(self, config: uvicorn.Config, viewer: Viewer) -> None:
+        super().__init__(config)
+        self.viewer = viewer
+
+    def handle_exit(self, sig, frame) -> None:
+        self.viewer.close()  # takes no lock: it may interrupt any code of the main thread
+        if self.should_exit:
+            # A second ctrl+c: the stop under way ends within a second anyway. uvicorn's forced
+            # exit would skip the application's shutdown and leave its lifespan task to be
+            # cancelled when the loop closes, with a traceback.
+            return
+        super().handle_exit(sig, frame)
+
+    async def shutdown(self, sockets=None) -> None:
+        # A stop without ctrl+c. After one, never close again here: a second ctrl+c landing while
+        # this holds the event's lock would have its handler wait on it for ever.
+        if not self.viewer.closing.is_set():
+            self.viewer.close()
+        cut = asyncio.get_running_loop().call_later(CUT_S, self._cut)
+        try:
+            await super().shutdown(sockets=sockets)
+        finally:
+            cut.cancel()
+
+    def _cut(self) -> None:
+        """Close the connections still open: their requests' sends then return at once (uvicorn
+        drops what is sent to a closed connection) and the requests end."""
+        for connection in list(self.server_state.connections):
+            connection.transport.abort()
+
+
+def stopping() -> JSONResponse:
+    return error(503, f"{STOPPING}: start it again")
+
+
+def _retrieved(task: asyncio.Future) -> None:
+    """Take a finished future's exception, so that asyncio does not log it as never retrieved."""
+    if not task.cancelled():
+        task.exception()
+
+
+def in_thread(work, *args) -> asyncio.Future:
+    """``work(*args)`` in a daemon thread of its own, its outcome as a future of the running loop.
+    Not a worker of the loop's pool: Python waits for those when it exits, and the work (reading
+    a motion file, generating a script) may run on for seconds after ctrl+c."""
+    loop = asyncio.get_running_loop()
+    future = loop.create_future()
+    future.add_done_callback(_retrieved)
+
+    def settle(outcome, value) -> None:
+        if not future.done():
+            outcome(value)
+
+    def run() -> None:
+        try:
+            outcome, value = future.set_result, work(*args)
+        except BaseException as exc:  # noqa: BLE001 - raised again in the request (a bug: its 500)
+            outcome, value = future.set_exception, exc
+        with contextlib.suppress(RuntimeError):  # the loop has closed: sgt view stopped
+            loop.call_soon_threadsafe(settle, outcome, value)
+
+    threading.Thread(target=run, name="sgt-view-request", daemon=True).start()
+    return future
 
 
 class TokenGuard:
@@ -58,6 +143,17 @@ def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
     app = FastAPI(title="sgt view", docs_url=None, redoc_url=None, openapi_url=None)
     app.add_middleware(TokenGuard, config=config)
     app.add_middleware(SameOrigin, config=config)  # added last: the outermost, before the token
+
+    threads = asyncio.Semaphore(THREADS)
+
+    async def unless_stopping(work, *args):
+        """``work(*args)`` in a thread (it may load a take: generate a script), its answer; a 503
+        once sgt view stops first (the load is cancelled; the thread is not waited for)."""
+        async with threads:
+            future = in_thread(work, *args)
+            while not future.done() and not viewer.closing.is_set():
+                await asyncio.wait([future], timeout=LOOK_S)
+            return stopping() if viewer.closing.is_set() else future.result()
 
     def missing(take: int) -> JSONResponse | None:
         """A 404 for a take number out of range (never Python's indexing from the end)."""
@@ -85,15 +181,20 @@ def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
     async def wait(request: Request, version: int):
         deadline = asyncio.get_running_loop().time() + WAIT_S
         while viewer.version == version and asyncio.get_running_loop().time() < deadline:
+            if viewer.closing.is_set():
+                return stopping()
             if await request.is_disconnected():  # the page went: nobody to answer
                 return Response(status_code=204)
-            await asyncio.sleep(0.05)
+            await asyncio.sleep(LOOK_S)
         return viewer.status()
 
     @app.get("/api/take")
-    def take(request: Request, take: int = 0):  # a thread: loading a take generates a script
+    async def take(request: Request, take: int = 0):
         if (refused := missing(take)) is not None:
             return refused
+        return await unless_stopping(take_answer, take, "gzip" in request.headers.get("accept-encoding", ""))
+
+    def take_answer(take: int, gzipped: bool):  # in a thread: loading a take generates a script
         try:
             loaded, number = viewer.take(take)
         except IndexError:
@@ -104,15 +205,18 @@ def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
                    audio=f"api/audio.wav?take={take}&id={number}" if loaded.audio is not None else None, audio_note=loaded.note,
                    vrma=[f"api/vrma?take={take}&speaker={s}&id={number}" for s in range(len(loaded.doc["speakers"]))])
         body = json.dumps(doc, separators=(",", ":")).encode("utf-8")
-        if "gzip" in request.headers.get("accept-encoding", ""):
+        if gzipped:
             return Response(gzip.compress(body, 5), media_type="application/json",
                             headers={"Content-Encoding": "gzip", "Cache-Control": "no-store"})
         return Response(body, media_type="application/json", headers={"Cache-Control": "no-store"})
 
     @app.get("/api/audio.wav")
-    def audio(take: int = 0):
+    async def audio(take: int = 0):
         if (refused := missing(take)) is not None:
             return refused
+        return await unless_stopping(audio_answer, take)
+
+    def audio_answer(take: int):
         try:
             loaded, _ = viewer.take(take)
         except (IndexError, ViewError) as exc:
@@ -122,9 +226,12 @@ def create_view_app(viewer: Viewer, config: ServeConfig) -> FastAPI:
         return Response(loaded.audio, media_type="audio/wav", headers={"Cache-Control": "no-store"})
 
     @app.get("/api/vrma")
-    def vrma(take: int = 0, speaker: int = 0):
+    async def vrma(take: int = 0, speaker: int = 0):
         if (refused := missing(take)) is not None:
             return refused
+        return await unless_stopping(vrma_answer, take, speaker)
+
+    def vrma_answer(take: int, speaker: int):
         try:
             loaded, _ = viewer.take(take)
         except (IndexError, ViewError) as exc:

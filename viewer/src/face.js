@@ -12,12 +12,12 @@ export const HEAD_RADII = [0.092, 0.112, 0.102];
 const GAZE_GAIN = 1.5; // the pupils turn this many times the gaze (face_rig.GAZE_GAIN)
 
 const SKIN = [0.80, 0.62, 0.48];
-const LID = [0.76, 0.57, 0.44];
+const LID = [0.68, 0.48, 0.37];
 const EYE_WHITE = [0.93, 0.93, 0.90];
 const PUPIL = [0.08, 0.09, 0.12];
 const BROW = [0.24, 0.16, 0.11];
 const MOUTH = [0.13, 0.02, 0.03];
-const LIP = [0.66, 0.26, 0.25];
+const LIP = [0.55, 0.17, 0.16];
 const TONGUE = [0.80, 0.36, 0.38];
 
 const EYE_R = 0.024;
@@ -29,7 +29,22 @@ const MOUTH_Y = -0.054;
 const MOUTH_HALF_WIDTH = 0.030;
 const BROW_INNER = 0.013;
 const BROW_OUTER = 0.064;
-const BROW_Y = 0.064;
+const BROW_Y = 0.070; // the inner end's height at rest
+const BROW_DROP = 0.010; // the outer end this much lower at rest
+const BROW_INNER_UP = 0.024;
+const BROW_OUTER_UP = 0.020;
+const BROW_DOWN = 0.024;
+const BROW_OUTER_DOWN = 0.004;
+const BROW_KNIT = 0.008;
+const LID_REST = 0.14;
+const LID_LIFT = 0.008;
+const LID_BROW_DOWN = 0.30;
+const LOWER_LID_SQUINT = 0.70;
+const PUPIL_WIDE = 0.25;
+const CORNER_REST = 0.001;
+const CORNER_SMILE = 0.030;
+const CORNER_FROWN = 0.020;
+const SMILE_LIFT = 0.33;
 const BROW_HALF = (BROW_OUTER - BROW_INNER) / 2;
 const LIP_HALF = MOUTH_HALF_WIDTH / 2;
 
@@ -67,6 +82,9 @@ function surfaceZ(x, y) {
   return c * Math.sqrt(Math.max(0, 1 - (x / a) ** 2 - (y / b) ** 2));
 }
 
+// dz/dy of the head ellipsoid's front at (x, y), over the span the brows move (face_rig._surface_slope).
+const surfaceSlope = (x, y) => (surfaceZ(x, y + 0.02) - surfaceZ(x, y - 0.02)) / 0.04;
+
 const clip01 = (v) => Math.min(1, Math.max(0, v));
 
 // An ellipsoid: radii on the diagonal, at `c`.
@@ -100,25 +118,29 @@ export function faceMatrices(weight, gaze, out) {
     const fwd = new THREE.Vector3(Math.sin(yaw) * Math.cos(pitch), Math.sin(pitch), Math.cos(yaw) * Math.cos(pitch));
     const right = new THREE.Vector3(Math.cos(yaw), 0, -Math.sin(yaw));
     const up = new THREE.Vector3().crossVectors(fwd, right);
-    const pupil = out[`pupil_${s}`].makeBasis(right.multiplyScalar(0.52 * EYE_R), up.multiplyScalar(0.52 * EYE_R),
-      fwd.clone().multiplyScalar(0.2 * EYE_R));
-    pupil.setPosition(eye[0] + 0.84 * EYE_R * fwd.x, eye[1] + 0.84 * EYE_R * fwd.y, eye[2] + 0.84 * EYE_R * fwd.z);
-    // the upper lid covers the ball from the top down: its height runs 0.12 (open) .. 1 (shut)
     const blink = w(`eyeBlink${side}`);
     const wide = w(`eyeWide${side}`);
-    const squint = clip01(w(`eyeSquint${side}`) + 0.5 * w(`cheekSquint${side}`));
-    const h = Math.min(1, Math.max(0.02, 0.12 + 0.88 * blink - 0.10 * wide + 0.08 * squint));
-    ellipsoid(out[`lid_${s}`], add(eye, [0, LID_R * (1 - h) + 0.006 * wide, 0]), [LID_R, LID_R * h, LID_R]);
-    const lo = Math.min(1, Math.max(0.02, 0.10 + 0.40 * squint));
-    ellipsoid(out[`lower_lid_${s}`], add(eye, [0, -LID_R * (1 - lo), 0]), [LID_R, LID_R * lo, LID_R]);
-    // brows: inner and outer ends
+    const squint = clip01(w(`eyeSquint${side}`) + w(`cheekSquint${side}`));
+    const size = 1 - PUPIL_WIDE * wide; // smaller in a wide eye
+    const pupil = out[`pupil_${s}`].makeBasis(right.multiplyScalar(0.52 * EYE_R * size), up.multiplyScalar(0.52 * EYE_R * size),
+      fwd.clone().multiplyScalar(0.2 * EYE_R * size));
+    pupil.setPosition(eye[0] + 0.84 * EYE_R * fwd.x, eye[1] + 0.84 * EYE_R * fwd.y, eye[2] + 0.84 * EYE_R * fwd.z);
+    // the upper lid covers the ball from the top down: its height runs LID_REST (open) .. 1 (shut), up
+    // off the ball as the eye widens, down as the brow lowers; a squint raises the lower lid
     const down = w(`browDown${side}`);
+    const h = Math.min(1, Math.max(0.02, LID_REST + (1 - LID_REST) * blink - LID_REST * wide + 0.08 * squint + LID_BROW_DOWN * down));
+    ellipsoid(out[`lid_${s}`], add(eye, [0, LID_R * (1 - h) + LID_LIFT * wide, 0]), [LID_R, LID_R * h, LID_R]);
+    const lo = Math.min(1, Math.max(0.02, 0.10 + LOWER_LID_SQUINT * squint - 0.06 * wide));
+    ellipsoid(out[`lower_lid_${s}`], add(eye, [0, -LID_R * (1 - lo), 0]), [LID_R, LID_R * lo, LID_R]);
+    // brows: inner and outer ends, each keeping to the forehead as it moves
     const innerUp = w('browInnerUp');
     const outerUp = w(`browOuterUp${side}`);
-    const zi = surfaceZ(BROW_INNER, BROW_Y) + 0.003;
-    const zo = surfaceZ(BROW_OUTER, BROW_Y - 0.006) + 0.002;
-    bar(out[`brow_${s}`], [sx * (BROW_INNER - 0.004 * down), BROW_Y + 0.014 * innerUp - 0.011 * down, zi + 0.004 * down],
-      [sx * BROW_OUTER, BROW_Y - 0.006 + 0.014 * outerUp - 0.005 * down, zo], BROW_HALF);
+    const dyi = BROW_INNER_UP * innerUp - BROW_DOWN * down;
+    const dyo = BROW_OUTER_UP * outerUp - BROW_OUTER_DOWN * down;
+    const yo = BROW_Y - BROW_DROP;
+    bar(out[`brow_${s}`], [sx * (BROW_INNER - BROW_KNIT * down), BROW_Y + dyi,
+      surfaceZ(BROW_INNER, BROW_Y) + 0.003 + surfaceSlope(BROW_INNER, BROW_Y) * dyi + 0.003 * down],
+    [sx * BROW_OUTER, yo + dyo, surfaceZ(BROW_OUTER, yo) + 0.002 + surfaceSlope(BROW_OUTER, yo) * dyo], BROW_HALF);
   });
   // the mouth: width, opening, where its middle is, its corners
   const jaw = w('jawOpen');
@@ -129,22 +151,23 @@ export function faceMatrices(weight, gaze, out) {
   const closing = clip01(w('mouthClose') + 0.5 * w('mouthPressLeft', 'mouthPressRight') + 0.5 * w('mouthRollLower', 'mouthRollUpper'));
   const upperUp = w('mouthUpperUpLeft', 'mouthUpperUpRight');
   const lowerDown = w('mouthLowerDownLeft', 'mouthLowerDownRight');
-  const halfW = MOUTH_HALF_WIDTH * (1 + 0.30 * stretch + 0.20 * smile + 0.12 * w('mouthDimpleLeft', 'mouthDimpleRight') -
-    0.45 * pucker - 0.28 * funnel);
-  const opening = 0.022 * jaw + 0.006 * lowerDown + 0.005 * upperUp + 0.008 * funnel;
+  const press = w('mouthPressLeft', 'mouthPressRight');
+  const halfW = MOUTH_HALF_WIDTH * (1 + 0.40 * stretch + 0.30 * smile + 0.12 * w('mouthDimpleLeft', 'mouthDimpleRight') -
+    0.45 * pucker - 0.28 * funnel - 0.15 * press);
+  const opening = 0.022 * jaw + 0.006 * lowerDown + 0.008 * upperUp + 0.008 * funnel + 0.010 * stretch;
   const halfH = Math.max(0.0012, 0.0022 + opening * (1 - 0.85 * closing) - 0.0012 * closing);
   const centre = [
     0.008 * (w('mouthLeft') - w('mouthRight')) + 0.006 * (w('jawLeft') - w('jawRight')),
-    MOUTH_Y - 0.008 * jaw + 0.002 * (upperUp - lowerDown) + 0.003 * w('mouthShrugUpper'),
+    MOUTH_Y - 0.008 * jaw + 0.008 * upperUp - 0.002 * lowerDown + 0.003 * w('mouthShrugUpper') + SMILE_LIFT * CORNER_SMILE * smile,
     surfaceZ(0, MOUTH_Y) - 0.004 + 0.007 * pucker + 0.004 * funnel + 0.006 * w('jawForward'),
   ];
-  ellipsoid(out.mouth, centre, [halfW, halfH, 0.009]);
+  ellipsoid(out.mouth, centre, [halfW * (1 - 0.5 * smile), halfH, 0.009]); // narrower as the corners rise
   ellipsoid(out.tongue, add(centre, [0, -0.5 * halfH, -0.012 + 0.028 * w('tongueOut')]), [0.012, 0.005, 0.013]);
   for (const [s, sx, side] of sides) {
-    const corner = add(centre, [sx * halfW, 0.012 * w(`mouthSmile${side}`) - 0.009 * w(`mouthFrown${side}`),
-      -0.004 * w(`mouthDimple${side}`)]);
+    const corner = add(centre, [sx * halfW, CORNER_REST + (1 - SMILE_LIFT) * CORNER_SMILE * w(`mouthSmile${side}`) -
+      CORNER_FROWN * w(`mouthFrown${side}`) - 0.005 * w(`mouthStretch${side}`), -0.004 * w(`mouthDimple${side}`)]);
     for (const [lip, sign, part] of [['upper', 1, 'Upper'], ['lower', -1, 'Lower']]) {
-      const middle = add(centre, [0, sign * (halfH + 0.6 * LIP_R) + 0.003 * w(`mouthShrug${part}`), 0.004 - 0.004 * w(`mouthRoll${part}`)]);
+      const middle = add(centre, [0, sign * (halfH + 0.6 * LIP_R) + 0.005 * w(`mouthShrug${part}`), 0.004 - 0.004 * w(`mouthRoll${part}`)]);
       bar(out[`lip_${lip}_${s}`], middle, corner, LIP_HALF);
     }
   }
@@ -156,7 +179,7 @@ export function faceMatrices(weight, gaze, out) {
     ellipsoid(out[`cheek_${s}`], [sx * 0.045, -0.028 + 0.006 * w(`cheekSquint${side}`), 0.045], [puff, puff, puff]);
   }
   const sneer = w('noseSneerLeft', 'noseSneerRight');
-  ellipsoid(out.nose, [0, -0.012 + 0.005 * sneer, surfaceZ(0, -0.012) - 0.004], [0.016 * (1 + 0.15 * sneer), 0.019, 0.026]);
+  ellipsoid(out.nose, [0, -0.012 + 0.008 * sneer, surfaceZ(0, -0.012) - 0.004], [0.016 * (1 + 0.30 * sneer), 0.019, 0.026]);
   return out;
 }
 

@@ -1,7 +1,9 @@
 // The timeline under the 3D view: per speaker a lane of words, a lane of pose controls (green;
 // a tick where the stroke plays) and a lane of style controls and pauses (red, grey), on the
 // performance clock, with a playhead. A click on a word jumps to its start, on a pose control to
-// its stroke, on a style control to its start, anywhere else to that time.
+// its stroke, on a style control to its start, anywhere else to that time. The playhead stays in
+// view whenever the time moves (playing, a jump, a scrub, paused or not); a redraw at the same
+// time leaves the scroll where the user put it.
 
 const LABEL_PX = 86;
 const MIN_PPS = 110; // pixels per second at least: a short word stays readable (a longer take scrolls)
@@ -13,6 +15,8 @@ export class Timeline {
     this.pps = 100; // pixels per second
     this.zoom = 1;
     this.duration = 0;
+    this.time = 0;
+    this.spoken = new Set();
     this.words = [];
     this.inner = document.createElement('div');
     this.inner.className = 'tl-inner';
@@ -97,6 +101,7 @@ export class Timeline {
     }
     this.root.style.height = `${Math.min(rows * 22 + 14, Math.round(window.innerHeight * 0.4))}px`;
     this.inner.append(this.playhead);
+    this._place(true); // zoomed or resized: the playhead where it is now, in view
   }
 
   _lane(label, cls) {
@@ -124,16 +129,22 @@ export class Timeline {
     return el;
   }
 
-  // Move the playhead to `t`, mark the words being spoken, keep the playhead in view.
-  update(t, follow) {
-    const left = LABEL_PX + t * this.pps;
+  // Move the playhead to `t` and mark the words being spoken (`spoken`, a Set of the take's words);
+  // a time that moved brings the playhead into view.
+  update(t, spoken) {
+    const moved = t !== this.time;
+    this.time = t;
+    this.spoken = spoken;
+    this._place(moved);
+  }
+
+  _place(follow) {
+    const left = LABEL_PX + this.time * this.pps;
     this.playhead.style.left = `${left.toFixed(1)}px`;
-    for (const [wd, el] of this.words) el.classList.toggle('now', t >= wd.start && t < wd.end);
-    if (follow) {
-      const view = this.root;
-      if (left < view.scrollLeft + LABEL_PX || left > view.scrollLeft + view.clientWidth - 40) {
-        view.scrollLeft = Math.max(0, left - LABEL_PX - 40);
-      }
+    for (const [wd, el] of this.words) el.classList.toggle('now', this.spoken.has(wd));
+    const view = this.root;
+    if (follow && (left < view.scrollLeft + LABEL_PX || left > view.scrollLeft + view.clientWidth - 40)) {
+      view.scrollLeft = Math.max(0, left - LABEL_PX - 40);
     }
   }
 
