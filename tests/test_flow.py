@@ -284,3 +284,40 @@ def test_sgt_train_engine_flow_then_distil_then_generate(tmp_path, capsys):
     assert main(["train", "--engine", "flow", "--data", str(tmp_path / "data"), "-o", str(tmp_path / "y"),
                  "--teacher", str(regressor), *small]) == 1
     _one_error_line(capsys.readouterr().err, "neural engine's network, not the flow engine's")
+
+
+def test_sgt_build_engine_flow_keys_its_cache_on_the_flow_weights(weights, tmp_path, monkeypatch, capsys):
+    """`sgt build --engine flow --weights FILE`: the manifest records the flow weights' hash and
+    their settings, and other flow weights regenerate every line (a cached line is never another
+    network's; other weights at the same path are the next process's: hashes and runners are
+    kept per process)."""
+    import shutil
+
+    from model.weights import file_hash
+    from sgt_tui.cli import main
+
+    monkeypatch.setenv("SGT_CACHE_DIR", str(tmp_path / "cache"))
+    (tmp_path / "game").mkdir()
+    (tmp_path / "game" / "a.sgt").write_text("guide: Welcome to the mall!\nguide: The shops are over there.\n")
+    mine = tmp_path / "flow.pt"
+    shutil.copy(weights, mine)
+    out = tmp_path / "out"
+
+    def build() -> dict:
+        assert main(["build", str(tmp_path / "game"), "-o", str(out), "--engine", "flow", "--weights", str(mine), "-j", "1"]) == 0
+        return json.loads((out / "manifest.json").read_text())
+
+    doc = build()
+    assert doc["settings"]["engine"] == "flow" and doc["settings"]["weights_sha256"] == file_hash(mine)
+    assert {"smoothing", "blend"} <= set(doc["settings"])
+    first = (out / "a.json").read_bytes()
+    assert [u["cached"] for u in build()["scripts"][0]["utterances"]] == [True, True]
+    net, _ = load_weights(mine, "flow")
+    with torch.no_grad():
+        for w in net.parameters():
+            w.add_(0.05 * torch.randn_like(w))
+    mine = tmp_path / "other.pt"
+    save_weights(mine, net)
+    doc = build()
+    assert [u["cached"] for u in doc["scripts"][0]["utterances"]] == [False, False]
+    assert doc["settings"]["weights_sha256"] == file_hash(mine) and (out / "a.json").read_bytes() != first
