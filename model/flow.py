@@ -4,13 +4,16 @@ Where the ``neural`` engine's regressor averages the takes its teacher could mak
 samples one: each window of :data:`WINDOW` frames starts from Gaussian noise drawn from the
 seed (a seed is one take) and flows to poses in the few steps its weights were trained for.
 
-Long speech goes in windows that overlap by :data:`SEED` frames (SGToolkit appendix A.1): the
-last :data:`SEED` frames a window made are the next window's seed poses, fed to the network as
-pose controls, which it keeps exactly (:meth:`model.flow_net.FlowNet.predict` puts controlled
-frames in), so the next window continues them without a jump and the output switches windows
-right after the seed. Unlike :func:`model.neural.run_windows` there is no cross-fade: two
-samples of the same speech differ (that is the point of sampling), and a fade between them would
-average their strokes away over half of every hop.
+Long speech goes in windows that continue each other (SGToolkit appendix A.1): a window's seed
+poses are :data:`SEED` frames the window before made, fed to the network as pose controls,
+which it keeps exactly (:meth:`model.flow_net.FlowNet.predict` puts controlled frames in), and
+the output switches windows right after the seed. Two things keep the switch from showing: the
+seed ends :data:`EDGE` frames before the window before ends (a window's last frames, sampled with
+no speech after them, move faster than the rest; the next window samples them again), and the
+new window's first free frame continues the seed at its velocity, the difference easing out over
+:data:`JOIN` frames (:func:`join`). Unlike :func:`model.neural.run_windows` there is no
+cross-fade: two samples of the same speech differ (that is the point of sampling), and a fade
+between them would average their strokes away over half of every hop.
 
 The sampled strokes are then re-timed onto the speech as the matching engine re-times its
 takes (:func:`beats_on_speech`: each stroke end within 4 frames of an accent or a syllable
@@ -26,14 +29,18 @@ from __future__ import annotations
 import numpy as np
 
 from core.controls import network_pose_controls
-from core.skeleton import POSE_DIM
+from core.skeleton import POSE_DIM, normalize_pose
 from model import matching, postprocess
 from model.features import speech_inputs
 from model.neural import SEED, WINDOW, Options, use_threads
 from model.runtime import as_runner, load_runner
 
-#: Frames a window adds after its seed poses.
-HOP = WINDOW - SEED
+#: A window's last frames that the next window samples again (its seed ends before them).
+EDGE = 5
+#: Frames each window adds: windows start this far apart.
+HOP = WINDOW - SEED - EDGE
+#: Frames over which a window's first free frame eases from continuing the window before (:func:`join`).
+JOIN = 10
 
 
 def load(weights: str | None = None):
@@ -65,11 +72,31 @@ def run_windows(model, audio, ids, onsets, arrays, seed: int) -> np.ndarray:
         z = rng.standard_normal((WINDOW, runner.noise_dim)).astype(np.float32)[: end - start]
         y = runner.run_window(audio[start:end], ids[start:end], onsets[start:end], pose, mask, arrays.style[start:end],
                               arrays.style_mask[start:end], z)
+        if start > 0:
+            y = join(out[start + k - 2 : start + k], y, k, mask)
         out[start + k : end] = y[k:]
         if end >= t_count:
             break
         start += HOP
     return out
+
+
+def join(before: np.ndarray, y: np.ndarray, k: int, mask: np.ndarray) -> np.ndarray:
+    """A window's poses ``y`` whose first free frame ``y[k]`` continues the two frames
+    ``before`` it at their velocity: the offset between that continuation and the sample decays
+    to nothing over :data:`JOIN` frames (a raised cosine; inertialisation), on the frames the
+    user left free, bone directions kept unit. The sampler keeps the seed poses exactly but its
+    next frame starts a fresh take: without this the step into it was 3.5 times the median step
+    of the shipped weights' windows, with it the largest step of a window's phase is 1.4 times
+    (its first free frames move faster than the rest; tests/test_flow_shipped.py)."""
+    if k < 1 or k >= len(y) or len(before) < 2:
+        return y
+    offset = 2 * before[-1] - before[-2] - y[k]
+    n = min(JOIN, len(y) - k)
+    fade = 0.5 * (1.0 + np.cos(np.pi * np.arange(n) / JOIN)) * (1.0 - mask[k : k + n])
+    y = y.copy()
+    y[k : k + n] = normalize_pose(y[k : k + n] + fade[:, None] * offset)
+    return y
 
 
 def beats_on_speech(poses: np.ndarray, audio, ids, onsets) -> np.ndarray:

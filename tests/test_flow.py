@@ -91,9 +91,11 @@ def test_the_network_keeps_whole_pose_controls_exactly(weights):
 
 
 def test_windows_start_from_the_previous_windows_last_frames():
-    """Each window after the first gets the previous window's last SEED frames as whole-pose
-    controls, and its output is used from right after them: no frame is decided twice, none is
-    skipped, and a user's control in the seed span stays the user's."""
+    """Each window after the first gets SEED frames of the previous window's as whole-pose
+    controls, ending EDGE frames before its end, and its output is used from right after them
+    (so it samples the previous window's last EDGE frames again), its first free frame
+    continuing the seed (model.flow.join): no frame is skipped, and a user's control in the
+    seed span stays the user's."""
     calls = []
 
     class Spy:
@@ -107,23 +109,27 @@ def test_windows_start_from_the_previous_windows_last_frames():
             out[pose_mask > 0.5] = pose[pose_mask > 0.5]
             return out
 
-    n = 2 * flow.HOP + neural.WINDOW
+    hop, seed, join = flow.HOP, neural.SEED, flow.JOIN
+    assert hop == neural.WINDOW - seed - flow.EDGE and flow.EDGE > 0
+    n = 2 * hop + neural.WINDOW
     arrays = ControlArrays.empty(n)
     user = np.full((2, POSE_DIM), 0.5, np.float32)
-    arrays.set_pose(flow.HOP + 3, user)  # inside the second window's seed span
+    arrays.set_pose(hop + 3, user)  # inside the second window's seed span
     out = flow.run_windows(Spy(), np.zeros((n, 33), np.float32), np.zeros(n, np.int64), np.zeros(n, np.float32), arrays, 0)
     assert len(calls) == 3
     for k, (pose, mask, z) in enumerate(calls[1:], start=1):
-        start = k * flow.HOP
-        assert (mask[: neural.SEED] == 1).all() and (mask[neural.SEED:] == 0).all()
-        assert np.array_equal(pose[: neural.SEED], out[start : start + neural.SEED])
+        start = k * hop
+        assert (mask[:seed] == 1).all() and (mask[seed:] == 0).all()
+        assert np.array_equal(pose[:seed], out[start : start + seed])
         assert z.shape == (min(neural.WINDOW, n - start), POSE_DIM)
+        # the first free frame continues the seed's last two (here still: the same pose again)
+        assert np.abs(out[start + seed] - normalize_pose(2 * out[start + seed - 1] - out[start + seed - 2])).max() < 1e-6
     made = out[:, 0].copy()
-    made[flow.HOP + 3 : flow.HOP + 5] = 1  # the user's frames, kept through the windows
-    assert (made[: neural.WINDOW] == 1).all()
-    assert (made[neural.WINDOW : flow.HOP + neural.WINDOW] == 2).all()
-    assert (made[flow.HOP + neural.WINDOW :] == 3).all()
-    assert np.array_equal(out[flow.HOP + 3 : flow.HOP + 5], user)  # the request, not the first window's frames
+    made[hop + 3 : hop + 5] = 1  # the user's frames, kept through the windows
+    assert (made[: hop + seed] == 1).all()
+    assert (made[hop + seed + join : 2 * hop + seed] == 2).all()
+    assert (made[2 * hop + seed + join :] == 3).all()
+    assert np.array_equal(out[hop + 3 : hop + 5], user)  # the request, not the first window's frames
 
 
 def test_onnx_export_runs_the_same_sampler(weights, tmp_path):
