@@ -269,8 +269,15 @@ def test_sgt_train_engine_flow_then_distil_then_generate(tmp_path, capsys):
     capsys.readouterr()
     assert main(["train", "--engine", "flow", "--data", str(tmp_path / "data"), "-o", str(tmp_path / "student"),
                  "--teacher", str(weights), "--times", "0,0.6", "--substeps", "2", *small[:-4], "--threads", "1"]) == 0
-    student = load_weights(tmp_path / "student" / "flow.pt", "flow")[0]
+    student, card = load_weights(tmp_path / "student" / "flow.pt", "flow")
     assert student.config["times"] == [0.0, 0.6] and student.config["hidden"] == 16
+    # distillation's own defaults (the shipped student's), training's where it has none
+    from model.training.train_config import DISTIL_DEFAULTS
+
+    made = card["meta"]["train_config"]
+    assert {k: made[k] for k in ("lr", "ema")} == {"lr": DISTIL_DEFAULTS["lr"], "ema": DISTIL_DEFAULTS["ema"]}
+    assert made["teacher"] == str(weights) and made["substeps"] == 2 and made["p_pose"] == FlowConfig.p_pose
+    assert load_weights(weights, "flow")[1]["meta"]["train_config"]["lr"] == FlowConfig.lr != DISTIL_DEFAULTS["lr"]
     script = tmp_path / "one.sgt"
     script.write_text("guide: Well here is the thing you asked about.\n")
     out = tmp_path / "m.json"

@@ -69,3 +69,9 @@ class FlowConfig:
     net: dict = field(default_factory=dict)
     teacher: str | None = None  # flow weights to distil into a sampler of the steps net["times"] sets (None: train a flow)
     substeps: int = 4  # with a teacher: its Euler steps for each of the student's
+
+
+#: ``sgt train --engine flow --teacher``'s defaults where distillation's differ from training a
+#: flow: the student starts as its teacher, so a few short epochs, a small step and a short
+#: average (the shipped student's settings, docs/model.md).
+DISTIL_DEFAULTS = {"epochs": 5, "steps_per_epoch": 60, "batch": 32, "lr": 2e-4, "ema": 0.99}

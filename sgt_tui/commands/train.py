@@ -24,8 +24,9 @@ engine"): OUT/flow.pt holds the weights of the epoch with the lowest validation 
 the last epoch's; the same command resumes it. Of the network's options it takes --epochs,
 --steps, --batch, --threads, --minutes, --window, --hidden, --device, --seed and --fresh (its
 own defaults below), and its own --times, --teacher and --substeps; the others are the
-regressor's and are refused with it. The shipped flow is two runs: a flow, then that flow
-distilled into 4 sampler steps ('--teacher RUN/last.pt --times 0,0.4,0.7,0.9 --substeps 8').
+regressor's and are refused with it. The shipped flow is two runs: a flow ('--epochs 100
+--threads 1 -o RUN', its best epoch RUN/flow.pt), then that flow distilled into 4 sampler
+steps ('--teacher RUN/flow.pt --times 0,0.4,0.7,0.9 --threads 1').
 Export it for 'sgt generate --engine flow --weights OUT/flow.pt' with 'python
 scripts/export_onnx.py --weights OUT/flow.pt' (PyTorch runs it meanwhile).
 
@@ -39,6 +40,7 @@ than a segment (1.2 s) are left out with a warning. Generate with it:
 
 def register(sub) -> None:
     from model.engines import NETWORK_ENGINES
+    from model.training.train_config import DISTIL_DEFAULTS as D
     from model.training.train_config import FlowConfig, TrainConfig
     from sgt_tui.commands.common import non_negative_float, non_negative_int, positive_float, positive_int, seed, share
 
@@ -103,7 +105,9 @@ def register(sub) -> None:
     add("--no-gru", action="store_true", help="convolutions only (faster, see docs/model.md)")
     add("--teacher", metavar="FLOW.pt",
         help="flow only: distil these trained flow weights into a sampler of the --times steps instead of training a "
-             "flow (the student starts as the teacher and learns to land where it lands in --substeps steps per step)")
+             "flow (the student starts as the teacher and learns to land where it lands in --substeps steps per step; "
+             f"defaults then: {D['epochs']} epochs of {D['steps_per_epoch']} steps of {D['batch']} windows, learning rate "
+             f"{D['lr']:g}, weights averaged with decay {D['ema']:g})")
     add("--times", type=_times, metavar="T0,T1,...",
         help="flow only: the sampler's time points, from 0 and rising below 1, one network call each "
              "(default: the teacher's, or 0,0.5,0.8)")
@@ -193,7 +197,7 @@ def run(args) -> int:
 
 def _engine_defaults(args, config) -> None:
     """The options both networks take and the command line left out, from the engine's
-    settings class ``config`` (TrainConfig, FlowConfig)."""
+    settings ``config`` (TrainConfig, FlowConfig, or such settings: distillation's)."""
     for dest, field in (("epochs", "epochs"), ("steps", "steps_per_epoch"), ("batch", "batch"), ("threads", "threads"),
                         ("window", "window")):
         if getattr(args, dest) is None:
@@ -203,16 +207,19 @@ def _engine_defaults(args, config) -> None:
 def _train_flow(args, train_clips, val_clips) -> int:
     """sgt train --engine flow: the flow engine's network, OUT/flow.pt."""
     import sys
+    from dataclasses import replace
     from pathlib import Path
 
+    from model.training.train_config import DISTIL_DEFAULTS
     from model.training.train_flow import FlowConfig, train_flow
     from sgt_tui.progress import ProgressBar
 
-    _engine_defaults(args, FlowConfig)
+    base = replace(FlowConfig(), **DISTIL_DEFAULTS) if args.teacher else FlowConfig()
+    _engine_defaults(args, base)
     net = {} if args.teacher else {"hidden": args.hidden}  # a student has its teacher's architecture
     if args.times:
         net["times"] = args.times
-    cfg = FlowConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
+    cfg = FlowConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, lr=base.lr, ema=base.ema, minutes=args.minutes,
                      window=args.window, seed=args.seed, threads=args.threads, device=args.device, net=net,
                      teacher=args.teacher, substeps=args.substeps)
     from model.weights import WeightsError
