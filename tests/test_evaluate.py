@@ -282,3 +282,23 @@ def test_sgt_eval_engine_flow_measures_the_flow_weights(corpus, tmp_path, capsys
     err = capsys.readouterr().err
     assert "Traceback" not in err and len([x for x in err.splitlines() if "error" in x]) == 1, err
     assert "not the flow engine's" in err, err
+
+
+def test_wrist_speed_check_measures_the_motions_of_sgt_evals_rows(corpus, capsys):
+    """scripts/wrist_speed_check.py's rows are the wrist speeds of the motions behind sgt eval's
+    rows of the same seed: its matching row those of the ``model`` row (clip i with seed + i),
+    its rules row the re-seeded teacher's, its reference row the clips'."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    import wrist_speed_check as W  # lazy: a script, found on the path added above
+    from core.skeleton import JOINTS
+    from model import matching
+
+    every = load_corpus(corpus, None)
+    motions = E.condition_motions(every, E.MatchingModel(matching.load(None)), E.mean_pose(every), seed=4, smoothing=None)
+    assert W.main(["--corpus", str(corpus), "--seed", "4", "--engine", "matching"]) == 0
+    printed = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines()[1:]}
+    for name, clips in (("matching", motions["model"][1]), ("rules", motions["rules"][1]), ("reference", motions["model"][0])):
+        want = W.summary(clips)
+        speeds = np.concatenate([M.joint_speeds(m)[:, [JOINTS.index("left_wrist"), JOINTS.index("right_wrist")]] for m in clips])
+        assert want["mean"] == pytest.approx(speeds.mean()) and want["p95"] == pytest.approx(np.percentile(speeds, 95))
+        assert printed[name][1:5] == ["mean", f"{want['mean']:.3f}", "p95", f"{want['p95']:.3f}"]
