@@ -20,7 +20,8 @@ The seed gives the noise, so a seed still gives one take.
   c_out F(c_in x_t)``; training weighs each ``t`` alike (:meth:`FlowNet.loss`).
 - Frames with a whole-pose control are *replaced* by the requested pose in every prediction,
   so the sampler ends on them exactly; the network learns only the free frames, around them
-  (the seed poses of a sliding window are such controls: windows join without a jump).
+  (the seed poses of a sliding window are such controls; the free frame after them still starts
+  a fresh take, which :func:`model.flow.join` eases in).
 
 :meth:`FlowNet.forward` is the whole sampler, unrolled over the few time points of
 ``config["times"]`` (Euler steps of the flow: few, because the x-prediction's last step is

@@ -5,6 +5,7 @@ pauses, and `sgt generate --engine flow` without torch."""
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -37,6 +38,10 @@ def test_shipped_weights_load_with_their_card_and_fit_the_budget():
     info = load_weights(DEFAULT_FLOW_WEIGHTS, "flow")[1]
     assert info["kind"] == "flow" and info["meta"]["epochs_done"] >= 1 and "val_fgd" in info["meta"]["validation"]
     assert DEFAULT_FLOW_WEIGHTS.stat().st_size + SHIPPED_ONNX.stat().st_size <= 30 * 2**20  # issue: at most 30 MB
+    card = (ROOT / "docs" / "model.md").read_text()
+    m = re.search(r"`model/weights/flow\.pt`, [\d.]+ MB, sha256 `([0-9a-f]{64})`", card)
+    assert m, "docs/model.md gives the flow weights' sha256"
+    assert m.group(1) == file_hash(DEFAULT_FLOW_WEIGHTS), "docs/model.md's flow card is of other weights: update it"
 
 
 def test_shipped_export_is_made_from_the_shipped_weights_and_runs_the_same():
