@@ -10,6 +10,7 @@ from __future__ import annotations
 ENGINES = {
     "matching": "model.matching",  # motion matching over the training takes (shipped database)
     "neural": "model.neural",  # the controllable network (shipped weights)
+    "flow": "model.flow",  # flow matching: a network that samples takes (shipped weights model/weights/flow.pt)
     "keyframe": "model.keyframe",  # SGToolkit's MANUAL condition: splines through the pose controls
     "rules": "model.teacher",  # the rule-based teacher of the procedural corpus
 }
@@ -21,4 +22,8 @@ ENGINES = {
 DEFAULT_ENGINE = "matching"
 
 #: Engines that ``sgt eval`` measures in its model rows.
-EVAL_ENGINES = ("matching", "neural")
+EVAL_ENGINES = ("matching", "neural", "flow")
+
+#: Engines that run a network's weights file (``--weights``; each its own shipped file,
+#: ``model.weights.default_weights(engine)``): what a build's cache key and manifest hash.
+NETWORK_ENGINES = ("neural", "flow")

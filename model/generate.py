@@ -16,8 +16,9 @@ motion: the ``sgt`` commands and the editor's worker all call it.
 Engines share one interface: ``generate(inputs: EngineInputs, *, seed) -> (T, 27)``, where
 :class:`EngineInputs` carries the per-frame controls, the timed words and the speech audio.
 Engines: ``neural`` (the controllable generator, default), ``matching`` (motion matching over a
-database of the training takes, :mod:`model.matching`), ``keyframe`` (SGToolkit's MANUAL
-condition) and ``rules`` (the procedural teacher).
+database of the training takes, :mod:`model.matching`), ``flow`` (a flow-matching network that
+samples takes, :mod:`model.flow`), ``keyframe`` (SGToolkit's MANUAL condition) and ``rules``
+(the procedural teacher).
 """
 
 from __future__ import annotations
@@ -25,11 +26,10 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import inspect
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
-from typing import Callable
-
 
 from core import cancel, limits
 from core.controls import ControlArrays
@@ -41,7 +41,7 @@ from core.seeds import SEED_MAX
 from core.words import TimedWord
 from dsl.compiler import compile_file
 from dsl.plan import Plan
-from model.engines import DEFAULT_ENGINE, ENGINES  # noqa: F401  (re-exported: the engines' API)
+from model.engines import DEFAULT_ENGINE, ENGINES, NETWORK_ENGINES
 from model.hands import motion_hands
 from model.performance import Exact, perform
 from model.runtime import load_runner
@@ -66,7 +66,7 @@ class EngineInputs:
         return self.arrays.n_frames
 
     @classmethod
-    def from_plan(cls, u, base_seed: int | None = None) -> "EngineInputs":
+    def from_plan(cls, u, base_seed: int | None = None) -> EngineInputs:
         key = None if base_seed is None else speaker_key(base_seed, u.speaker)
         return cls(u.arrays, list(u.words), u.audio_path, u.lead_in, key)
 
@@ -155,9 +155,9 @@ def engine_function(name: str, options=None) -> Callable:
     if name not in ENGINES:
         raise GenerateError(f"unknown engine '{name}': choose one of {', '.join(ENGINES)}")
     fn = importlib.import_module(ENGINES[name]).generate
-    if name == "neural":
-        try:  # fail early, with the fix, when the weights are missing or unusable
-            load_runner(getattr(options, "weights", None))
+    if name in NETWORK_ENGINES:
+        try:  # fail early, with the fix, when the weights are missing, unusable or of the other network
+            load_runner(getattr(options, "weights", None), name)
         except WeightsError as exc:
             raise GenerateError(str(exc)) from None
         return partial(fn, options=options)
@@ -207,7 +207,7 @@ def exact_for(engine: str, options=None) -> Exact:
         from model.teacher import CONTROL_RAMP, CONTROL_RAMP_STEP_DEG  # lazy: the teacher loads the library
 
         return Exact(ramp=CONTROL_RAMP, max_step_deg=CONTROL_RAMP_STEP_DEG)
-    if engine in ("neural", "matching") and options is not None:
+    if engine in (*NETWORK_ENGINES, "matching") and options is not None:
         return Exact(ramp=options.ramp, blend=options.blend)
     return Exact()
 

@@ -12,7 +12,11 @@ layout exactly as :func:`model.weights.load_weights` checks a ``.pt`` file. A st
 export (new weights not yet exported) falls back to PyTorch, so results never come from other
 weights; tests/test_runtime.py fails while the shipped export is stale.
 
-Both runners take one window, unbatched numpy arrays, and return (T, 27) float32 poses.
+Both runners take one window, unbatched numpy arrays, and return (T, 27) float32 poses. The
+flow engine's network (:mod:`model.flow_net`) runs through the same runners: its noise ``z``
+is (T, 27), one noise vector per frame, where the regressor's is one (noise_dim,) per window
+(``noise_dim`` of both is per frame or per window accordingly), and its export holds its whole
+sampler, so one call is one window either way.
 """
 
 from __future__ import annotations
@@ -28,12 +32,12 @@ from core.fileio import atomic_write
 from core.interrupts import import_optional
 from core.skeleton import POSE_DIM
 from model.features import AUDIO_DIM
-from model.weights import DEFAULT_WEIGHTS, WeightsError, check_info, file_hash, load_weights, takes_of
+from model.weights import WeightsError, check_info, default_weights, file_hash, kind_of, load_weights, takes_of
 
 #: The network's inputs, in the order of :meth:`model.net.GestureNet.forward`.
 INPUTS = ("audio", "word_ids", "onsets", "pose", "pose_mask", "style", "style_mask", "z")
 #: Keys of the weights file recorded in the export (what :func:`model.weights.check_info` reads).
-_INFO_KEYS = ("format", "version", "layout", "config", "style_stats", "takes")
+_INFO_KEYS = ("format", "version", "kind", "layout", "config", "style_stats", "takes")
 #: Threads of one onnxruntime session: the network is small (about 1 ms a window), so more
 #: threads only add hand-over cost, and the service runs several sessions' calls side by side.
 ORT_THREADS = 1
@@ -128,38 +132,41 @@ def fresh_export(weights: Path | str):
 
 
 @lru_cache(maxsize=4)
-def load_runner(weights: str | None = None):
-    """The fastest runner for a weights file (None: the shipped one). Raises
-    :class:`~model.weights.WeightsError` for a missing or unusable file, as
-    :func:`~model.weights.load_weights` does."""
-    path = Path(weights) if weights is not None else DEFAULT_WEIGHTS
+def load_runner(weights: str | None = None, kind: str = "neural"):
+    """The fastest runner for a weights file of the network ``kind`` (None: the kind's shipped
+    file). Raises :class:`~model.weights.WeightsError` for a missing or unusable file, or one of
+    another kind, as :func:`~model.weights.load_weights` does."""
+    path = Path(weights) if weights is not None else default_weights(kind)
     if path.exists():
         runner = fresh_export(path)
         if runner is not None:
-            check_info(path, runner.info)
+            check_info(path, runner.info, kind)
             runner.takes = takes_of(path, runner.info)
             return runner
-    net, info = load_weights(path)
+    net, info = load_weights(path, kind)
     return TorchRunner(net, takes_of(path, info))
 
 
 def export_onnx(weights: Path | str | None = None, out: Path | str | None = None) -> Path:
-    """Export a weights file's network to ONNX (default: beside it), recording the weights'
-    SHA-256 and their format, layout, config, style statistics and training takes. Needs torch and onnx."""
+    """Export a weights file's network (either kind: the flow engine's with its whole sampler)
+    to ONNX (default: beside it), recording the weights' SHA-256 and their format, kind,
+    layout, config, style statistics and training takes. Needs torch and onnx."""
     import io
     import warnings
 
     import onnx
     import torch
 
-    weights = Path(weights) if weights is not None else DEFAULT_WEIGHTS
+    weights = Path(weights) if weights is not None else default_weights()
     out = Path(out) if out is not None else onnx_path(weights)
-    net, info = load_weights(weights)
+    net, info = load_weights(weights, kind=None)
+    per_frame = kind_of(info) != "neural"  # the flow's noise: one vector per frame
     t = 8  # any length: the time axis is dynamic
     n_style = len(STYLE_NAMES)
+    noise = torch.zeros(1, t, net.config["noise_dim"]) if per_frame else torch.zeros(1, net.config["noise_dim"])
     example = (torch.zeros(1, t, AUDIO_DIM), torch.zeros(1, t, dtype=torch.long), torch.zeros(1, t), torch.zeros(1, t, POSE_DIM),
-               torch.zeros(1, t), torch.zeros(1, t, n_style), torch.zeros(1, t, n_style), torch.zeros(1, net.config["noise_dim"]))
-    axes = {name: {1: "frames"} for name in INPUTS if name != "z"} | {"poses": {1: "frames"}}
+               torch.zeros(1, t), torch.zeros(1, t, n_style), torch.zeros(1, t, n_style), noise)
+    axes = {name: {1: "frames"} for name in INPUTS if per_frame or name != "z"} | {"poses": {1: "frames"}}
     buf = io.BytesIO()
     with warnings.catch_warnings():  # the TorchScript exporter's notes on constant folding and GRU shapes
         warnings.simplefilter("ignore")
@@ -176,24 +183,27 @@ def export_onnx(weights: Path | str | None = None, out: Path | str | None = None
 
 
 
-def random_window(n_frames: int, noise_dim: int, rng) -> tuple:
-    """Random network inputs for one window (unbatched), controls on about a third of the frames."""
+def random_window(n_frames: int, noise_dim: int, rng, per_frame: bool = False) -> tuple:
+    """Random network inputs for one window (unbatched), controls on about a third of the
+    frames; the noise (noise_dim,), or (n_frames, noise_dim) with ``per_frame`` (the flow's)."""
     mask = (rng.random(n_frames) < 0.3).astype(np.float32)
     n_style = len(STYLE_NAMES)
     return (rng.normal(size=(n_frames, AUDIO_DIM)).astype(np.float32), rng.integers(0, 4096, n_frames),
             (rng.random(n_frames) < 0.2).astype(np.float32), rng.normal(size=(n_frames, POSE_DIM)).astype(np.float32), mask,
             rng.normal(size=(n_frames, n_style)).astype(np.float32), (rng.random((n_frames, n_style)) < 0.5).astype(np.float32),
-            rng.standard_normal(noise_dim).astype(np.float32))
+            rng.standard_normal((n_frames, noise_dim) if per_frame else noise_dim).astype(np.float32))
 
 
 def largest_difference(weights: Path | str, export: Path | str, lengths=(1, 2, 7, 37, 60), seed: int = 0) -> float:
-    """Largest absolute difference between PyTorch and onnxruntime outputs on random windows."""
-    torch_runner = TorchRunner(load_weights(weights)[0])
+    """Largest absolute difference between PyTorch and onnxruntime outputs on random windows
+    (weights of either kind)."""
+    net, info = load_weights(weights, kind=None)
+    torch_runner = TorchRunner(net)
     session, meta = read_export(export)
     onnx_runner = OnnxRunner(session, meta["weights_info"])
     rng = np.random.default_rng(seed)
     worst = 0.0
     for n in lengths:
-        inputs = random_window(n, torch_runner.noise_dim, rng)
+        inputs = random_window(n, torch_runner.noise_dim, rng, per_frame=kind_of(info) != "neural")
         worst = max(worst, float(np.abs(torch_runner.run_window(*inputs) - onnx_runner.run_window(*inputs)).max()))
     return worst

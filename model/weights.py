@@ -1,13 +1,16 @@
 """Saving and loading generator weights, with refusal of incompatible files.
 
-A weights file is a ``torch.save`` dict: ``format`` ("sgt-generator"), ``version``, the
+A weights file is a ``torch.save`` dict: ``format`` ("sgt-generator"), ``version``, the network's
+``kind`` (:data:`KINDS`: absent for the regressor of the ``neural`` engine, "flow" for the flow
+engine's sampler), the
 ``layout`` it was trained for (fps, pose and audio dimensions, word buckets, style names, the
 control vector of :data:`core.controls.CONTROL_LAYOUT`), the network ``config``, its
 ``state_dict``, the style normalisation ``style_stats`` it was trained with, the postures of
 its training takes ``takes`` (:mod:`model.take_posture`; files from before them have none)
 and free-form ``meta`` (training command, data, metrics). A file for another layout or
-version, or trained with other style statistics than ``model/style_stats.json`` (its style values would mean
-something else), is refused with a message that says how to fix it, never misread.
+version, of another kind than the engine asks for, or trained with other style statistics than
+``model/style_stats.json`` (its style values would mean something else), is refused with a
+message that says how to fix it, never misread.
 """
 
 from __future__ import annotations
@@ -31,7 +34,33 @@ from model.take_posture import Takes, TakesError
 FORMAT = "sgt-generator"
 VERSION = 1
 DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "generator.pt"
+DEFAULT_FLOW_WEIGHTS = Path(__file__).with_name("weights") / "flow.pt"
 FIX = "run 'sgt train' to make new weights, or restore the shipped file with 'git checkout model/weights/generator.pt'"
+#: The networks a weights file may hold: kind -> (module, class, the engine that runs it, its
+#: shipped file). A file records its kind (none: the regressor, as every file before the flow).
+KINDS = {
+    "neural": ("model.net", "GestureNet", "neural", DEFAULT_WEIGHTS),
+    "flow": ("model.flow_net", "FlowNet", "flow", DEFAULT_FLOW_WEIGHTS),
+}
+
+
+def default_weights(kind: str = "neural") -> Path:
+    """The shipped weights file of a network ``kind``."""
+    return KINDS[kind][3]
+
+
+def fix_for(kind: str = "neural") -> str:
+    """How to get usable weights of a ``kind`` (the end of every refusal)."""
+    if kind == "neural":
+        return FIX
+    return (f"run 'sgt train --engine {kind}' to make new weights, or restore the shipped file with "
+            f"'git checkout model/weights/{default_weights(kind).name}'")
+
+
+def kind_of(blob) -> str:
+    """The network kind a weights file's dict (or an export's copy of it) records."""
+    kind = blob.get("kind") if isinstance(blob, dict) else None
+    return "neural" if kind is None else str(kind)
 
 
 class WeightsError(Exception):
@@ -81,13 +110,15 @@ def _fmt(values) -> str:
 
 
 def save_weights(path: Path | str, model, meta: dict | None = None) -> None:
-    """Write ``model`` with its format, layout, config and style statistics (atomically); its
-    training takes are added afterwards by :func:`set_takes`."""
+    """Write ``model`` with its format, kind, layout, config and style statistics (atomically);
+    its training takes are added afterwards by :func:`set_takes`."""
     import torch
 
     stats = load_stats()
+    kind = getattr(model, "kind", "neural")
     blob = {
-        "format": FORMAT, "version": VERSION, "layout": layout(), "config": dict(model.config),
+        "format": FORMAT, "version": VERSION, **({} if kind == "neural" else {"kind": kind}), "layout": layout(),
+        "config": dict(model.config),
         "state_dict": {k: v.detach().cpu() for k, v in model.state_dict().items()},
         "style_stats": {"mean": list(stats.mean), "std": list(stats.std), "source": stats.source},
         "meta": meta or {},
@@ -97,17 +128,27 @@ def save_weights(path: Path | str, model, meta: dict | None = None) -> None:
     atomic_write(path, buf.getvalue())
 
 
-def check_info(path: Path, blob) -> None:
+def check_info(path: Path, blob, kind: str | None = "neural") -> None:
     """Raise :class:`WeightsError` unless ``blob`` (a weights file's dict, or the copy an ONNX
-    export records) is this sgt's format, version, data layout and style statistics."""
+    export records) is this sgt's format and version, holds the network ``kind`` (None: any of
+    :data:`KINDS`), and matches the data layout and style statistics."""
+    fix = fix_for(kind or "neural")
     if not isinstance(blob, dict) or blob.get("format") != FORMAT:
-        raise WeightsError(f"{path} is not an sgt generator weights file; {FIX}")
+        raise WeightsError(f"{path} is not an sgt generator weights file; {fix}")
+    theirs_kind = kind_of(blob)
+    if theirs_kind not in KINDS:
+        raise WeightsError(f"{path} holds a network of kind '{theirs_kind}' that this sgt does not know; {fix}")
+    if kind is not None and theirs_kind != kind:
+        raise WeightsError(f"{path} holds the {KINDS[theirs_kind][2]} engine's network, not the {KINDS[kind][2]} "
+                           f"engine's: use it with --engine {KINDS[theirs_kind][2]}, or give --engine {KINDS[kind][2]} "
+                           f"its own weights ({fix})")
+    fix = fix_for(theirs_kind)
     if blob.get("version") != VERSION:
-        raise WeightsError(f"{path} is weights format version {blob.get('version')}, this sgt reads version {VERSION}; {FIX}")
+        raise WeightsError(f"{path} is weights format version {blob.get('version')}, this sgt reads version {VERSION}; {fix}")
     theirs, ours = blob.get("layout", {}), layout()
     diff = sorted(k for k in ours if theirs.get(k, _LAYOUT_BEFORE_RECORDED.get(k)) != ours[k])
     if diff:
-        raise WeightsError(f"{path} was trained for a different data layout ({', '.join(diff)} differ); {FIX}")
+        raise WeightsError(f"{path} was trained for a different data layout ({', '.join(diff)} differ); {fix}")
     problem = _stats_problem(path, blob.get("style_stats"))
     if problem:
         raise WeightsError(problem)
@@ -116,13 +157,14 @@ def check_info(path: Path, blob) -> None:
 
 def takes_of(path: Path, blob) -> Takes | None:
     """The training takes a weights file (or an export's copy of its dict) carries; None for
-    files from before they were recorded; :class:`WeightsError` for damaged ones."""
+    files from before they were recorded (and for the flow engine's, which samples its takes);
+    :class:`WeightsError` for damaged ones."""
     if blob.get("takes") is None:
         return None
     try:
         return Takes.from_dict(blob["takes"])
     except TakesError as exc:
-        raise WeightsError(f"{path} holds damaged training takes ({exc}); {FIX}") from None
+        raise WeightsError(f"{path} holds damaged training takes ({exc}); {fix_for(kind_of(blob))}") from None
 
 
 def set_takes(path: Path | str, takes: Takes) -> None:
@@ -142,45 +184,54 @@ def file_hash(path: Path | str) -> str:
     return hashlib.sha256(read_bytes(path, "weights")).hexdigest()
 
 
-def load_weights(path: Path | str | None = None):
-    """(GestureNet in eval mode, the file's dict without the state_dict)."""
-    from model.net import GestureNet  # lazy: torch
+def load_weights(path: Path | str | None = None, kind: str | None = "neural"):
+    """(the network in eval mode, the file's dict without the state_dict): a
+    :class:`model.net.GestureNet` for the ``neural`` kind, a :class:`model.flow_net.FlowNet` for
+    ``flow``; a file of another kind is refused (``kind`` None: whichever the file holds).
+    ``path`` None: the kind's shipped file."""
+    import importlib
 
-    path = Path(path) if path is not None else DEFAULT_WEIGHTS
-    blob = _read(path)
-    model = GestureNet({"smooth": 0, **(blob.get("config") or {})})  # files from before the option: off
+    path = Path(path) if path is not None else default_weights(kind or "neural")
+    blob = _read(path, kind)
+    theirs = kind_of(blob)
+    module, name = KINDS[theirs][:2]
+    config = blob.get("config") or {}
+    if theirs == "neural":
+        config = {"smooth": 0, **config}  # files from before the option: off
     try:
+        model = getattr(importlib.import_module(module), name)(config)  # lazy: torch
         model.load_state_dict(blob["state_dict"])
-    except (RuntimeError, KeyError) as exc:
-        raise WeightsError(f"{path} does not match the network: {str(exc).splitlines()[0]}; {FIX}") from None
+    except (RuntimeError, KeyError, ValueError, TypeError) as exc:
+        raise WeightsError(f"{path} does not match the network: {str(exc).splitlines()[0]}; {fix_for(theirs)}") from None
     model.eval()
     info = {k: v for k, v in blob.items() if k != "state_dict"}
     return model, info
 
 
-def _read(path: Path) -> dict:
+def _read(path: Path, kind: str | None = "neural") -> dict:
     """A weights file's dict, checked (:func:`check_info`); :class:`WeightsError` for a missing,
     unreadable or incompatible file."""
     import torch
 
+    fix = fix_for(kind or "neural")
     if not path.exists():
-        raise WeightsError(f"generator weights not found: {path}; {FIX}")
+        raise WeightsError(f"generator weights not found: {path}; {fix}")
     try:  # bounded, and a FIFO or a device refused unread
         data = read_bytes(path, "weights")
     except InputFileError as exc:
-        raise WeightsError(f"cannot read generator weights {path}: {exc.reason}; {FIX}") from None
+        raise WeightsError(f"cannot read generator weights {path}: {exc.reason}; {fix}") from None
     except OSError as exc:
-        raise WeightsError(f"cannot read generator weights {path}: {exc.strerror or exc}; {FIX}") from None
+        raise WeightsError(f"cannot read generator weights {path}: {exc.strerror or exc}; {fix}") from None
     why = not_torch_archive(data)  # stored entries only: torch.load's memory is bounded by the file's size
     if why:
-        raise WeightsError(f"cannot read generator weights {path}: {why}; {FIX}")
+        raise WeightsError(f"cannot read generator weights {path}: {why}; {fix}")
     try:
         blob = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except Exception as exc:  # noqa: BLE001 - torch.load raises a dozen unrelated types on damaged files (UnpicklingError,
         # RuntimeError, EOFError, UnicodeDecodeError, IndexError, struct.error, KeyError, AssertionError...: measured on
         # truncated and mutated files); only torch.load is inside, and the error is reported with its type, not hidden
-        raise WeightsError(f"cannot read generator weights {path}: {exc.__class__.__name__}; the file is corrupt. {FIX}") from None
-    check_info(path, blob)
+        raise WeightsError(f"cannot read generator weights {path}: {exc.__class__.__name__}; the file is corrupt. {fix}") from None
+    check_info(path, blob, kind)
     return blob
 
 

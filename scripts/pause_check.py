@@ -5,12 +5,13 @@ shipped weights (the weights trained on per-utterance z-scored audio features ge
 hardest in digital silence: 0.45 m/s at the peak of a `[pause 2s]` against 0.15 m/s while
 speaking). This script compiles a script (by default one utterance with a `[pause 2s]`
 mid-sentence and a `[pause 4s]` between two sentences: a long gap), generates ``--seeds``
-takes with the neural engine (or ``--engine matching``, the matching engine, ``--engine rules``, the teacher, or ``--engine stream``, the
-streaming service's generator fed the utterance's timed words) and prints, over the takes,
+takes with the default engine (or ``--engine NAME``, any engine of :data:`model.engines.ENGINES`,
+``--weights`` for the network engines, or ``--engine stream``, the streaming service's
+generator fed the utterance's timed words) and prints, over the takes,
 the median, mean and peak of the wrists' speed (the mean of both wrists, m/s; frame t's speed
 is the step into it) on frames inside a pause and on frames inside a word:
 
-    python scripts/pause_check.py [FILE.sgt] [--weights FILE] [--seeds N] [--engine neural|matching|rules|stream] [--json FILE]
+    python scripts/pause_check.py [FILE.sgt] [--weights FILE] [--seeds N] [--engine ENGINE|stream] [--json FILE]
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model.engines import DEFAULT_ENGINE
+from model.engines import DEFAULT_ENGINE, ENGINES
 
 SCRIPT = (
     "guide: Welcome to the mall. The shops on this floor open at nine every morning, [pause 2s] and the food court "
@@ -63,12 +64,14 @@ def summary(values: np.ndarray) -> dict:
 def measure(path: Path, *, seeds: int = 5, weights=None, engine: str = DEFAULT_ENGINE) -> dict:
     """Pause and speech wrist-speed summaries over every utterance with a pause and ``seeds`` takes."""
     from dsl.compiler import compile_file
-    from model import matching, neural, teacher
-    from model.generate import EngineInputs
+    from model import neural
+    from model.generate import NETWORK_ENGINES, EngineInputs, engine_function
 
     result = compile_file(path)
     if result.plan is None:
         raise SystemExit("\n".join(str(d) for d in result.diagnostics))
+    # weights: the network engines' (default: each its shipped file); the other engines their defaults
+    fn = None if engine == "stream" else engine_function(engine, neural.Options(weights=weights) if engine in NETWORK_ENGINES else None)
     in_pause, speaking = [], []
     for u in result.plan.utterances:
         pause, speech = span_masks(u)
@@ -76,14 +79,10 @@ def measure(path: Path, *, seeds: int = 5, weights=None, engine: str = DEFAULT_E
             continue
         inputs = EngineInputs.from_plan(u)
         for seed in range(seeds):
-            if engine == "neural":
-                poses = neural.generate(inputs, seed=seed, options=neural.Options(weights=weights))
-            elif engine == "matching":
-                poses = matching.generate(inputs, seed=seed)
-            elif engine == "stream":
+            if engine == "stream":
                 poses = streamed(inputs.words, seed, weights)
             else:
-                poses = teacher.generate(inputs, seed=seed)
+                poses = fn(inputs, seed=seed)
             v = wrist_speed(poses)
             n = min(len(v), len(pause))  # a stream ends half a second after the last word
             in_pause.append(v[:n][pause[:n]])
@@ -108,7 +107,7 @@ def main() -> int:
     ap.add_argument("script", nargs="?", help="a .sgt script with [pause] tags (default: the built-in one above)")
     ap.add_argument("--weights", help="generator weights (default: the shipped ones)")
     ap.add_argument("--seeds", type=int, default=5, help="takes (default 5)")
-    ap.add_argument("--engine", choices=("neural", "matching", "rules", "stream"), default=DEFAULT_ENGINE)
+    ap.add_argument("--engine", choices=(*ENGINES, "stream"), default=DEFAULT_ENGINE)
     ap.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:

@@ -26,7 +26,7 @@ shipped model (or ``--weights``) generates ``--seeds`` takes and the script repo
 - the beat alignment of the motion with the speech onsets (docs/metrics.md), and the same
   motion against the onsets of another set's recording (``BA shuffled``, the chance level).
 
-    python scripts/real_speech_check.py [--weights FILE] [--out DIR] [--seeds N] [--engine neural|matching|rules] [--json FILE]
+    python scripts/real_speech_check.py [--weights FILE] [--out DIR] [--seeds N] [--engine ENGINE] [--json FILE]
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model.engines import DEFAULT_ENGINE
+from model.engines import DEFAULT_ENGINE, ENGINES
 
 ALSA = Path("/usr/share/sounds/alsa")
 PHRASES = ["Front_Left", "Front_Center", "Front_Right", "Rear_Left", "Rear_Center", "Rear_Right", "Side_Left", "Side_Right"]
@@ -160,7 +160,7 @@ def main() -> int:
     ap.add_argument("--weights", help="generator weights (default: the shipped ones)")
     ap.add_argument("--out", default="out/real_speech", help="working folder (default out/real_speech)")
     ap.add_argument("--seeds", type=int, default=5, help="takes per condition (default 5)")
-    ap.add_argument("--engine", choices=("neural", "matching", "rules"), default=DEFAULT_ENGINE)
+    ap.add_argument("--engine", choices=tuple(ENGINES), default=DEFAULT_ENGINE)
     ap.add_argument("--json", metavar="FILE", help="also write every row and the human-speech summary as JSON")
     args = ap.parse_args()
     sets = recording_sets()
@@ -170,9 +170,12 @@ def main() -> int:
     from core.controls import ControlArrays
     from core.skeleton import FPS, frame_count
     from core.words import TimedWord
-    from model import matching, neural, teacher
+    from model import neural
     from model.features import audio_features, load_audio
-    from model.generate import EngineInputs
+    from model.generate import NETWORK_ENGINES, EngineInputs, engine_function
+
+    # --weights: the network engines' (default: each its shipped file); the other engines their defaults
+    fn = engine_function(args.engine, neural.Options(weights=args.weights) if args.engine in NETWORK_ENGINES else None)
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -193,12 +196,7 @@ def main() -> int:
         speaking, silent = frame_masks(words, inputs.n_frames, lead)
         results = []
         for seed in range(args.seeds):
-            if args.engine == "neural":
-                poses = neural.generate(inputs, seed=seed, options=neural.Options(weights=args.weights))
-            elif args.engine == "matching":
-                poses = matching.generate(inputs, seed=seed)
-            else:
-                poses = teacher.generate(inputs, seed=seed)
+            poses = fn(inputs, seed=seed)
             results.append(measure(poses, feats, speaking, silent, other))
         mean = {k: float(np.nanmean([r[k] for r in results])) for k in results[0]}
         rows.append((name, kind, len(words), inputs.n_frames / FPS, mean))

@@ -246,3 +246,59 @@ def test_hellinger_bound_own_style_is_the_rules_row(corpus):
     assert got["own style"] == pytest.approx(rows["rules"]["hellinger"], rel=1e-9)
     assert got["neutral style"] != pytest.approx(got["own style"], rel=1e-3)
     assert np.isfinite(got["another clip's style"])
+
+
+def test_sgt_eval_engine_flow_measures_the_flow_weights(corpus, tmp_path, capsys):
+    """`sgt eval --engine flow --weights FILE`: the model rows are the flow network's of that file
+    (two networks, two sets of figures; the pose controls exact with the blend), and weights of
+    the other network are refused in one line."""
+    import torch
+
+    from model.flow_net import FlowNet
+    from model.net import GestureNet
+    from model.weights import save_weights
+    from sgt_tui.cli import main
+
+    tiny = {"hidden": 16, "word_dim": 8, "enc_layers": 1, "layers": 1, "time_dim": 8}
+    rows = []
+    for seed in (0, 1):
+        torch.manual_seed(seed)
+        net = FlowNet(tiny)
+        with torch.no_grad():  # (its last layer starts at zero: every fresh network samples alike)
+            for w in net.parameters():
+                w.normal_(0.0, 0.1)
+        save_weights(tmp_path / f"flow{seed}.pt", net)
+        out = tmp_path / f"eval{seed}.json"
+        assert main(["eval", "--engine", "flow", "--weights", str(tmp_path / f"flow{seed}.pt"), "--corpus", str(corpus),
+                     "--split", "all", "--limit", "2", "--no-style", "-o", str(out)]) == 0
+        rows.append({r["name"]: r for r in json.loads(out.read_text())["conditions"]})
+    assert rows[0]["model"]["fgd"] != pytest.approx(rows[1]["model"]["fgd"], rel=1e-6)
+    assert rows[0]["rules"]["fgd"] == pytest.approx(rows[1]["rules"]["fgd"], rel=1e-9)  # the teacher's row: the same
+    assert rows[0]["model+pose"]["pcs"] == pytest.approx(0.0, abs=1e-6) and rows[0]["model+pose raw"]["pcs"] > 0
+    capsys.readouterr()
+    save_weights(tmp_path / "generator.pt", GestureNet({"hidden": 16, "word_dim": 8, "layers": 1, "gru": False}))
+    assert main(["eval", "--engine", "flow", "--weights", str(tmp_path / "generator.pt"), "--corpus", str(corpus),
+                 "--split", "all", "--limit", "1", "--no-style"]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and len([x for x in err.splitlines() if "error" in x]) == 1, err
+    assert "not the flow engine's" in err, err
+
+
+def test_wrist_speed_check_measures_the_motions_of_sgt_evals_rows(corpus, capsys):
+    """scripts/wrist_speed_check.py's rows are the wrist speeds of the motions behind sgt eval's
+    rows of the same seed: its matching row those of the ``model`` row (clip i with seed + i),
+    its rules row the re-seeded teacher's, its reference row the clips'."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    import wrist_speed_check as W  # lazy: a script, found on the path added above
+    from core.skeleton import JOINTS
+    from model import matching
+
+    every = load_corpus(corpus, None)
+    motions = E.condition_motions(every, E.MatchingModel(matching.load(None)), E.mean_pose(every), seed=4, smoothing=None)
+    assert W.main(["--corpus", str(corpus), "--seed", "4", "--engine", "matching"]) == 0
+    printed = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines()[1:]}
+    for name, clips in (("matching", motions["model"][1]), ("rules", motions["rules"][1]), ("reference", motions["model"][0])):
+        want = W.summary(clips)
+        speeds = np.concatenate([M.joint_speeds(m)[:, [JOINTS.index("left_wrist"), JOINTS.index("right_wrist")]] for m in clips])
+        assert want["mean"] == pytest.approx(speeds.mean()) and want["p95"] == pytest.approx(np.percentile(speeds, 95))
+        assert printed[name][1:5] == ["mean", f"{want['mean']:.3f}", "p95", f"{want['p95']:.3f}"]

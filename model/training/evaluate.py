@@ -32,7 +32,7 @@ import numpy as np
 from core.controls import STYLE_NAMES, ControlArrays
 from core.skeleton import mirror_pose, normalize_pose
 from core.words import TimedWord
-from model import keyframe, matching, neural, postprocess
+from model import flow, keyframe, matching, neural, postprocess
 from model.engines import DEFAULT_ENGINE
 from model.runtime import TorchRunner
 from model.style import style as style_of
@@ -62,9 +62,22 @@ class MatchingModel:
         self.takes = takes
 
 
+class FlowModel:
+    """The flow engine's network as :func:`condition_motions` runs it (:func:`model.flow.motion`,
+    then the post-processing of :func:`_neural`): ``runner`` a runner of its weights."""
+
+    def __init__(self, runner) -> None:
+        self.runner = runner
+
+
 def _generate(model, clip, arrays, seed, blend=True, smoothing="one_euro"):
-    """One clip's motion by the engine ``model`` stands for: a :class:`MatchingModel` or a
-    runner of the network (:func:`_neural`). ``smoothing=None``: the engine's default."""
+    """One clip's motion by the engine ``model`` stands for: a :class:`MatchingModel`, a
+    :class:`FlowModel` or a runner of the network (:func:`_neural`). ``smoothing=None``: the
+    engine's default."""
+    if isinstance(model, FlowModel):
+        raw = flow.motion(model.runner, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed)
+        return postprocess.finish(raw, arrays.pose, arrays.pose_mask, smoothing=smoothing or "one_euro", blend=blend,
+                                  style=arrays.style, style_mask=arrays.style_mask)
     if isinstance(model, MatchingModel):
         take = matching.draw_take(model.db, seed) if model.takes else None
         raw = matching.match(model.db, clip["audio"], clip["word_ids"], clip["onsets"], arrays, seed, take)
@@ -187,14 +200,17 @@ def evaluate_corpus(corpus: Path | str, *, split: str = "test", weights=None, ex
     ``smoothing`` is the neural engine's post-filter for the model rows (``model+pose raw`` is
     always unsmoothed and unblended: the network's own pose following). ``takes``: draw
     each clip's take posture from the weights' training takes, as generation does
-    (:mod:`model.take_posture`); false: the network alone. ``engine``: "neural" (``weights``)
-    or "matching" (the database at ``database``, default the shipped one; ``takes``: each clip
-    draws the take its free frames follow; ``smoothing`` None: the engine's default, none)."""
+    (:mod:`model.take_posture`); false: the network alone. ``engine``: "neural" (``weights``),
+    "flow" (``weights``: flow weights, default the shipped ``model/weights/flow.pt``; it draws no
+    take posture) or "matching" (the database at ``database``, default the shipped one; ``takes``:
+    each clip draws the take its free frames follow; ``smoothing`` None: the engine's default, none)."""
     clips = load_corpus(corpus, None if split == "all" else split)
     if limit:
         clips = clips[:limit]
     if engine == "matching":
         model = MatchingModel(matching.load(database), takes)
+    elif engine == "flow":
+        model = FlowModel(flow.load(weights))
     else:
         net, info = load_weights(weights)
         model = TorchRunner(net, takes_of(weights or DEFAULT_WEIGHTS, info) if takes else None)

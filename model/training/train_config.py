@@ -38,3 +38,40 @@ class TrainConfig:
     device: str = "auto"  # "auto": CUDA when present, else CPU; "cpu" forces the CPU
     minutes: float | None = None  # stop after this much wall time (finishing the epoch)
     net: dict = field(default_factory=dict)
+
+
+#: The flow engine's training window in frames: the window it samples in (model.neural.WINDOW).
+FLOW_WINDOW = 60
+
+
+@dataclass
+class FlowConfig:
+    """Settings of ``sgt train --engine flow`` (:func:`model.training.train_flow.train_flow`)."""
+
+    epochs: int = 60
+    steps_per_epoch: int = 100
+    batch: int = 64
+    lr: float = 1e-3
+    lr_floor: float = 0.05  # the cosine schedule ends at lr * lr_floor
+    window: int = FLOW_WINDOW
+    ema: float = 0.999  # decay of the weights' moving average, which is what ships
+    t_mean: float = 0.0  # flow times: logit-normal (Esser et al. 2024), mean and spread of the logit,
+    t_std: float = 1.0
+    t_uniform: float = 0.2  # and this share uniform in [0, 1) (the few-step sampler starts at t = 0)
+    p_drop_all: float = 0.25  # control simulation (model.training.train.simulate_controls)
+    p_pose: float = 0.5
+    p_seed: float = 0.5
+    p_style: float = 0.5
+    seed: int = 0
+    threads: int = 2
+    device: str = "auto"
+    minutes: float | None = None  # stop after this much wall time (finishing the epoch)
+    net: dict = field(default_factory=dict)
+    teacher: str | None = None  # flow weights to distil into a sampler of the steps net["times"] sets (None: train a flow)
+    substeps: int = 4  # with a teacher: its Euler steps for each of the student's
+
+
+#: ``sgt train --engine flow --teacher``'s defaults where distillation's differ from training a
+#: flow: the student starts as its teacher, so a few short epochs, a small step and a short
+#: average (the shipped student's settings, docs/model.md).
+DISTIL_DEFAULTS = {"epochs": 5, "steps_per_epoch": 60, "batch": 32, "lr": 2e-4, "ema": 0.99}

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from model.engines import DEFAULT_ENGINE
+from model.engines import DEFAULT_ENGINE, NETWORK_ENGINES
 
 #: Bump when a change to the compiler, the speech timing, the engines or the post-processing
 #: changes the motion of an utterance whose inputs did not change.
@@ -64,9 +64,9 @@ class Settings:
     def describe(self) -> dict:
         """The settings as the manifest records them."""
         out: dict = {"engine": self.engine, "seed": self.seed}
-        if self.engine == "neural":
+        if self.engine in NETWORK_ENGINES:
             out.update(smoothing=self.smoothing, blend=self.blend, take_posture=self.take_posture,
-                       weights_sha256=weights_hash(self.weights))
+                       weights_sha256=weights_hash(self.weights, self.engine))
         elif self.engine == "matching":
             out.update(smoothing=self.smoothing, blend=self.blend, take_posture=self.take_posture,
                        database_sha256=database_hash(self.database))
@@ -88,12 +88,13 @@ def file_sha256(path: Path | str, what: str = "weights") -> str:
     return h.hexdigest()
 
 
-def weights_hash(weights: str | None) -> str:
-    """The weights file's sha256, with its ONNX export's when there is one (inference runs the
-    export when it is fresh, PyTorch otherwise: their numbers differ in the last bits)."""
-    from model.weights import DEFAULT_WEIGHTS  # lazy: numpy
+def weights_hash(weights: str | None, engine: str = "neural") -> str:
+    """The weights file's sha256 (None: the ``engine``'s shipped file), with its ONNX export's
+    when there is one (inference runs the export when it is fresh, PyTorch otherwise: their
+    numbers differ in the last bits)."""
+    from model.weights import default_weights  # lazy: numpy
 
-    path = Path(weights) if weights else DEFAULT_WEIGHTS
+    path = Path(weights) if weights else default_weights(engine)
     export = path.with_suffix(".onnx")
     if export.is_file():
         return _hash_once(str(path)) + "+" + _hash_once(str(export))
@@ -186,8 +187,8 @@ def utterance_payload(utt, lib, base_seed: int, settings: Settings, files=None) 
     }
     if settings.engine not in _SEEDLESS:
         payload["seed"] = (base_seed if settings.seed is None else settings.seed) + utt.index
-    if settings.engine in ("neural", "matching"):
-        model = ({"weights": weights_hash(settings.weights)} if settings.engine == "neural"
+    if settings.engine in (*NETWORK_ENGINES, "matching"):
+        model = ({"weights": weights_hash(settings.weights, settings.engine)} if settings.engine in NETWORK_ENGINES
                  else {"database": database_hash(settings.database)})
         payload.update(model, smoothing=settings.smoothing, blend=settings.blend,
                        # the speaker's take posture is drawn with the script's seed, not the utterance's

@@ -25,6 +25,7 @@ from pathlib import Path
 from core.fileio import atomic_write
 from core.interrupts import import_optional
 from core.reading import read_bytes
+from model.engines import NETWORK_ENGINES
 from sgt_tui.build.keys import database_hash, weights_hash
 from sgt_tui.build.work import Task, TaskResult, run_task, warm_up
 
@@ -258,15 +259,15 @@ def run_ray(tasks: Sequence[Task], address: str | None, on_result: OnResult, *, 
     try:
         weights = None
         settings = tasks[0].settings if tasks else None
-        if settings is not None and settings.engine == "neural":
-            from model.weights import DEFAULT_WEIGHTS  # lazy: numpy
+        if settings is not None and settings.engine in NETWORK_ENGINES:
+            from model.weights import default_weights  # lazy: numpy
 
-            source = Path(settings.weights) if settings.weights else DEFAULT_WEIGHTS
+            source = Path(settings.weights) if settings.weights else default_weights(settings.engine)
             holder = [ray.put(read_bytes(source, "weights"))]
             export = source.with_suffix(".onnx")  # model.runtime.onnx_path: inference uses it when fresh
             if export.is_file():
                 holder.append(ray.put(read_bytes(export, "weights")))
-            weights = (weights_hash(settings.weights), holder)
+            weights = (weights_hash(settings.weights, settings.engine), holder)
         database = None
         if settings is not None and settings.engine == "matching" and settings.database:  # (the shipped one is in the checkout)
             database = (database_hash(settings.database), [ray.put(read_bytes(settings.database, "matching database"))])

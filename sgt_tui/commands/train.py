@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 
 from core.counting import plural
 
@@ -19,6 +20,18 @@ figures go to OUT/metrics.jsonl; OUT/generator.pt holds the weights of the epoch
 best validation score (PCS/0.014 + SCS/0.249), OUT/last.pt the last epoch's. Copy
 OUT/generator.pt to model/weights/generator.pt to ship it.
 
+--engine flow trains the flow engine's network instead (conditional flow matching: it samples a
+take from the seed's noise rather than regressing the average one; docs/model.md, "The flow
+engine"): OUT/flow.pt holds the weights of the epoch with the lowest validation FGD, OUT/last.pt
+the last epoch's; the same command resumes it. Of the network's options it takes --epochs,
+--steps, --batch, --threads, --minutes, --window, --hidden, --device, --seed and --fresh (its
+own defaults below), and its own --times, --teacher and --substeps; the others are the
+regressor's and are refused with it. The shipped flow is two runs: a flow ('--epochs 100
+--threads 1 -o RUN', its best epoch RUN/flow.pt), then that flow distilled into 4 sampler
+steps ('--teacher RUN/flow.pt --times 0,0.4,0.7,0.9 --threads 1').
+Export it for 'sgt generate --engine flow --weights OUT/flow.pt' with 'python
+scripts/export_onnx.py --weights OUT/flow.pt' (PyTorch runs it meanwhile).
+
 --engine matching builds the matching engine's database instead (no network, no
 epochs: seconds to minutes): every take of --data (no validation split: the database
 holds them all), or the train split of --corpus, as OUT/matching_db.npz. Takes shorter
@@ -28,7 +41,9 @@ than a segment (1.2 s) are left out with a warning. Generate with it:
 
 
 def register(sub) -> None:
-    from model.training.train_config import TrainConfig
+    from model.engines import NETWORK_ENGINES
+    from model.training.train_config import DISTIL_DEFAULTS as D
+    from model.training.train_config import FlowConfig, TrainConfig
     from sgt_tui.commands.common import non_negative_float, non_negative_int, positive_float, positive_int, seed, share
 
     p = sub.add_parser("train", help=HELP, description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -40,21 +55,27 @@ def register(sub) -> None:
                           "the last tenth of the takes (at least one) is the validation split (with --engine matching: "
                           "none, every take goes into the database)")
     p.add_argument("-o", "--out", default="runs/default", help="output folder (default runs/default)")
-    p.add_argument("--engine", choices=("neural", "matching"), default="neural",
-                   help="neural (default): train the network, OUT/generator.pt; matching: build the matching "
-                        "engine's database of the takes, OUT/matching_db.npz (for 'sgt generate --engine matching "
-                        "--database OUT/matching_db.npz'); the network's options below do not apply to it")
-    network = p.add_argument_group("the network's training (--engine neural only)")
+    p.add_argument("--engine", choices=(*NETWORK_ENGINES, "matching"), default="neural",
+                   help="neural (default): train the network, OUT/generator.pt; flow: train the flow engine's "
+                        "network, OUT/flow.pt; matching: build the matching engine's database of the takes, "
+                        "OUT/matching_db.npz (for 'sgt generate --engine matching --database OUT/matching_db.npz'); "
+                        "the network's options below do not apply to it")
+    network = p.add_argument_group("the network's training (--engine neural; --engine flow takes those marked 'flow')")
     network_options = []
 
     def add(*names, **kw) -> None:
         network_options.append(network.add_argument(*names, **kw))
 
-    add("--epochs", type=positive_int, default=TrainConfig.epochs, help=f"epochs (default {TrainConfig.epochs})")
-    add("--steps", type=positive_int, default=TrainConfig.steps_per_epoch, help=f"steps per epoch (default {TrainConfig.steps_per_epoch})")
-    add("--batch", type=positive_int, default=TrainConfig.batch, help=f"windows per step (default {TrainConfig.batch})")
-    add("--threads", type=positive_int, default=TrainConfig.threads, help=f"CPU threads (default {TrainConfig.threads})")
-    add("--minutes", type=positive_float, help="stop after this much time (at the end of an epoch)")
+    def both(neural, flow) -> str:
+        return f"default {neural}" if neural == flow else f"default {neural}; flow: {flow}"
+
+    # options both networks take default to None: each engine fills in its own default
+    add("--epochs", type=positive_int, help=f"epochs ({both(TrainConfig.epochs, FlowConfig.epochs)})")
+    add("--steps", type=positive_int,
+        help=f"steps per epoch ({both(TrainConfig.steps_per_epoch, FlowConfig.steps_per_epoch)})")
+    add("--batch", type=positive_int, help=f"windows per step ({both(TrainConfig.batch, FlowConfig.batch)})")
+    add("--threads", type=positive_int, help=f"CPU threads ({both(TrainConfig.threads, FlowConfig.threads)})")
+    add("--minutes", type=positive_float, help="stop after this much time (at the end of an epoch); flow too")
     add("--no-gan", action="store_true", help="switch the adversarial term off")
     add("--gan-weight", type=non_negative_float, default=TrainConfig.beta,
         help=f"weight of the adversarial term (default {TrainConfig.beta:g}; --no-gan sets 0)")
@@ -76,18 +97,46 @@ def register(sub) -> None:
     add("--restyle", type=share, default=TrainConfig.p_restyle, metavar="P",
         help="share of speech windows trained on a style request other than their own, with the style "
              f"and adversarial terms only, so style controls reach the whole range (default {TrainConfig.p_restyle:g})")
-    add("--window", type=positive_int, default=TrainConfig.window,
-        help=f"training window in frames (default {TrainConfig.window})")
+    add("--window", type=positive_int,
+        help=f"training window in frames ({both(TrainConfig.window, FlowConfig.window)})")
     add("--device", choices=("auto", "cpu"), default=TrainConfig.device,
-        help="auto: CUDA when present, else the CPU (default auto)")
-    add("--seed", type=seed, default=0)
-    add("--fresh", action="store_true", help="ignore an existing checkpoint")
-    add("--hidden", type=positive_int, default=128, help="network width")
+        help="auto: CUDA when present, else the CPU (default auto); flow too")
+    add("--seed", type=seed, default=0, help="the training's random seed (default 0); flow too")
+    add("--fresh", action="store_true", help="ignore an existing checkpoint; flow too")
+    add("--hidden", type=positive_int, default=128, help="network width (default 128); flow too")
     add("--no-gru", action="store_true", help="convolutions only (faster, see docs/model.md)")
+    add("--teacher", metavar="FLOW.pt",
+        help="flow only: distil these trained flow weights into a sampler of the --times steps instead of training a "
+             "flow (the student starts as the teacher and learns to land where it lands in --substeps steps per step; "
+             f"defaults then: {D['epochs']} epochs of {D['steps_per_epoch']} steps of {D['batch']} windows, learning rate "
+             f"{D['lr']:g}, weights averaged with decay {D['ema']:g})")
+    add("--times", type=_times, metavar="T0,T1,...",
+        help="flow only: the sampler's time points, from 0 and rising below 1, one network call each "
+             "(default: the teacher's, or 0,0.5,0.8)")
+    add("--substeps", type=positive_int, default=4, help="flow only, with --teacher: the teacher's steps per student step (default 4)")
     add("--smooth", type=non_negative_int, default=5, metavar="TAPS",
         help="taps of the in-network low-pass on free frames, 0 = off (default 5, see docs/model.md)")
-    # (dest, flag, default) of each network option: --engine matching refuses them when given
+    # (dest, flag, default) of each network option: --engine matching refuses them when given, --engine
+    # flow those of FLOW_OPTIONS' complement
     p.set_defaults(run=run, network_options=tuple((a.dest, a.option_strings[0], a.default) for a in network_options))
+
+
+#: The network options that --engine flow takes (the rest are the regressor's loss and architecture).
+FLOW_OPTIONS = ("epochs", "steps", "batch", "threads", "minutes", "window", "device", "seed", "fresh", "hidden", "teacher",
+                "times", "substeps")
+#: The options only --engine flow takes.
+FLOW_ONLY = ("teacher", "times", "substeps")
+
+
+def _times(text: str) -> list[float]:
+    """``--times``: comma-separated flow times, from 0 and rising below 1."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a comma-separated list of numbers") from None
+    if values[0] != 0.0 or any(b <= a for a, b in itertools.pairwise(values)) or values[-1] >= 1.0:
+        raise argparse.ArgumentTypeError(f"'{text}': the times must start at 0 and rise below 1 (e.g. 0,0.4,0.7,0.9)")
+    return values
 
 
 def run(args) -> int:
@@ -99,6 +148,14 @@ def run(args) -> int:
 
     if args.engine == "matching":
         _no_network_options(args)
+    elif args.engine == "flow":
+        _no_network_options(args, allowed=FLOW_OPTIONS)
+    else:
+        _no_network_options(args, allowed=tuple(dest for dest, _, _ in args.network_options if dest not in FLOW_ONLY))
+    if args.teacher:
+        from sgt_tui.commands.common import existing_file
+
+        args.teacher = str(existing_file(args.teacher))
     if args.data:
         existing_folder(args.data, "--data")
     elif not Path(args.corpus).exists():
@@ -117,6 +174,9 @@ def run(args) -> int:
         train_clips, val_clips = loaded
     else:
         train_clips, val_clips = _corpus_split(Path(args.corpus), "train"), _corpus_split(Path(args.corpus), "val")
+    if args.engine == "flow":
+        return _train_flow(args, train_clips, val_clips)
+    _engine_defaults(args, TrainConfig)
     cfg = TrainConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, minutes=args.minutes,
                       beta=0.0 if args.no_gan else args.gan_weight, seed=args.seed,
                       threads=args.threads, gamma=args.style_weight, ctrl=args.ctrl_weight, vel=args.vel_weight, hist=args.hist_weight,
@@ -134,6 +194,48 @@ def run(args) -> int:
               "to train; train afresh with --fresh", file=sys.stderr)
         return 1
     print(f"weights: {weights} (best validation epoch); last epoch: {Path(args.out) / 'last.pt'}", file=sys.stderr)
+    return 0
+
+
+def _engine_defaults(args, config) -> None:
+    """The options both networks take and the command line left out, from the engine's
+    settings ``config`` (TrainConfig, FlowConfig, or such settings: distillation's)."""
+    for dest, field in (("epochs", "epochs"), ("steps", "steps_per_epoch"), ("batch", "batch"), ("threads", "threads"),
+                        ("window", "window")):
+        if getattr(args, dest) is None:
+            setattr(args, dest, getattr(config, field))
+
+
+def _train_flow(args, train_clips, val_clips) -> int:
+    """sgt train --engine flow: the flow engine's network, OUT/flow.pt."""
+    import sys
+    from dataclasses import replace
+    from pathlib import Path
+
+    from model.training.train_config import DISTIL_DEFAULTS
+    from model.training.train_flow import FlowConfig, train_flow
+    from sgt_tui.progress import ProgressBar
+
+    base = replace(FlowConfig(), **DISTIL_DEFAULTS) if args.teacher else FlowConfig()
+    _engine_defaults(args, base)
+    net = {} if args.teacher else {"hidden": args.hidden}  # a student has its teacher's architecture
+    if args.times:
+        net["times"] = args.times
+    cfg = FlowConfig(epochs=args.epochs, steps_per_epoch=args.steps, batch=args.batch, lr=base.lr, ema=base.ema, minutes=args.minutes,
+                     window=args.window, seed=args.seed, threads=args.threads, device=args.device, net=net,
+                     teacher=args.teacher, substeps=args.substeps)
+    from model.weights import WeightsError
+
+    try:
+        train_flow(train_clips, val_clips, Path(args.out), cfg, resume=not args.fresh, progress=ProgressBar("train"),
+                   log=lambda s: print(s, file=sys.stderr))
+    except (ValueError, WeightsError) as exc:  # no clip as long as a window; a checkpoint made with other settings;
+        # a teacher that is not flow weights
+        print(f"sgt train: error: {exc}", file=sys.stderr)
+        return 1
+    out = Path(args.out)
+    print(f"weights: {out / 'flow.pt'} (best validation epoch); last epoch: {out / 'last.pt'}; use them: "
+          f"sgt generate FILE -o OUT.json --engine flow --weights {out / 'flow.pt'}", file=sys.stderr)
     return 0
 
 
@@ -185,15 +287,18 @@ def _user_takes(root):
     return clips
 
 
-def _no_network_options(args) -> None:
-    """Usage error when a network option was set with --engine matching (a value other than its default)."""
+def _no_network_options(args, allowed=()) -> None:
+    """Usage error when a network option was set with --engine matching (a value other than its
+    default), or with another engine one that its network does not take (not in ``allowed``)."""
     from sgt_tui.errors import UsageError
 
-    given = [flag for dest, flag, default in args.network_options if getattr(args, dest) != default]
+    given = [flag for dest, flag, default in args.network_options if dest not in allowed and getattr(args, dest) != default]
     if given:
-        raise UsageError(f"{', '.join(given)}: the network's training option{'s' if len(given) > 1 else ''}; "
-                         "--engine matching builds a database and has no such setting: leave "
-                         f"{'them' if len(given) > 1 else 'it'} out")
+        s = "s" if len(given) > 1 else ""
+        why = ("--engine matching builds a database and has no such setting" if args.engine == "matching" else
+               f"--engine {args.engine} trains another network, which has no such setting")
+        owner = {"matching": "the network's", "neural": "the flow engine's"}.get(args.engine, "the neural engine's")
+        raise UsageError(f"{', '.join(given)}: {owner} training option{s}; {why}: leave {'them' if s else 'it'} out")
 
 
 def _build_database(args) -> int:
