@@ -65,14 +65,11 @@ BLEND = 4
 AUDIO_COMPONENTS = 4
 #: Weights of the cost terms (the speech key is standardised per frame feature; the pose terms
 #: are squared distances of unit bone directions).
-W_SPEECH = 0.25
+W_SPEECH = 0.5
 W_POSE = 4.0
 W_VELOCITY = 40.0
 W_STYLE = 8.0
-#: Where the script requests no style, the drawn take's style is the target, its speed held
-#: more firmly than its space and handedness: a speaker keeps one tempo through a line, and the
-#: speed histograms (Hellinger) of a take are what the corpus's clips differ by most.
-W_TAKE_STYLE = np.array([2.0, 0.15, 0.15], np.float32)
+W_TAKE_STYLE = 0.15
 W_CONTROL = 8.0
 #: Cost taken off the candidate that continues the playing take; less where the script requests
 #: a style, so the search moves to takes of that style.
@@ -584,7 +581,7 @@ def _style_targets(db: Database, arrays, starts, take):
             weight[s, on] = W_STYLE
         if take is not None:
             target[s, ~on] = db.take_style[take][~on]
-            weight[s, ~on] = W_TAKE_STYLE[~on]
+            weight[s, ~on] = W_TAKE_STYLE
     return target, weight
 
 

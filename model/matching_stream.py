@@ -119,7 +119,7 @@ class MatchingStreamGenerator(StreamBase):
         weight = np.where(on, W_STYLE, 0.0).astype(np.float32)
         if take_style:
             take = draw_take(db, seed)
-            target[~on], weight[~on] = db.take_style[take][~on], W_TAKE_STYLE[~on]
+            target[~on], weight[~on] = db.take_style[take][~on], W_TAKE_STYLE
         self.style_cost = (weight @ db.cand_style_sq_t - (2.0 * weight * target) @ db.cand_style_t).astype(np.float32)
         self.bonus = CONTINUE_BONUS_STYLED if W_STYLE > 0 and (weight >= W_STYLE).any() else CONTINUE_BONUS
         # the search's state, as in match
