@@ -46,6 +46,7 @@ def test_phoneme_tokens_become_espeak_named_phonemes():
     assert [(p.name, p.stress) for p in events] == [("h", 0), ("ə", 0), ("l", 0), ("oʊ", 2), ("tʃ", 0), ("ɑː", 0)]
     assert events[3].sample == 4 * 256  # the vowel starts at its stress mark
     assert piper.word_groups(piper.token_times(tokens)) == [(1, 6), (8, 11)]
+    assert events[4].sample == 8 * 256  # the word after a space starts where the space does (not 9 * 256)
 
 
 @needs_piper
