@@ -5,6 +5,7 @@ piper gets."""
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import re
 import sys
@@ -36,7 +37,7 @@ def test_span_groups_follow_the_counts_and_share_out_the_rest():
     assert piper.span_groups([1, 3, 1], 5) == [(0, 1), (1, 4), (4, 5)]
     shared = piper.span_groups([1, 1, 1], 5)  # piper read more words than the spans say alone
     assert shared[0][0] == 0 and shared[-1][1] == 5
-    assert all(a < b and b == c for (a, b), (c, _) in zip(shared, shared[1:]))
+    assert all(a < b and b == c for (a, b), (c, _) in itertools.pairwise(shared))
 
 
 def test_phoneme_tokens_become_espeak_named_phonemes():
