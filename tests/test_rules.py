@@ -26,6 +26,7 @@ NO_EXAMPLE = {
     "io": "the script file itself cannot be read",
     "generation": "an editor job fails for a reason outside the script (tests/test_editor_app.py triggers it)",
     "refused-path": "only a request to sgt serve triggers it (tests/test_serve.py)",
+    "voice-not-installed": "what is installed, not the script (tests/test_piper.py hides piper)",
 }
 
 

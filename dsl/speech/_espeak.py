@@ -482,14 +482,16 @@ class _ForkServer:
     """A process (this file run with ``--serve``) holding an initialised engine that has never
     synthesized; it forks a child per request, so each synthesis starts from the state of a
     fresh process. One request at a time (:attr:`lock`); it exits when this process closes its
-    input (this process ended, killed or not)."""
+    input (this process ended, killed or not). ``argv`` runs another server speaking the same
+    protocol (one JSON request a line; a JSON header line and ``nbytes`` bytes an answer): the
+    piper worker, :mod:`dsl.speech._piper`."""
 
-    def __init__(self) -> None:
+    def __init__(self, argv: list[str] | None = None) -> None:
         import subprocess
         import sys
 
         self.lock = threading.Lock()
-        self.proc = subprocess.Popen([sys.executable, "-I", "-S", os.path.abspath(__file__), "--serve"],
+        self.proc = subprocess.Popen(argv or [sys.executable, "-I", "-S", os.path.abspath(__file__), "--serve"],
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                                      start_new_session=True)
         self._pending = b""

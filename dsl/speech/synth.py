@@ -41,7 +41,7 @@ import numpy as np
 
 from core.words import TimedWord
 
-from . import _espeak, audio, cache
+from . import _espeak, audio, cache, piper
 from .types import Speech, SpeechError, TimedPhoneme
 
 #: Silence kept before the first voiced sample, seconds.
@@ -124,7 +124,9 @@ _voice_names: list[str] | None = None
 
 def list_voices() -> list[str]:
     """Voice names accepted by :func:`synthesize`: the espeak-ng language codes (``en-us``,
-    ``en-gb-scotland``, ``fr``...), sorted. ``+variant`` suffixes (``en-us+f3``) are accepted too."""
+    ``en-gb-scotland``, ``fr``...) and the piper voices (``joe``: :mod:`dsl.speech.piper`,
+    listed whether installed or not), sorted. ``+variant`` suffixes (``en-us+f3``) are
+    accepted after an espeak-ng voice."""
     global _voice_names
     with _espeak._LOCK:
         if _voice_names is None:
@@ -136,7 +138,7 @@ def list_voices() -> list[str]:
             for v in eng.voices():
                 if v.languages:
                     names.add(v.languages[0].lower())
-            _voice_names = sorted(names)
+            _voice_names = sorted(names | set(piper.VOICES))
         return list(_voice_names)
 
 
@@ -158,7 +160,8 @@ def variant_table() -> list[tuple[str, str]]:
 
 def voice_table() -> list[tuple[str, str]]:
     """(name, description) of every voice :func:`list_voices` gives, e.g. ("en-us", "English
-    (America)"), sorted by name: what ``sgt voices`` prints."""
+    (America)"), sorted by name: what ``sgt voices`` prints (a piper voice that is not
+    installed says so, with the command that installs it)."""
     names = set(list_voices())
     with _espeak._LOCK:
         voices = _espeak.engine().voices()
@@ -166,6 +169,9 @@ def voice_table() -> list[tuple[str, str]]:
     for v in voices:
         if v.languages and v.languages[0].lower() in names:
             table.setdefault(v.languages[0].lower(), v.name)
+    for name, natural in piper.VOICES.items():
+        lacking = piper.missing(natural)
+        table[name] = natural.description + (f" (not installed: {piper.INSTALL})" if lacking else "")
     return sorted(table.items())
 
 
@@ -176,7 +182,11 @@ def check_voice(voice: str) -> str:
     """The espeak-ng voice ``voice`` resolves to, as :func:`synthesize` resolves it; raises
     :class:`SpeechError` (kind "voice" for an unknown name, "engine" when espeak-ng cannot be
     loaded). ``sgt check`` calls this, so it accepts exactly the voices ``sgt compile`` does.
-    Results are kept for the process."""
+    Results are kept for the process. A piper voice (``joe``) gives its name, or kind
+    "not-installed" when piper or the voice's package is missing."""
+    natural = piper.voice_of(voice)
+    if natural is not None:
+        return piper.check(natural)
     hit = _checked_voices.get(voice)
     if hit is None:
         try:
@@ -256,6 +266,9 @@ def phonemes_of_words(words: Sequence[TimedWord], voice: str = "en-us") -> list[
     (:data:`STRESSED_SHARE` when stressed).
     An empty list when espeak-ng or the voice is missing (the face then moves the mouth with
     the words alone)."""
+    natural = piper.voice_of(voice)
+    if natural is not None:  # a piper voice's phonemes are espeak-ng's of its language
+        voice = natural.language
     try:
         with _espeak._LOCK:
             resolved = _resolve_voice(_espeak.engine(), voice)
@@ -351,8 +364,9 @@ def _word_ends(spans, starts: list[float], mask, hop, n_samples: int, v1: int) -
 
 
 def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float], pause_n: dict[int, int],
-              joined: set[int], lead: float, tail: float, points: Sequence[float] = ()):
-    """Word ends, pauses, trimmed/padded ends. Returns (samples, starts, ends, places) in
+              joined: set[int], lead: float, tail: float, points: Sequence[float] = (),
+              ends: list[float] | None = None):
+    """Word ends (unless given: piper's alignments), pauses, trimmed/padded ends. Returns (samples, starts, ends, places) in
     samples: ``places`` maps each of ``points`` (positions in the engine's audio: phoneme
     events) to where that audio is in the result, as (start, end): a point where an inserted
     pause begins is the start of what comes after it and the end of what comes before it.
@@ -367,7 +381,8 @@ def _timeline(samples: np.ndarray, sample_rate: int, spans, starts: list[float],
     bounds = audio.voiced_bounds(mask, hop, len(samples))
     v0, v1 = bounds if bounds else (0, len(samples))
     lead_n, tail_n = int(round(lead * sample_rate)), int(round(tail * sample_rate))
-    ends = _word_ends(spans, starts, mask, hop, len(samples), v1)
+    if ends is None:
+        ends = _word_ends(spans, starts, mask, hop, len(samples), v1)
     cuts: dict[int, int] = {}
     removed: list[tuple[int, int]] = []
     settle = int(round(PAUSE_SETTLE * sample_rate))
@@ -496,6 +511,9 @@ def synthesize(text: str, word_spans: list[tuple[int, int]], pauses: Sequence[tu
     rate, pitch = int(round(rate)), int(round(pitch))
     clean = text.replace("\0", " ")
     boundaries = pause_boundaries(spans, pause_list)
+    natural = piper.voice_of(voice)
+    if natural is not None:  # a piper voice: no pitch (sgt check warns where @pitch is set)
+        return piper.synthesize(clean, spans, boundaries, natural, rate, cache_dir)
     spoken, origin, joined = _clause_breaks(clean, spans, boundaries)
 
     key = cache.content_hash({

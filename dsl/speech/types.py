@@ -56,7 +56,7 @@ class SpeechError(Exception):
     unknown voice), "audio" (the recording cannot be read), "too-long" (the recording is longer
     than :mod:`core.limits` lets it be), "timings" (the timings file is
     malformed), "mismatch" (the timings do not fit the transcript or the recording), "crash" (the
-    process synthesizing died), "engine" (anything else: the engine or the aligner failed). ``file`` is the file it is about;
+    process synthesizing died), "not-installed" (a piper voice whose packages are missing), "engine" (anything else: the engine or the aligner failed). ``file`` is the file it is about;
     ``reason`` the message without the file's name (for a diagnostic that names it itself).
     """
 

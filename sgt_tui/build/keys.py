@@ -9,7 +9,8 @@ The key is the sha256 of a canonical JSON rendering of:
   an utterance up or down the file must not regenerate it);
 - the content of each library gesture it plays (duration, keyframe times, stroke, bone
   directions: a gesture file's comments or description do not count);
-- the speech: the voice, rate and pitch and the espeak-ng build that speaks them, or for a
+- the speech: the voice, rate and pitch and the espeak-ng build that speaks them (a piper
+  voice: the rate and the versions of piper, the voice and onnxruntime), or for a
   recording the sha256 of the audio file and of its timings file (or the aligner that
   times it, when there is none);
 - the generator: the engine; for ``neural`` the sha256 of the weights, for ``matching`` that of
@@ -149,6 +150,11 @@ def _where(span, first_line: int) -> list[int]:
 def _speech(utt, files) -> dict:
     if utt.audio is None:
         v = utt.voice
+        from dsl.speech import piper  # lazy: the speech engines
+
+        natural = piper.voice_of(v.name)
+        if natural is not None:  # no pitch: it changes nothing
+            return {"engine": "piper", "build": piper.fingerprint(natural), "voice": natural.name, "rate": v.rate}
         return {"engine": "espeak-ng", "build": _espeak_build(), "voice": v.name, "rate": v.rate, "pitch": v.pitch}
     timings = utt.audio.timings
     return {

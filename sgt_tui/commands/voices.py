@@ -1,4 +1,4 @@
-"""sgt voices: the espeak-ng voices a script may name with @voice."""
+"""sgt voices: the voices (espeak-ng's and piper's) a script may name with @voice."""
 
 from __future__ import annotations
 
@@ -8,9 +8,10 @@ from core.counting import plural
 
 HELP = "list the speech voices for @voice"
 DESCRIPTION = """\
-List the voices of the installed espeak-ng: the names '@voice' accepts (a language
-code such as en-us, en-gb or fr) with the voice's description. Add +VARIANT for
-another timbre (en-us+m3, en-gb+f2): --variants lists the variants. 'sgt check'
+List the voices '@voice' accepts with their descriptions: the installed espeak-ng's
+(a language code such as en-us, en-gb or fr; add +VARIANT for another timbre, en-us+m3,
+en-gb+f2: --variants lists the variants) and the natural piper voice joe (American
+English; the 'piper' extra, which it says when it is not installed). 'sgt check'
 checks every @voice against these lists (a name longer than 64 characters, or a
 variant that is not installed, is refused before the speech engine sees it)."""
 
