@@ -182,6 +182,6 @@ def test_say_prints_a_line_without_a_speaker_with_every_word_it_speaks(tmp_path,
     script.write_text("guide:[pose:nod] Yes.\nguide: Fine.\n")
     assert cli.main(["say", str(script), "-o", str(tmp_path / "wav")]) == 0
     out, err = capsys.readouterr()
-    assert "[0] (no speaker) guide: Yes.\n" in out and "[1] guide: Fine.\n" in out
-    assert [line.split()[0] for line in out.split("[1]")[0].splitlines()[3:] if line.strip()] == ["guide", "Yes"]
+    assert "[1] (no speaker) guide: Yes.\n" in out and "[2] guide: Fine.\n" in out
+    assert [line.split()[0] for line in out.split("[2]")[0].splitlines()[3:] if line.strip()] == ["guide", "Yes"]
     assert "SGT116" in err
