@@ -12,7 +12,7 @@ and :data:`GAZE_DIRECTIONS`. sgt's own options (x2, flip, hold=) are attributes 
 Reading (:func:`bml_script`): BML 1.0 (``<sync>`` in ``<text>``) and Greta's form (``<tm>``
 in ``<speech>``); a behaviour's place is the sync point its ``stroke`` (else ``start``) refers
 to. Whatever cannot become a mark is a :class:`~dsl.markup.Problem` with its line and column.
-:func:`check_bml` holds the blocks sgt writes to the rules it states (docs/formats.md#bml).
+:func:`check_bml` holds the blocks sgt writes to the rules it states (docs/formats.md#bml-and-ssml).
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ Turn the behaviour of a BML file (.bml, .xml with <bml> blocks) or the marks of 
 
   BML   each <speech> is a line (its speaker the block's characterId); a <gesture> or <head>
         becomes [pose:NAME] at the sync point its stroke (else its start) refers to, a <gaze>
-        [look:TARGET], a <faceLexeme> <face:NAME>...</face>; lexemes as docs/formats.md#bml
+        [look:TARGET], a <faceLexeme> <face:NAME>...</face>; lexemes as docs/formats.md#bml-and-ssml
         maps them (CLASS=name, the gesture's name), or through --map
   SSML  the text of <speak> is one line; <mark name="wave"/> becomes [pose:wave] (a gesture's
         name, a mark written out such as "pose:wave x2" or "look:left", or through --map),
