@@ -290,7 +290,9 @@ def test_jobs_cancel_and_missing_weights_errors(tmp_path):
         await pilot.press("ctrl+g")
         await until(pilot, lambda: not app.jobs.busy)
         assert "weights not found" in app.last_message and "sgt train" in app.last_message
-        await pilot.press("ctrl+o")  # neural -> keyframe (the order: matching, the default, first)
+        await pilot.press("ctrl+o")  # neural -> flow -> keyframe (the order: matching, the default, first)
+        assert app.engine == "flow"
+        await pilot.press("ctrl+o")
         assert app.engine == "keyframe"
         await pilot.press("f8")
         await pilot.pause(0.05)
