@@ -83,3 +83,16 @@ class _QuietProcess(SpawnProcess):
                     handler(*held[0])
                 elif held and handler == signal.default_int_handler:
                     raise KeyboardInterrupt
+
+
+def stop(pool, started: list, wait: bool = True) -> None:
+    """Shut down the executor ``pool`` whose processes :func:`spawn_context` recorded in
+    ``started``; without ``wait`` its workers are terminated at once (interrupted, failed, or
+    no longer needed: there is no public way to stop a worker that is still starting)."""
+    if not wait:
+        for proc in started:
+            if proc.exitcode is None:
+                proc.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
+    for proc in started:  # one the executor never recorded (see spawn_context)
+        proc.join()

@@ -20,7 +20,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from typing import Self
 
-from core.workers import spawn_context
+from core.workers import spawn_context, stop
 
 #: Frames a worker draws per task: enough that the hand-over costs little, few enough that
 #: every worker has work until the end.
@@ -83,13 +83,7 @@ class Workers:
 
     def close(self, wait: bool = True) -> None:
         """Stop the workers: without ``wait`` at once (interrupted, or failed)."""
-        if not wait:
-            for proc in self.started:
-                if proc.exitcode is None:
-                    proc.terminate()
-        self.pool.shutdown(wait=True, cancel_futures=True)
-        for proc in self.started:  # one the executor never recorded (see core.workers.spawn_context)
-            proc.join()
+        stop(self.pool, self.started, wait)
 
     def __enter__(self) -> Self:
         return self

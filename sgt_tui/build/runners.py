@@ -22,7 +22,7 @@ from pathlib import Path
 from core.fileio import atomic_write
 from core.interrupts import import_optional
 from core.reading import read_bytes
-from core.workers import spawn_context
+from core.workers import spawn_context, stop
 from sgt_tui.build.keys import database_hash, weights_hash
 from sgt_tui.build.work import Task, TaskResult, run_task, warm_up
 
@@ -78,13 +78,7 @@ class LocalPool:
 
     def close(self, wait: bool = True) -> None:
         """Stop the workers; without ``wait``, at once (a warm-up that turned out useless)."""
-        if not wait:  # no public way to stop a worker that is still starting
-            for proc in self.started:
-                if proc.exitcode is None:
-                    proc.terminate()
-        self.pool.shutdown(wait=True, cancel_futures=True)
-        for proc in self.started:  # one the executor never recorded (see core.workers.spawn_context)
-            proc.join()
+        stop(self.pool, self.started, wait)
 
 
 def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: LocalPool | None = None,
