@@ -56,24 +56,19 @@ def test_a_gif_is_the_same_bytes_for_any_jobs(take, tmp_path):
     assert outs[0] == outs[1]
 
 
-@pytest.mark.xfail(strict=False, reason="open: the MP4 H.264 bits differ now and then between jobs 1 and 2 (and, with a sound "
-                   "track, now and then between two runs of the same command); the GIF's do not")
-def test_an_mp4_is_the_same_bytes_for_any_jobs(take, tmp_path):
-    """Without a sound track (with one, the file's bytes differ now and then from one run to
-    the next whatever the jobs)."""
-    from core.motion import load_motion_file
-    from renders.animate import render_mp4
-    from renders.clips import track_clip
-
-    t = load_motion_file(take)
-    clips = [track_clip(track, t.clips) for track in t.tracks]
+def test_an_mp4_with_sound_is_the_same_bytes_for_any_jobs_and_every_run(take, tmp_path):
+    """The MP4 (H.264 and the speech's AAC) of `sgt render`: the same bytes from two runs with
+    --jobs 1 and one with --jobs 2 (renders.video.X264_OPTIONS: x264's canonical code, one
+    encoder thread)."""
     outs = []
-    for jobs in (1, 2):
-        out = tmp_path / f"jobs{jobs}.mp4"
-        info = render_mp4(clips, out, labels=("a", "b"), size=(96, 96), jobs=jobs)
-        assert info["frames"] >= PARALLEL_FRAMES
+    for run, jobs in enumerate((1, 1, 2)):
+        out = tmp_path / f"run{run}.mp4"
+        r = _sgt("render", str(take), "-o", str(out), "--size", "96", "--jobs", str(jobs))
+        assert r.returncode == 0, r.stderr
+        assert _frames(r.stderr) >= PARALLEL_FRAMES
+        assert "with sound" in r.stderr
         outs.append(out.read_bytes())
-    assert outs[0] == outs[1]
+    assert outs[0] == outs[1] == outs[2]
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc to see the render's processes")
