@@ -55,6 +55,7 @@ _.worker_pid  # tests/test_editor_jobs.py: the job worker process is reused
 # -- PyAV stream and frame settings (renders/video.py): PyAV reads these attributes -------------
 _.pix_fmt
 _.time_base
+_.thread_count
 # renders/video.py: the MP4 writer of `sgt render -o take.mp4`; tests/test_video.py covers
 # encode_mp4, which it wraps.
 _.write_mp4

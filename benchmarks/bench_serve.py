@@ -5,13 +5,15 @@
 
 Starts `sgt serve` on 127.0.0.1 (a free port, loopback only) in its own process and prints
 1. load: CLIENTS concurrent clients for SECONDS, each posting one 5 s utterance after another
-   (plain text, real espeak-ng speech timing, the neural engine; 16 sentences in turn, so the
+   (plain text, real espeak-ng speech timing, the default engine; 16 sentences in turn, so the
    speech cache warms up as a game's dialogue would): latency p50/p95/p99, throughput, errors
-   (anything but 200) and the server's memory (RSS) at the start and the end. With ``--before
+   (anything but 200), the server's CPU per request (the CPU time of the server and its
+   children, the speech engine's, over the load, divided by the requests) and its memory (RSS)
+   at the start and the end. With ``--before
    REV`` (default 742c655, the code before issue 21; ``none``: today's only) the same load runs
    against a server of that revision too (benchmarks/against.py), the two alternating
    ``--rounds`` times, each server with its own fresh speech cache, so that both see the same
-   machine; goal (issue 21): p95 at most 200 ms with 0 errors at 8 clients;
+   machine; goal: p95 at most 150 ms with 0 errors at 8 clients, at most 30 ms of CPU a request;
 2. streaming: the stated lookahead and the measured one (time advancing frame by frame, each
    word sent when it starts: how far the known speech runs ahead of the last decided frame
    after each message), the compute per network call (median, p99), and how the stream's
@@ -99,6 +101,27 @@ class Server:
             if line.startswith("VmRSS:"):
                 return int(line.split()[1]) / 1024
         return float("nan")
+
+    def cpu_s(self) -> float:
+        """CPU seconds (user and system) the server has used so far: its own, its finished
+        children's and its running children's (the speech engine's), from /proc."""
+        tick = os.sysconf("SC_CLK_TCK")
+        stats = {}
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:  # gone meanwhile
+                continue
+            stats[int(stat.parent.name)] = fields
+        total, todo = 0, [self.proc.pid]
+        while todo:
+            pid = todo.pop()
+            fields = stats.get(pid)
+            if fields is None:
+                continue
+            total += sum(int(x) for x in fields[11:15])  # utime stime cutime cstime
+            todo += [child for child, f in stats.items() if int(f[1]) == pid]
+        return total / tick
 
     def stop(self) -> tuple[int, str]:
         if self.proc.poll() is None:
@@ -383,19 +406,22 @@ def main() -> int:
                 with Server("--workers", str(args.workers), "--queue", str(2 * args.clients), tree=tree,
                             env={"SGT_CACHE_DIR": str(cache)}) as server:
                     post(server.url + "/v1/generate", {"text": SENTENCES[0]})  # one warm-up request
-                    rss_start = server.rss_mb()
+                    rss_start, cpu_start = server.rss_mb(), server.cpu_s()
                     res = load(server.url, args.clients, args.seconds)
                     res["rss"] = (rss_start, server.rss_mb())
+                    res["cpu_ms"] = 1000 * (server.cpu_s() - cpu_start) / max(1, res["requests"])
                 runs[label].append(res)
                 print(f"  {label:16s} round {r + 1}: {res['requests']} requests, {res['errors']} errors (statuses "
                       f"{res['statuses']}), {res['throughput']:.1f}/s; latency p50 {res['p50'] * 1000:.0f} ms, "
-                      f"p95 {res['p95'] * 1000:.0f} ms, p99 {res['p99'] * 1000:.0f} ms; server RSS "
+                      f"p95 {res['p95'] * 1000:.0f} ms, p99 {res['p99'] * 1000:.0f} ms; server CPU "
+                      f"{res['cpu_ms']:.1f} ms per request; server RSS "
                       f"{res['rss'][0]:.0f} -> {res['rss'][1]:.0f} MiB", flush=True)
     p95 = {label: statistics.median(r["p95"] for r in rs) for label, rs in runs.items()}
     for label, rs in runs.items():
         errors = sum(r["errors"] for r in rs)
-        print(f"{label}: p95 {p95[label] * 1000:.0f} ms (median of {len(rs)} rounds), {errors} errors"
-              f"{' -> ok' if p95[label] <= 0.2 and not errors else ''}")
+        cpu = statistics.median(r["cpu_ms"] for r in rs)
+        print(f"{label}: p95 {p95[label] * 1000:.0f} ms (median of {len(rs)} rounds), {errors} errors, "
+              f"server CPU {cpu:.1f} ms per request{' -> ok' if p95[label] <= 0.15 and cpu <= 30 and not errors else ''}")
     if len(p95) == 2:
         before, now = p95.values()
         print(f"now / before (p95): {now / before:.2f} ({before / now:.1f}x faster); load average after "

@@ -23,8 +23,9 @@ on the first call of every process.
 
 from __future__ import annotations
 
-
+import threading
 import zlib
+from collections import OrderedDict
 from functools import lru_cache
 from pathlib import Path
 
@@ -262,10 +263,61 @@ def word_features(words, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
 def speech_inputs(inputs, n_frames: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(audio features, word ids, onsets) of an engine's inputs (:class:`model.generate.EngineInputs`:
     its speech audio, starting ``lead_in`` seconds in, and its timed words) on the motion
-    timeline of ``n_frames``; silence features when there is no audio file."""
-    if inputs.audio_path is not None and Path(inputs.audio_path).exists():
-        audio = audio_features(load_audio(inputs.audio_path), n_frames, offset_frames=int(round(inputs.lead_in * FPS)))
-    else:
+    timeline of ``n_frames``; silence features when there is no audio file. A speech file's
+    features are computed once (:data:`FEATURE_CACHE`): the same line again (a service's
+    speech cache gives it the same file) skips reading, resampling and the spectrum."""
+    audio = None
+    if inputs.audio_path is not None:
+        offset = int(round(inputs.lead_in * FPS))  # noqa: RUF046  (lead_in may be a numpy float32)
+        try:
+            st = Path(inputs.audio_path).stat()
+        except OSError:  # no such file: silence, as before there was speech
+            st = None
+        if st is not None:
+            key = (str(inputs.audio_path), st.st_ino, st.st_size, st.st_mtime_ns, n_frames, offset)
+            audio = FEATURE_CACHE.get(key)
+            if audio is None:
+                audio = audio_features(load_audio(inputs.audio_path), n_frames, offset_frames=offset)
+                FEATURE_CACHE.put(key, audio)
+    if audio is None:
         audio = silence_features(n_frames)
     ids, onsets = word_features(inputs.words, n_frames)
     return audio, ids, onsets
+
+
+class FeatureCache:
+    """The audio features of the speech files used last, at most ``budget`` bytes of them (the
+    least recently used go first). Keyed by the file's path, inode, size and modification time
+    and the timeline (frames, offset), so a changed file is read again. Thread-safe (a
+    service's worker threads share it); gives copies (an engine may change its array)."""
+
+    def __init__(self, budget: int) -> None:
+        self.budget = budget
+        self.used = 0
+        self.items: OrderedDict = OrderedDict()
+        self.lock = threading.Lock()
+
+    def get(self, key) -> np.ndarray | None:
+        with self.lock:
+            features = self.items.get(key)
+            if features is None:
+                return None
+            self.items.move_to_end(key)
+            return features.copy()
+
+    def put(self, key, features: np.ndarray) -> None:
+        if features.nbytes > self.budget:
+            return
+        with self.lock:
+            if key in self.items:
+                return
+            self.items[key] = features.copy()
+            self.used += features.nbytes
+            while self.used > self.budget:
+                _, old = self.items.popitem(last=False)
+                self.used -= old.nbytes
+
+
+#: Speech features of recent files: 16 MiB holds about 2 hours of speech (132 bytes a frame),
+#: some 1,700 five-second lines.
+FEATURE_CACHE = FeatureCache(16 << 20)

@@ -4,7 +4,10 @@ motion clips.
 Frames are rendered one at a time with one :class:`~renders.mannequin.Mannequin`,
 decorated (:mod:`renders.overlay`), mapped to one shared palette and streamed into a
 :class:`~renders.gifwriter.GifWriter`, so memory does not grow with the clip length.
-Every output is written with :func:`core.fileio.atomic_write`.
+Every output is written with :func:`core.fileio.atomic_write`. With ``jobs`` above 1, a take
+of at least :data:`PARALLEL_FRAMES` frames is drawn (and, for a GIF, mapped to the palette) in
+that many worker processes (:mod:`renders.frames`) while this process encodes, frame by
+frame in order: the same bytes for any ``jobs``.
 
 Each clip's face (``clip.face``, :class:`core.face.FaceTrack`) moves the mannequin's face (lip sync,
 blinks, gaze); a clip without one shows a resting face. ``face_inset`` (``auto``, ``on``, ``off``;
@@ -21,6 +24,7 @@ face's close-up.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 from dataclasses import dataclass
@@ -34,12 +38,16 @@ from core.motion import MotionClip
 from core.skeleton import FPS, seconds_to_frame
 from renders import overlay
 from renders.face_closeup import FaceInset, inset_side
+from renders.frames import Workers
 from renders.gifwriter import GifWriter, build_palette, frame_delays_cs, quantize
 from renders.mannequin import BODY, DEFAULT_VIEW, FaceFrames, Mannequin
 from renders.video import write_mp4
 
 DEFAULT_SIZE = (320, 320)
 PALETTE_SAMPLES = 6
+#: The shortest take drawn in worker processes (6 s): a worker's start (imports, GL context,
+#: meshes) costs about what it draws in its first second.
+PARALLEL_FRAMES = 90
 
 
 def _sample_frames(n_frames: int, k: int) -> list[int]:
@@ -124,13 +132,43 @@ def _panels(m, clip, compare, others, labels, view, tints, inset=None) -> list[_
     return [_Panel(m, c, labels[i] if labels else None, view=view, tint=tints[i], inset=inset) for i, c in enumerate(clips)]
 
 
+def _worker_draw(clips, labels, tints, view: str, size, face_inset: str):
+    """In a worker process (:mod:`renders.frames`): its own mannequin and panels, and the
+    function that draws frame f (RGB (H, W, 3)) or, given a palette, its palette indices."""
+    m = Mannequin(*size)
+    panels = _panels(m, clips[0], None, clips[1:], labels, view, tints, _inset(face_inset, view, *size))
+    quantizers: dict[bytes, object] = {}
+
+    def draw(f: int, palette: bytes | None):
+        image = _compose(panels, f)
+        if palette is None:
+            return np.asarray(image)
+        if palette not in quantizers:
+            from PIL import Image
+
+            quantizers[palette] = Image.new("P", (1, 1))
+            quantizers[palette].putpalette(palette)
+        return quantize(image, quantizers[palette])
+
+    return draw
+
+
+def _workers(jobs: int, n_frames: int, clips, labels, tints, view: str, size, face_inset: str):
+    """Worker processes drawing these panels (a context manager giving :class:`Workers`, or None
+    where this process draws alone)."""
+    if jobs <= 1 or n_frames < PARALLEL_FRAMES:
+        return contextlib.nullcontext()
+    return Workers(jobs, _worker_draw, (list(clips), labels, tints, view, tuple(size), face_inset))
+
+
 def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip | None = None,
                labels: tuple[str, ...] | None = None, progress=None, mannequin=None, others=(),
-               view: str = DEFAULT_VIEW, tints=None, face_inset: str = "auto") -> dict:
+               view: str = DEFAULT_VIEW, tints=None, face_inset: str = "auto", jobs: int = 1) -> dict:
     """Render ``clip`` (and, side by side, ``compare`` and ``others``, each with its label and,
     with ``tints``, its body colour) to a looping 15 fps GIF at ``path``, seen from ``view``
     (:data:`renders.mannequin.VIEWS`), with the face's close-up as ``face_inset`` says
-    (:data:`renders.face_closeup.INSET_MODES`).
+    (:data:`renders.face_closeup.INSET_MODES`); frames drawn in ``jobs`` worker processes for a
+    long take (the same bytes).
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform.
     """
@@ -141,16 +179,23 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
     try:
         panels = _panels(m, clip, compare, others, labels, view, tints, inset)
         n = max(p.clip.n_frames for p in panels)
-        samples = {f: _compose(panels, f) for f in _sample_frames(n, PALETTE_SAMPLES)}  # kept: a few frames
-        palette, pimg = build_palette(samples.values(), overlay.FIXED_COLORS)
-        first = next(iter(samples.values()))
-        writer = GifWriter(first.width, first.height, palette)
-        delays = frame_delays_cs(n)
-        for f in range(n):
-            image = samples.pop(f) if f in samples else _compose(panels, f)
-            writer.add(quantize(image, pimg), delays[f])
-            if progress:
-                progress(f + 1, n, "frames")
+        # Started first: they import and build their meshes while this process draws the samples.
+        with _workers(jobs, n, [p.clip for p in panels], tuple(p.label for p in panels),
+                      [p.tint for p in panels], view, size, face_inset) as workers:
+            samples = {f: _compose(panels, f) for f in _sample_frames(n, PALETTE_SAMPLES)}  # kept: a few frames
+            palette, pimg = build_palette(samples.values(), overlay.FIXED_COLORS)
+            first = next(iter(samples.values()))
+            writer = GifWriter(first.width, first.height, palette)
+            delays = frame_delays_cs(n)
+            if workers is not None:
+                samples.clear()
+                indices = workers.map(n, palette)
+            else:
+                indices = (quantize(samples.pop(f) if f in samples else _compose(panels, f), pimg) for f in range(n))
+            for f, frame in enumerate(indices):
+                writer.add(frame, delays[f])
+                if progress:
+                    progress(f + 1, n, "frames")
         data = writer.getvalue()
         atomic_write(path, data)
         return {"frames": n, "width": writer.width, "height": writer.height,
@@ -162,10 +207,11 @@ def render_gif(clip: MotionClip, path, *, size=DEFAULT_SIZE, compare: MotionClip
 
 def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None = None, audio=None,
                sample_rate: int | None = None, size=DEFAULT_SIZE, progress=None, mannequin=None,
-               view: str = DEFAULT_VIEW, tints=None, face_inset: str = "auto") -> dict:
+               view: str = DEFAULT_VIEW, tints=None, face_inset: str = "auto", jobs: int = 1) -> dict:
     """Render ``clips`` side by side (each with its label and tint) to a 15 fps H.264 MP4 at
     ``path``, seen from ``view``, with the face's close-up as ``face_inset`` says and
-    ``audio`` (mono, sample 0 with frame 0; :mod:`renders.audio_mix`) as its AAC track.
+    ``audio`` (mono, sample 0 with frame 0; :mod:`renders.audio_mix`) as its AAC track; frames
+    drawn in ``jobs`` worker processes for a long take (the same bytes).
 
     Returns a summary dict: frames, width, height, duration_s, bytes, platform, audio_s.
     """
@@ -176,8 +222,10 @@ def render_mp4(clips: list[MotionClip], path, *, labels: tuple[str, ...] | None 
     try:
         panels = _panels(m, clips[0], None, clips[1:], labels, view, tints, inset)
         n = max(p.clip.n_frames for p in panels)
-        info = write_mp4(path, (np.asarray(_compose(panels, f)) for f in range(n)), audio=audio, sample_rate=sample_rate,
-                         n_frames=n, progress=progress)
+        with _workers(jobs, n, [p.clip for p in panels], tuple(p.label for p in panels),
+                      [p.tint for p in panels], view, size, face_inset) as workers:
+            frames = workers.map(n) if workers is not None else (np.asarray(_compose(panels, f)) for f in range(n))
+            info = write_mp4(path, frames, audio=audio, sample_rate=sample_rate, n_frames=n, progress=progress)
         return {"frames": n, "width": width * len(panels), "height": height, "duration_s": n / FPS,
                 "bytes": info["bytes"], "platform": m.platform,
                 "audio_s": None if audio is None else n / FPS}

@@ -100,8 +100,17 @@ class FaceInset:
         """The close-up (a PIL image, ``side`` square) of one frame, drawn by ``mannequin``."""
         from PIL import Image
 
-        img = Image.fromarray(mannequin.render(positions, hands, view="face", tint=tint, face=face))
-        return img.crop(self.crop).resize((self.side, self.side), Image.LANCZOS)
+        x0, y0, x1, y1 = self.crop
+        inside = (max(0, x0), max(0, y0), min(mannequin.width, x1), min(mannequin.height, y1))
+        # Only the crop is drawn (the rest of the picture would be thrown away); what lies outside
+        # the picture is black, as an image's crop has it.
+        pixels = mannequin.render(positions, hands, view="face", tint=tint, face=face, region=inside)
+        img = Image.fromarray(pixels)
+        if inside != self.crop:
+            canvas = Image.new("RGB", (x1 - x0, y1 - y0))
+            canvas.paste(img, (inside[0] - x0, inside[1] - y0))
+            img = canvas
+        return img.resize((self.side, self.side), Image.LANCZOS)
 
     def draw(self, picture, mannequin: Mannequin, positions, hands, face, tint, color) -> None:
         """The close-up in the top right corner of PIL ``picture`` (in place), framed in ``color``."""

@@ -265,7 +265,7 @@ class MeshRenderer:
         self.pyrender, self._offscreen, self.platform = start(self.width, self.height)
         self._objects: dict[str, list] = {}
         self._materials = None
-        self._drawn = False
+        self._drawn = None  # the box of the frame drawn and not read yet
         try:
             static = np.concatenate([vertices, normals, np.asarray(part, np.float64)[:, None]], axis=1)
             self._build(np.ascontiguousarray(static, np.float32), np.ascontiguousarray(indices, dtype=np.uint32))
@@ -327,13 +327,16 @@ class MeshRenderer:
         GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)
         GL.glViewport(0, 0, self.width, self.height)
 
-    def render(self, frame: Frame) -> np.ndarray:
-        """Draw ``frame``; returns the image (H, W, 3) uint8, top row first."""
-        self.draw(frame)
+    def render(self, frame: Frame, region: tuple[int, int, int, int] | None = None) -> np.ndarray:
+        """Draw ``frame``; returns the image (H, W, 3) uint8, top row first: only the pixel box
+        ``region`` (x0, y0, x1, y1 from the top left, inside the picture) when given."""
+        self.draw(frame, region)
         return self.read()
 
-    def draw(self, frame: Frame) -> None:
-        """Start drawing ``frame`` (the GL works on while this returns); :meth:`read` gives it."""
+    def draw(self, frame: Frame, region: tuple[int, int, int, int] | None = None) -> None:
+        """Start drawing ``frame`` (the GL works on while this returns); :meth:`read` gives it.
+        With ``region`` only that box is drawn (a scissor: what is outside costs nothing) and
+        read, its pixels the same as in the whole picture."""
         from OpenGL import GL
 
         parts = np.asarray(frame.parts, np.float64)
@@ -341,8 +344,16 @@ class MeshRenderer:
             raise ValueError(f"parts are {parts.shape}, expected {(self.n_parts, 4, 4)}")
         if len(frame.lights) != self.n_lights:
             raise ValueError(f"{len(frame.lights)} lights, expected {self.n_lights}")
+        x0, y0, x1, y1 = region if region is not None else (0, 0, self.width, self.height)
+        if not (0 <= x0 < x1 <= self.width and 0 <= y0 < y1 <= self.height):
+            raise ValueError(f"region {region} is not inside the {self.width}x{self.height} picture")
         self._offscreen._platform.make_current()
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self._framebuffers[0])
+        if region is not None:  # GL's rows count from the bottom
+            GL.glEnable(GL.GL_SCISSOR_TEST)
+            GL.glScissor(x0, self.height - y1, x1 - x0, y1 - y0)
+        else:
+            GL.glDisable(GL.GL_SCISSOR_TEST)
         GL.glClearColor(*(c / 255 for c in frame.background), 1.0)
         GL.glClear(GL.GL_COLOR_BUFFER_BIT | GL.GL_DEPTH_BUFFER_BIT)
         u = self._uniforms
@@ -363,7 +374,7 @@ class MeshRenderer:
         GL.glDrawElements(GL.GL_TRIANGLES, self.n_indices, GL.GL_UNSIGNED_INT, ctypes.c_void_p(0))
         GL.glBindVertexArray(0)
         GL.glFlush()
-        self._drawn = True
+        self._drawn = (x0, y0, x1, y1)
 
     def read(self) -> np.ndarray:
         """The image of the last :meth:`draw` (H, W, 3) uint8, top row first (waits for it)."""
@@ -371,16 +382,18 @@ class MeshRenderer:
 
         if not self._drawn:
             raise RuntimeError("read() before draw()")
-        self._drawn = False
+        x0, y0, x1, y1 = self._drawn
+        self._drawn = None
+        w, h, bottom = x1 - x0, y1 - y0, self.height - y1
         ms, resolved = self._framebuffers
         self._offscreen._platform.make_current()
+        GL.glDisable(GL.GL_SCISSOR_TEST)  # the blit is clipped by the scissor too
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, ms)
         GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, resolved)
-        GL.glBlitFramebuffer(0, 0, self.width, self.height, 0, 0, self.width, self.height,
-                             GL.GL_COLOR_BUFFER_BIT, GL.GL_LINEAR)
+        GL.glBlitFramebuffer(x0, bottom, x1, bottom + h, x0, bottom, x1, bottom + h, GL.GL_COLOR_BUFFER_BIT, GL.GL_LINEAR)
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, resolved)
-        raw = GL.glReadPixels(0, 0, self.width, self.height, GL.GL_RGB, GL.GL_UNSIGNED_BYTE)
-        return np.frombuffer(raw, dtype=np.uint8).reshape(self.height, self.width, 3)[::-1]
+        raw = GL.glReadPixels(x0, bottom, w, h, GL.GL_RGB, GL.GL_UNSIGNED_BYTE)
+        return np.frombuffer(raw, dtype=np.uint8).reshape(h, w, 3)[::-1]
 
     def delete(self) -> None:
         """Release the GL objects and the context (best effort: a broken GL stack raises

@@ -371,10 +371,11 @@ class Mannequin:
             self._set(side + "_wristball", transform(np.eye(3), wrist))
 
     def render(self, positions: np.ndarray, hands: np.ndarray | None = None, *, view: str = DEFAULT_VIEW,
-               tint=BODY, face: np.ndarray | None = None) -> np.ndarray:
+               tint=BODY, face: np.ndarray | None = None, region: tuple[int, int, int, int] | None = None) -> np.ndarray:
         """An image of joint ``positions`` (10, 3), hand joints ``hands`` (2, 20, 3) and the
         face's parts ``face`` (a frame of :class:`FaceFrames`; None: a resting face), seen from
-        ``view`` (:data:`VIEWS`), the body in ``tint`` (linear RGB)."""
+        ``view`` (:data:`VIEWS`), the body in ``tint`` (linear RGB); only the pixel box
+        ``region`` (x0, y0, x1, y1, inside the picture) when given."""
         if view not in VIEWS:
             raise ValueError(f"unknown view '{view}': use {', '.join(VIEWS)}")
         self.pose(positions, hands, face)
@@ -390,7 +391,7 @@ class Mannequin:
         # PyOpenGL drops exceptions raised inside its argument conversion, KeyboardInterrupt
         # included (a Ctrl-C landing there was lost and the render ran on): hold it for the frame.
         with interrupts_deferred():
-            color = self.renderer.render(self.scene)
+            color = self.renderer.render(self.scene, region)
         return color
 
     def close(self) -> None:

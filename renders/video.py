@@ -25,6 +25,16 @@ from core.skeleton import FPS
 
 #: H.264 quality: constant rate factor (lower is better; 23 is x264's default).
 CRF = 23
+#: x264's settings besides the quality: the same bytes from the same frames, every time and on
+#: any machine. ``cpu-independent``: x264's own code for its CPU-specific shortcuts (the
+#: macroblock-tree propagation, the nine-way intra searches); their AVX-512 versions gave
+#: results that depended on what earlier allocations had left in memory (the same frames
+#: encoded 250 times in one process: 61 different files, the first difference at a random
+#: frame; none with ``cpu-independent`` or with AVX-512 masked off). One thread: x264's slices
+#: follow its thread count, which by default follows the machine's cores (the render's frame
+#: workers use the other cores).
+X264_OPTIONS = {"preset": "veryfast", "x264-params": "cpu-independent=1"}
+X264_THREADS = 1
 
 
 class VideoError(Exception):
@@ -59,7 +69,8 @@ def encode_mp4(frames: Iterable, *, audio: np.ndarray | None = None, sample_rate
                 video.width, video.height = _even(w), _even(h)
                 video.pix_fmt = "yuv420p"
                 video.time_base = Fraction(1, fps)
-                video.options = {"crf": str(CRF), "preset": "veryfast"}
+                video.options = {"crf": str(CRF), **X264_OPTIONS}
+                video.codec_context.thread_count = X264_THREADS
                 if audio is not None:
                     audio_stream = container.add_stream("aac", rate=int(sample_rate))
                     audio_stream.layout = "mono"

@@ -17,29 +17,9 @@ import time
 from pathlib import Path
 
 import pytest
-from processes import children
+from processes import alive, spawned_workers
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _workers(pid: int) -> list[int]:
-    """The build's spawned worker processes (not the resource tracker or the speech server)."""
-    found = []
-    for child in children(pid):
-        try:
-            if b"spawn_main" in Path(f"/proc/{child}/cmdline").read_bytes():
-                found.append(child)
-        except OSError:
-            pass
-    return found
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
 
 
 def _entries(cache: Path) -> int:
@@ -130,19 +110,19 @@ def test_ctrl_c_at_any_moment_of_a_build_prints_one_line_and_leaves_no_worker(tr
     try:
         deadline = time.monotonic() + 120
         while p.poll() is None and time.monotonic() < deadline and not module:
-            workers = _workers(p.pid) or workers
+            workers = spawned_workers(p.pid) or workers
             if ((when == "numpy" and _loaded(p.pid, "_multiarray_umath")) or (when == "worker" and workers)
                     or (when == "generating" and _entries(cache))):
                 break
             time.sleep(0.005)
         if not module:
             time.sleep(delay)
-            workers = _workers(p.pid) or workers
+            workers = spawned_workers(p.pid) or workers
             assert p.poll() is None, "the build ended before the interrupt: make the tree longer"
             os.killpg(p.pid, signal.SIGINT)  # what ctrl+c on a terminal does
         else:  # a worker sends it
             while p.poll() is None and time.monotonic() < deadline:
-                workers = _workers(p.pid) or workers
+                workers = spawned_workers(p.pid) or workers
                 time.sleep(0.005)
         _, err = p.communicate(timeout=60)
     finally:
@@ -154,7 +134,7 @@ def test_ctrl_c_at_any_moment_of_a_build_prints_one_line_and_leaves_no_worker(tr
     assert p.returncode in (130, -signal.SIGINT), err
     assert err.splitlines() == ["interrupted"], err
     deadline = time.monotonic() + 20
-    while [w for w in workers if _alive(w)] and time.monotonic() < deadline:
+    while [w for w in workers if alive(w)] and time.monotonic() < deadline:
         time.sleep(0.05)
-    assert not [w for w in workers if _alive(w)], "worker processes outlived the interrupted build"
+    assert not [w for w in workers if alive(w)], "worker processes outlived the interrupted build"
     assert not (out / "manifest.json").exists()

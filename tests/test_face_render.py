@@ -313,6 +313,34 @@ def test_the_face_view_follows_the_head(mannequin):
         assert np.abs(image[2, 2] - np.array(BACKGROUND)).sum() < 10
 
 
+def test_a_region_is_drawn_with_the_same_pixels_as_the_whole_picture(mannequin):
+    """The close-up draws only its crop (a scissor): the box's pixels are those of the whole
+    picture, at any place (edges included), and the close-up is the whole picture cropped and
+    scaled, also where its crop reaches past the picture (black there, as a crop has it)."""
+    from PIL import Image
+
+    from renders.face_closeup import FaceInset
+    from renders.mannequin import BODY, FaceFrames
+
+    clip = MotionClip(poses=REST_POSE[None], face=_face(jawOpen=0.8, eyeBlinkLeft=1.0))
+    positions, face = clip.positions[0], FaceFrames(clip.face)[0]
+    whole = mannequin.render(positions, view="face", face=face)
+    for x0, y0, x1, y1 in ((0, 0, SIZE, SIZE), (40, 17, 201, 260), (0, 0, 1, 1), (SIZE - 33, SIZE - 50, SIZE, SIZE)):
+        mannequin.render(positions, view="front")  # another picture left in the framebuffer
+        part = mannequin.render(positions, view="face", face=face, region=(x0, y0, x1, y1))
+        assert np.array_equal(part, whole[y0:y1, x0:x1]), (x0, y0, x1, y1)
+    # the next whole picture is whole again (no scissor left behind)
+    assert np.array_equal(mannequin.render(positions, view="face", face=face), whole)
+    with pytest.raises(ValueError, match="not inside"):
+        mannequin.render(positions, view="face", region=(0, 0, SIZE + 1, SIZE))
+
+    # (a second Mannequin would not do: closing one ends the GL display every other one uses)
+    for inset in (FaceInset(60, SIZE, SIZE), FaceInset(60, 100, 200)):  # the second's crop starts left of the picture
+        picture = Image.fromarray(whole).crop(inset.crop).resize((60, 60), Image.LANCZOS)
+        assert np.array_equal(np.asarray(inset.image(mannequin, positions, None, face, BODY)), np.asarray(picture))
+    assert FaceInset(60, 100, 200).crop[0] < 0 <= FaceInset(60, SIZE, SIZE).crop[0]
+
+
 def test_the_inset_is_on_where_the_head_is_small():
     from renders.face_closeup import INSET_BELOW, head_box, inset_side, rest_positions
     from renders.mannequin import DEFAULT_VIEW

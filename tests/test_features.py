@@ -49,3 +49,58 @@ def test_nan_percentile_is_numpys_bits():
             warnings.simplefilter("ignore", RuntimeWarning)
             expected = np.nanpercentile(values, 90.0, axis=0, keepdims=True)
         assert np.array_equal(nan_percentile(values, 90.0), expected, equal_nan=True)
+
+
+def test_a_speech_files_features_are_computed_once_and_again_when_it_changes(tmp_path, monkeypatch):
+    """The same speech file again (a service's speech cache gives the same line the same file)
+    is not read, resampled and analysed again: the features come from the cache, the same
+    numbers, a copy the engine may change. A changed file is read again."""
+    import wave
+    from types import SimpleNamespace
+
+    import model.features as features
+
+    monkeypatch.setattr(features, "FEATURE_CACHE", features.FeatureCache(1 << 20))
+    reads = []
+    real = features.load_audio
+    monkeypatch.setattr(features, "load_audio", lambda path, *a: reads.append(path) or real(path, *a))
+
+    def write(path, seconds, freq):
+        t = np.arange(int(22050 * seconds)) / 22050
+        with wave.open(str(path), "wb") as w:
+            w.setnchannels(1)
+            w.setsampwidth(2)
+            w.setframerate(22050)
+            w.writeframes((np.sin(2 * np.pi * freq * t) * np.sin(t * 3) * 12000).astype("<i2").tobytes())
+
+    wav = tmp_path / "line.wav"
+    write(wav, 2.0, 220)
+    inputs = SimpleNamespace(audio_path=wav, lead_in=0.2, words=[])
+    first, _, _ = features.speech_inputs(inputs, 40)
+    fresh = features.audio_features(real(wav), 40, offset_frames=3)
+    assert np.array_equal(first, fresh)
+    first[:] = 0  # the engine's copy
+    again, _, _ = features.speech_inputs(inputs, 40)
+    assert len(reads) == 1 and np.array_equal(again, fresh)
+    features.speech_inputs(SimpleNamespace(audio_path=wav, lead_in=0.0, words=[]), 40)  # another timeline
+    assert len(reads) == 2
+    write(wav, 2.5, 440)  # the file changed
+    changed, _, _ = features.speech_inputs(inputs, 40)
+    assert len(reads) == 3 and np.array_equal(changed, features.audio_features(real(wav), 40, offset_frames=3))
+    assert not np.array_equal(changed, fresh)
+    wav.unlink()  # gone: silence, as for a line without speech
+    assert np.array_equal(features.speech_inputs(inputs, 40)[0], features.silence_features(40))
+
+
+def test_the_feature_cache_keeps_to_its_budget():
+    from model.features import FeatureCache
+
+    cache = FeatureCache(3 * 400)
+    for k in range(5):
+        cache.put(k, np.full((10, 10), k, np.float32))  # 400 bytes each
+    assert cache.used <= 3 * 400 and list(cache.items) == [2, 3, 4]
+    assert cache.get(2) is not None  # used: the last to go now
+    cache.put(5, np.zeros((10, 10), np.float32))
+    assert list(cache.items) == [4, 2, 5]
+    cache.put(6, np.zeros((40, 10), np.float32))  # larger than the whole budget: not kept
+    assert 6 not in cache.items

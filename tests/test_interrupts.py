@@ -147,13 +147,13 @@ def test_ctrl_c_while_a_frame_renders_is_not_swallowed_by_pyopengl():
     try:
         real = m.renderer.render
 
-        def swallowing(scene):
+        def swallowing(scene, region=None):
             try:
                 os.kill(os.getpid(), signal.SIGINT)
                 time.sleep(0.05)  # the handler runs here
             except BaseException:  # noqa: BLE001 - what PyOpenGL's conversion does
                 pass
-            return real(scene)
+            return real(scene, region)
 
         m.renderer.render = swallowing
         with pytest.raises(KeyboardInterrupt):

@@ -80,3 +80,33 @@ def test_ffprobe_reads_15_fps_video_and_audio_of_the_same_length(tmp_path):
     assert streams["audio"]["codec_name"] == "aac"
     assert abs(float(streams["audio"]["duration"]) - n / 15) < 1 / 15
     assert abs(float(streams["video"]["duration"]) - n / 15) < 1e-6
+
+
+def test_the_same_frames_give_the_same_bytes_every_time():
+    """The same frames and sound, encoded again and again in one process with other videos
+    encoded in between (as an editor or a service does): the same file every time. x264's
+    AVX-512 shortcuts made the result depend on what the encodes before had left in memory
+    (here: 6 different files in 20); :data:`renders.video.X264_OPTIONS` keeps to its canonical
+    code."""
+    from fractions import Fraction
+
+    rng = np.random.default_rng(1)
+    base = (rng.random((96, 192, 3)) * 255).astype(np.uint8)
+    frames = [np.roll(base, i, axis=1) for i in range(183)]
+    sound = (rng.random(SR * 13) - 0.5).astype(np.float32) * 0.2
+
+    def another_video():
+        cc = av.CodecContext.create("libx264", "w")
+        cc.width, cc.height, cc.pix_fmt, cc.time_base = 192, 96, "yuv420p", Fraction(1, 15)
+        cc.options = {"crf": "30", "preset": "veryfast"}
+        for i, a in enumerate(frames):
+            frame = av.VideoFrame.from_ndarray(a, format="rgb24")
+            frame.pts = i
+            cc.encode(frame)
+        cc.encode()
+
+    files = set()
+    for _ in range(20):
+        files.add(encode_mp4(iter(frames), audio=sound, sample_rate=SR))
+        another_video()
+    assert len(files) == 1

@@ -15,16 +15,14 @@ the build writes cache entries and outputs from there, so a worker never writes 
 from __future__ import annotations
 
 import os
-import signal
 import threading
-import weakref
 from collections.abc import Callable, Sequence
-from multiprocessing.context import SpawnContext, SpawnProcess
 from pathlib import Path
 
 from core.fileio import atomic_write
 from core.interrupts import import_optional
 from core.reading import read_bytes
+from core.workers import spawn_context, stop
 from model.engines import NETWORK_ENGINES
 from sgt_tui.build.keys import database_hash, weights_hash
 from sgt_tui.build.work import Task, TaskResult, run_task, warm_up
@@ -34,77 +32,6 @@ OnResult = Callable[[TaskResult], None]
 
 class RunnerError(Exception):
     """The runner itself failed (a worker process died, Ray could not start); one line for users."""
-
-
-def default_jobs() -> int:
-    """The CPUs this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not Linux
-        return max(1, os.cpu_count() or 1)
-
-
-def _spawn_context(started: list):
-    """The "spawn" context, with workers that start with SIGINT blocked; every process it
-    starts is appended to ``started``.
-
-    ctrl+c on a terminal sends SIGINT to the whole foreground process group: the build's
-    workers too. A worker that got it while Python started (``site`` runs the ``.pth`` files),
-    while it imported sgt or while it generated printed a KeyboardInterrupt traceback each,
-    after the build's one "interrupted" line. The build stops its workers itself (SIGTERM,
-    :meth:`LocalPool.close`), so they need never see SIGINT: a process inherits the signal
-    mask of the thread that forks it, across ``exec``, so each worker is started from a thread
-    that blocks SIGINT for that moment (a SIGINT meanwhile waits, and reaches this process
-    once the mask is restored).
-
-    That SIGINT then lands right after ``start`` returns, before the executor has recorded the
-    new process: ``started`` records it first (with SIGINT still blocked), so that
-    :meth:`LocalPool.close` stops it too. (Left running, it outlived the build and printed a
-    traceback when the semaphores it was unpickling had gone with the build.)"""
-    import multiprocessing
-
-    if not hasattr(signal, "pthread_sigmask"):  # not POSIX
-        return multiprocessing.get_context("spawn")
-
-    class QuietSpawn(SpawnContext):
-        def Process(self, *args, **kwargs):
-            proc = _QuietProcess(*args, **kwargs)
-            _RECORD[proc] = started
-            return proc
-
-    return QuietSpawn()
-
-
-#: Where each :class:`_QuietProcess` records itself when it starts (not on the process object:
-#: that is pickled for the child).
-_RECORD: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-class _QuietProcess(SpawnProcess):
-    """A spawned process that starts with SIGINT blocked (see :func:`_spawn_context`)."""
-
-    def start(self) -> None:
-        # The mask keeps SIGINT from the child; it does not keep it from this process's other
-        # threads (the executor's), whose delivery still runs the Python handler here, in the
-        # middle of start(): the child then read half its start-up data and printed an EOFError
-        # traceback. So the handler is held off too, and a SIGINT meanwhile raised after.
-        held: list = []
-        main = threading.current_thread() is threading.main_thread()
-        handler = signal.signal(signal.SIGINT, lambda *a: held.append(a)) if main else None
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            super().start()
-            record = _RECORD.get(self)
-            if record is not None:
-                record.append(self)
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
-            if main:
-                signal.signal(signal.SIGINT, handler)
-                if held and callable(handler):
-                    handler(*held[0])
-                elif held and handler == signal.default_int_handler:
-                    raise KeyboardInterrupt
 
 
 class LocalPool:
@@ -117,7 +44,7 @@ class LocalPool:
 
         self.jobs = jobs
         self.started: list = []  # every worker process started, recorded before the executor does
-        self.pool = ProcessPoolExecutor(max_workers=jobs, mp_context=_spawn_context(self.started),
+        self.pool = ProcessPoolExecutor(max_workers=jobs, mp_context=spawn_context(self.started),
                                         initializer=warm_up, initargs=(settings,))
         self.warming = None  # the warm-up's future, while :meth:`warm` has started one worker
 
@@ -152,13 +79,7 @@ class LocalPool:
 
     def close(self, wait: bool = True) -> None:
         """Stop the workers; without ``wait``, at once (a warm-up that turned out useless)."""
-        if not wait:  # no public way to stop a worker that is still starting
-            for proc in self.started:
-                if proc.exitcode is None:
-                    proc.terminate()
-        self.pool.shutdown(wait=True, cancel_futures=True)
-        for proc in self.started:  # one the executor never recorded (see _spawn_context)
-            proc.join()
+        stop(self.pool, self.started, wait)
 
 
 def run_local(tasks: Sequence[Task], jobs: int, on_result: OnResult, pool: LocalPool | None = None,

@@ -61,9 +61,10 @@ def register(sub) -> None:
 def run(args) -> int:
     from pathlib import Path
 
+    from core.workers import default_jobs
     from sgt_tui.build import BuildCache, Settings, build, find_sources
     from sgt_tui.build.lock import Busy
-    from sgt_tui.build.runners import RunnerError, default_jobs
+    from sgt_tui.build.runners import RunnerError
     from sgt_tui.commands.common import database_option, existing_file, output_folder, print_diagnostics
     from sgt_tui.errors import InputError, UsageError
     from sgt_tui.progress import BuildProgress

@@ -42,8 +42,12 @@ VIEWS = ("three-quarter", "front", "side", "top", "face")
 FACE_INSETS = ("auto", "on", "off")
 
 
+#: The most worker processes ``--jobs`` defaults to (each holds a GL context and a copy of the take).
+MAX_DEFAULT_JOBS = 8
+
+
 def register(sub) -> None:
-    from sgt_tui.commands.common import utterance_number
+    from sgt_tui.commands.common import positive_int, utterance_number
 
     p = sub.add_parser("render", help=HELP, description=DESCRIPTION,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -61,6 +65,9 @@ def register(sub) -> None:
     p.add_argument("--size", metavar="WxH", default="320x320", help="frame size in pixels, WxH or N (default 320x320)")
     p.add_argument("--utterance", type=utterance_number, metavar="N", help="only utterance N (the first is 1)")
     p.add_argument("--speaker", metavar="NAME", help="only this speaker's track")
+    p.add_argument("--jobs", type=positive_int, metavar="N",
+                   help=f"worker processes drawing the frames of a long take (default: the CPUs this process may use, "
+                        f"at most {MAX_DEFAULT_JOBS}; 1: draw in this process); the output is the same for any N")
     add_script_options(p)
     p.set_defaults(run=run)
 
@@ -136,13 +143,16 @@ def run(args) -> int:
     if video:
         audio, rate = _audio(take, args.input)
 
+    from core.workers import default_jobs
     from renders.animate import render_gif, render_mp4, render_sheet
+    from renders.frames import WorkerDied
     from renders.gl import RenderSetupError
     from renders.mannequin import Mannequin
     from renders.video import VideoError
     from sgt_tui.errors import InputError
     from sgt_tui.progress import ProgressBar
 
+    jobs = args.jobs or min(default_jobs(), MAX_DEFAULT_JOBS)
     try:
         m = Mannequin(*size)
     except RenderSetupError as exc:
@@ -152,14 +162,17 @@ def run(args) -> int:
             try:
                 info = render_mp4(clips, out, labels=labels, audio=audio, sample_rate=rate, size=size,
                                   progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints,
-                                  face_inset=args.face_inset)
-            except VideoError as exc:
+                                  face_inset=args.face_inset, jobs=jobs)
+            except (VideoError, WorkerDied) as exc:
                 raise InputError(str(exc)) from None
             sound = "with sound" if audio is not None else "no sound"
         else:
-            info = render_gif(clips[0], out, size=size, others=clips[1:], labels=labels,
-                              progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints,
-                              face_inset=args.face_inset)
+            try:
+                info = render_gif(clips[0], out, size=size, others=clips[1:], labels=labels,
+                                  progress=ProgressBar("render"), mannequin=m, view=args.view, tints=tints,
+                                  face_inset=args.face_inset, jobs=jobs)
+            except WorkerDied as exc:
+                raise InputError(str(exc)) from None
             sound = ""
         print(f"wrote {shown(out)}: {plural(info['frames'], 'frame')}, {info['duration_s']:.2f} s, "
               f"{info['width']}x{info['height']}, {info['bytes'] / 1024:.0f} KiB"
