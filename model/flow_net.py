@@ -121,7 +121,7 @@ class FlowNet(nn.Module):
         self.head = nn.Linear(h, POSE_DIM)
         nn.init.zeros_(self.head.weight)
         nn.init.zeros_(self.head.bias)
-        self.register_buffer("pose_mean", torch.as_tensor(REST_POSE, dtype=torch.float32))
+        self.register_buffer("pose_mean", torch.tensor(REST_POSE, dtype=torch.float32))  # a copy: loading weights writes into it
         self.register_buffer("pose_std", torch.ones(POSE_DIM))
 
     def set_pose_statistics(self, mean, std) -> None:

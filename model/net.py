@@ -65,7 +65,7 @@ class GestureNet(nn.Module):
         self.blocks = nn.ModuleList(_Block(h, cfg["kernel"], 2**i) for i in range(cfg["layers"]))
         self.gru = nn.GRU(h, h // 2, batch_first=True, bidirectional=True) if cfg["gru"] else None
         self.head = nn.Linear(h, POSE_DIM)
-        self.register_buffer("mean_pose", torch.as_tensor(REST_POSE, dtype=torch.float32))
+        self.register_buffer("mean_pose", torch.tensor(REST_POSE, dtype=torch.float32))  # a copy: loading weights writes into it
         taps = int(cfg["smooth"])
         if taps > 1:
             k = torch.tensor([math.comb(taps - 1, i) for i in range(taps)], dtype=torch.float32)

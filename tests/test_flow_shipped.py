@@ -125,3 +125,15 @@ def test_sgt_generate_runs_the_flow_engine_without_torch(tmp_path):
     r = subprocess.run([sys.executable, "-c", code, "generate", str(script), "-o", str(tmp_path / "m.json"), "--engine", "flow"],
                        capture_output=True, text=True, cwd=ROOT, timeout=300, check=False)
     assert r.stdout.strip().splitlines()[-1] == "['onnxruntime'] 0", r.stderr
+
+
+def test_loading_weights_leaves_the_rest_pose_alone():
+    """A network's base-pose buffer is a copy of core.skeleton.REST_POSE: loading weights writes
+    into the buffer, and a buffer sharing the array's memory rewrote the rest pose of every
+    later caller in the process (the keyframe engine, the hands, the library)."""
+    from core.skeleton import REST_POSE
+
+    before = REST_POSE.copy()
+    load_weights(DEFAULT_FLOW_WEIGHTS, "flow")
+    load_weights()
+    assert np.array_equal(REST_POSE, before)

@@ -384,9 +384,13 @@ def test_a_hostile_take_is_bounded(tmp_path):
     frames = (2 << 20) // (len(row) + 1)
     lines += ["MOTION", f"Frames: {frames}", "Frame Time: 0.001"] + [row] * frames
     take.write_text("\n".join(lines) + "\n")
-    code = ("import resource, sys\nfrom sgt_tui import cli\nrc = cli.main(sys.argv[1:])\n"
-            "print('RSS', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\nsys.exit(rc)\n")
-    r = subprocess.run([sys.executable, "-c", code, "library", "add", "x", "--from", str(take),
+    # the peak is the command's own, measured by a small launcher (RUSAGE_CHILDREN): a process
+    # forked straight from the suite starts with the suite's resident memory
+    launcher = ("import resource, subprocess, sys\n"
+                "rc = subprocess.call([sys.executable, '-m', 'sgt_tui.cli'] + sys.argv[1:])\n"
+                "print('RSS', resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr)\n"
+                "sys.exit(rc)\n")
+    r = subprocess.run([sys.executable, "-c", launcher, "library", "add", "x", "--from", str(take),
                         "--frames", f"0:{frames}", "--to", str(tmp_path / "lib")],
                        capture_output=True, text=True, timeout=120, cwd=tmp_path, check=False,
                        env={"PYTHONPATH": str(ROOT), "HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})

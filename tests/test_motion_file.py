@@ -261,7 +261,7 @@ def test_a_track_or_an_utterance_outside_the_performance_is_refused(tmp_path):
     assert doc["frames"] == 25
     doc["frames"] = 24
     path.write_text(json.dumps(doc))
-    with pytest.raises(MotionFileError, match="utterance 1 .* does not fit in the performance's 24 frames"):
+    with pytest.raises(MotionFileError, match="utterance 2 .* does not fit in the performance's 24 frames"):
         load_motion_file(path)
     doc["frames"] = 25
     path.write_text(json.dumps(doc))
