@@ -116,7 +116,7 @@ def main() -> int:
     # A 10,000-line script speaks for about 16 hours, past the default limit on a performance's
     # length (SGT411, core/limits.py), where the analysis would stop at the first line past it:
     # raise the limit, so the whole script is checked, as a user who sets it would have it.
-    os.environ["SGT_MAX_SECONDS"] = str(max(3600, 10 * args.lines))
+    os.environ["SGT_MAX_SECONDS"] = str(max(3600, 30 * args.lines))
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "big.sgt"
         path.write_text(make_script(args.lines), encoding="utf-8")
@@ -149,7 +149,7 @@ def main() -> int:
         report("`sgt --help` subprocess", timeit(lambda: subprocess.run(sgt + ["--help"], check=True, capture_output=True), args.repeat))
         # 600 holds of 10 s last 100 minutes: over the hour a script may last (core/limits.py),
         # which alone would be one error; a longer limit shows every warning, hints included
-        os.environ["SGT_MAX_SECONDS"] = str(max(3600, 10 * args.lines, 20 * args.late))
+        os.environ["SGT_MAX_SECONDS"] = str(max(3600, 30 * args.lines, 20 * args.late))
         late = Path(tmp) / "late.sgt"
         late.write_text(late_strokes(args.late), encoding="utf-8")
         result = compile_file(late, timing="estimate", library=lib)
