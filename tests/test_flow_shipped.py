@@ -16,12 +16,12 @@ import pytest
 pytest.importorskip("torch")
 
 from core.controls import ControlArrays
-from core.skeleton import FPS, JOINTS
+from core.skeleton import FPS
 from dsl.compiler import compile_file
 from model import flow, neural
 from model.generate import EngineInputs
 from model.runtime import OnnxRunner, TorchRunner, onnx_path, random_window, read_export
-from model.training.metrics import group_statistics, joint_speeds
+from model.training.metrics import group_statistics
 from model.weights import DEFAULT_FLOW_WEIGHTS, file_hash, load_weights
 from tests.test_shipped_model import EXAMPLE, PAUSES
 
@@ -100,19 +100,13 @@ def test_shipped_flow_joins_its_windows_without_jumps(example):
 def test_shipped_flow_rests_in_pauses(tmp_path):
     script = tmp_path / "pauses.sgt"
     script.write_text(PAUSES)
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from pause_check import span_masks, wrist_speed  # lazy: a script, found on the path added above
+
     u = compile_file(script).plan.utterances[0]
-    spans = [(c.start_frame, c.end_frame) for c in u.controls if c.kind == "pause"]
-    pause = np.zeros(u.n_frames, bool)
-    for a, b in spans:
-        pause[a:b] = True
-    t = np.arange(u.n_frames) / FPS
-    speaking = np.zeros(u.n_frames, bool)
-    for w in u.words:
-        speaking |= (t >= w.start) & (t < w.end)
-    speaking &= ~pause
-    wrists = [JOINTS.index("left_wrist"), JOINTS.index("right_wrist")]
+    pause, speaking = span_masks(u)
     for seed in range(3):
-        speed = np.r_[0.0, joint_speeds(flow.generate(EngineInputs.from_plan(u), seed=seed))[:, wrists].mean(axis=1)]
+        speed = wrist_speed(flow.generate(EngineInputs.from_plan(u), seed=seed))
         assert np.median(speed[pause]) <= np.median(speed[speaking])
         assert speed[pause].mean() <= speed[speaking].mean()
 
