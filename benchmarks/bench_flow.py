@@ -33,13 +33,11 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=21)
     args = ap.parse_args()
 
-    import numpy as np
     import torch
 
-    from core.controls import ControlArrays
+    from bench_generate import random_inputs  # benchmarks/ is the script's folder
     from core.skeleton import FPS
     from model import flow, postprocess
-    from model.features import AUDIO_DIM
     from model.flow_stream import FlowStreamGenerator
     from model.runtime import TorchRunner, fresh_export
     from model.weights import load_weights
@@ -50,11 +48,7 @@ def main() -> int:
     print(f"weights {args.weights}: {sum(p.numel() for p in net.parameters()):,} parameters, {steps} sampler steps "
           f"(times {net.config['times']}), guidance {net.config['guidance']}")
     n = 20 * FPS
-    arrays = ControlArrays.empty(n)
-    rng = np.random.default_rng(0)
-    audio = rng.normal(size=(n, AUDIO_DIM)).astype(np.float32)
-    ids = rng.integers(1, 4096, n)
-    onsets = (rng.random(n) < 0.1).astype(np.float32)
+    arrays, audio, ids, onsets = random_inputs(n)
     runners = [("PyTorch, 1 thread", TorchRunner(net))]
     export = fresh_export(args.weights)
     if export is not None:

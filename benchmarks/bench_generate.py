@@ -55,13 +55,25 @@ print(json.dumps({{"frames": n, "rss_before_mb": before / 1024, "rss_after_mb": 
 """
 
 
-def model_time(weights, repeat: int) -> None:
+def random_inputs(n: int, seed: int = 0):
+    """A network's inputs for ``n`` frames of made-up speech and no controls: (controls, audio
+    features, word ids, onset flags); the timing does not depend on what they say."""
     import numpy as np
 
     from core.controls import ControlArrays
+    from model.features import AUDIO_DIM
+
+    rng = np.random.default_rng(seed)
+    audio = rng.normal(size=(n, AUDIO_DIM)).astype(np.float32)
+    ids = rng.integers(1, 4096, n)
+    onsets = (rng.random(n) < 0.1).astype(np.float32)
+    return ControlArrays.empty(n), audio, ids, onsets
+
+
+def model_time(weights, repeat: int) -> None:
+
     from core.skeleton import FPS
     from model import neural, postprocess
-    from model.features import AUDIO_DIM
 
     if weights and Path(weights).exists():
         from model.weights import load_weights
@@ -81,11 +93,7 @@ def model_time(weights, repeat: int) -> None:
     from model.runtime import TorchRunner, fresh_export
 
     n = 20 * FPS
-    arrays = ControlArrays.empty(n)
-    rng = np.random.default_rng(0)
-    audio = rng.normal(size=(n, AUDIO_DIM)).astype(np.float32)
-    ids = rng.integers(1, 4096, n)
-    onsets = (rng.random(n) < 0.1).astype(np.float32)
+    arrays, audio, ids, onsets = random_inputs(n)
     print(f"model: {what}; {sum(p.numel() for p in model.parameters()):,} parameters")
     runners = [(f"PyTorch, {t} thread{'s' if t > 1 else ''}", TorchRunner(model), t) for t in (1, 2)]
     export = fresh_export(weights) if weights and Path(weights).exists() else None

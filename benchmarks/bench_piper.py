@@ -28,15 +28,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-SENTENCES = [
-    "Well, hello there my friend. How are you today?",
-    "The quick brown fox jumps over the lazy dog.",
-    "Take your time. Enjoy your visit, and come back soon!",
-    "Maybe the bubble will pop, but maybe it will not.",
-    "Please put the map back in my bag before the bus leaves.",
-    "Five vivid valleys of fine vines, very far from here.",
-    "I think that we should go now, before the rain starts.",
-    "Bob bought a big blue boat, a mop and a pump.",
+from bench_face import SENTENCES as FACE_SENTENCES  # benchmarks/ is the script's folder
+
+#: bench_face's eight sentences (bilabials, labiodentals, rounded and open vowels) and more of
+#: a guide's and a host's lines, 20 in all
+SENTENCES = FACE_SENTENCES + [
     "The shoe store is on your left, just past the fountain.",
     "Could you tell me where the nearest train station is?",
     "We opened the new wing of the museum in the spring.",
