@@ -23,6 +23,7 @@ from itertools import pairwise
 from xml.sax.saxutils import escape as xml_escape
 from xml.sax.saxutils import quoteattr
 
+from core.counting import plural
 from core.face import LOOK_DIRECTIONS
 from core.skeleton import FPS
 from dsl.markup import MarkMap, Problem, Utterance, script_text
@@ -64,7 +65,7 @@ def write_bml(script, plan, library) -> str:
     """The BML document of a compiled script (``script``: :class:`dsl.script.Script`, ``plan``
     its :class:`dsl.plan.Plan`), and what it leaves out (lines for the user)."""
     plans = {p.index: p for p in plan.utterances}
-    blocks, left_out = [], {"style spans": 0, "pauses": 0}
+    blocks, left_out = [], {"style span": 0, "pause": 0}
     for utt in script.utterances:
         p = plans.get(utt.index)
         if p is None:
@@ -72,7 +73,7 @@ def write_bml(script, plan, library) -> str:
         blocks.append(_block(utt, p, library, left_out))
     doc = (f'<?xml version="1.0" encoding="UTF-8"?>\n<sgt:performance xmlns:sgt="{SGT_NS}" xmlns="{BML_NS}"'
            f' source={quoteattr(str(plan.source))}>\n' + "".join(blocks) + "</sgt:performance>\n")
-    notes = [f"{n} {what} (BML has no element for them)" for what, n in left_out.items() if n]
+    notes = [f"{plural(n, what)} (BML has no element for {'it' if n == 1 else 'them'})" for what, n in left_out.items() if n]
     broken = check_bml(parse_xml(doc))
     if broken:  # a bug of this writer, never the script's
         raise RuntimeError(f"sgt wrote BML that breaks its own rules: line {broken[0].line}: {broken[0].message}")
@@ -124,8 +125,8 @@ def _block(utt, p, library, left_out) -> str:
     for n, s in enumerate(faces):
         out.append(f'    <faceLexeme id="f{n + 1}" lexeme="{FACE_LEXEMES[s.face]}" start="{sid}:{sync[s.offset]}"'
                    f' end="{sid}:{sync[s.end_offset]}"/>\n')
-    left_out["style spans"] += sum(1 for s in utt.styles if s.styled)
-    left_out["pauses"] += len(utt.pauses)
+    left_out["style span"] += sum(1 for s in utt.styles if s.styled)
+    left_out["pause"] += len(utt.pauses)
     out.append("  </bml>\n")
     return "".join(out)
 

@@ -191,7 +191,7 @@ def _export_bml(args) -> int:
 
     text, notes = write_bml(result.script, result.plan, load_library(extra_dirs=result.script.header.library_dirs))
     atomic_write_text(out, text)
-    print(f"wrote {shown(out)}: {len(result.plan.utterances)} BML block(s)"
+    print(f"wrote {shown(out)}: {plural(len(result.plan.utterances), 'BML block')}"
           + (f"; left out: {', '.join(notes)}" if notes else ""), file=sys.stderr)
     return exit_code(result.diagnostics)
 

@@ -44,6 +44,7 @@ def _raw():
 
 
 def run(args) -> int:
+    from core.counting import plural
     from core.fileio import atomic_write_text
     from core.reading import read_bytes
     from dsl.bml import bml_script
@@ -76,10 +77,10 @@ def run(args) -> int:
         print(p, file=sys.stderr)
     errors = [p for p in problems if not p.warning]
     if errors:
-        print(f"{args.input}: {len(errors)} element(s) above cannot be imported: nothing written", file=sys.stderr)
+        print(f"{args.input}: {plural(len(errors), 'element')} above cannot be imported: nothing written", file=sys.stderr)
         return 1
     atomic_write_text(out, text)
-    print(f"wrote {shown(out)}: {text.count(chr(10))} line(s)", file=sys.stderr)
+    print(f"wrote {shown(out)}: {plural(text.count(chr(10)), 'line')}", file=sys.stderr)
     return 0
 
 
