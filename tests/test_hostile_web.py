@@ -379,6 +379,39 @@ def test_streams_are_capped_and_healthz_answers_through_1000_sockets_at_ulimit_2
     assert code == 0 and "Too many open files" not in log and "Traceback" not in log, log[-2000:]
 
 
+
+def test_requests_behind_a_flood_of_idle_connections_are_answered(folder):
+    """2000 connections queued while the service is stopped (SIGSTOP), every 20th a /healthz
+    request, the rest idle, at a descriptor limit of 256: once it runs again every request is
+    answered 200; none is refused for want of a descriptor or closed as idle."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft < 4096:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (4096 if hard == resource.RLIM_INFINITY else min(4096, hard), hard))
+    server = Served(folder, "serve", "--header-timeout", "60", nofile=256)
+    request = b"GET /healthz HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nConnection: close\r\n\r\n" % server.port
+    answers: dict[str, int] = {}
+    with contextlib.ExitStack() as stack:
+        server.proc.send_signal(signal.SIGSTOP)
+        try:
+            queued = []
+            for k in range(2000):
+                sock = stack.enter_context(socket.create_connection(("127.0.0.1", server.port), timeout=30))
+                if k % 20 == 19:
+                    sock.sendall(request)
+                    queued.append(sock)
+        finally:
+            server.proc.send_signal(signal.SIGCONT)
+        for sock in queued:
+            try:
+                answer = sock.recv(64).split(b"\r\n")[0].decode() or "closed"
+            except OSError as exc:
+                answer = type(exc).__name__
+            answers[answer] = answers.get(answer, 0) + 1
+    assert answers == {"HTTP/1.1 200 OK": 100}
+    code, log = server.stop()
+    assert code == 0 and "Traceback" not in log, log[-2000:]
+
+
 # -- the page in Chromium ---------------------------------------------------------------------------------------------------
 
 

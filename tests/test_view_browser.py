@@ -453,9 +453,12 @@ def test_the_timeline_follows_jumps_and_scrubs_while_paused(server, browser, tak
                                            windowsVirtualKeyCode=37, modifiers=8), "sgtView.state().frame === "
          f"{strokes[-1] - FPS}")
     browser.cmd("Input.dispatchKeyEvent", type="keyUp", key="ArrowLeft", code="ArrowLeft", windowsVirtualKeyCode=37, modifiers=8)
-    browser.js("document.getElementById('timeline').scrollLeft = 0")  # the stroke's control out of view, then clicked
     point = next(c for c in clip.controls if c.name == "point_right")
-    browser.key("End", "End", 35)
+    # the stroke's control out of view (the timeline followed End to the take's end), then clicked
+    jump("End, before a click", lambda: browser.key("End", "End", 35), "sgtView.state().time === sgtView.state().duration")
+    assert browser.js("(() => { const r = document.getElementById('timeline').getBoundingClientRect(); const e = "
+                      "document.querySelector('.tl-pose[data-name=\"point_right\"]').getBoundingClientRect(); "
+                      "return e.right < r.left || e.left > r.right; })()")
     jump("a click on point_right", lambda: browser.click('.tl-pose[data-name="point_right"]'),
          f"sgtView.state().frame === {point.stroke_frame}")
     if SHOTS:

@@ -83,7 +83,7 @@ def run(args) -> int:
 
     from sgt_tui.build.work import one_thread
     from sgt_tui.serve.app import create_app
-    from sgt_tui.serve.listen import BACKLOG, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
+    from sgt_tui.serve.listen import ACCEPT_BATCH, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
 
     try:
         sock = bind(config.host, config.port)
@@ -99,7 +99,7 @@ def run(args) -> int:
     one_thread()
     server = uvicorn.Server(uvicorn.Config(
         create_app(config), log_level="warning", ws_max_size=1 << 20, timeout_graceful_shutdown=5,
-        http=protocol(config.header_timeout, connection_limit()), timeout_keep_alive=KEEP_ALIVE, backlog=BACKLOG,
+        http=protocol(config.header_timeout, connection_limit()), timeout_keep_alive=KEEP_ALIVE, backlog=ACCEPT_BATCH,
         loop="asyncio"))  # asyncio: its accept loop calls the Listener's accept (sgt_tui/serve/listen.py)
     try:
         server.run(sockets=[sock])

@@ -105,7 +105,7 @@ def run(args) -> int:
 
     import uvicorn
 
-    from sgt_tui.serve.listen import BACKLOG, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
+    from sgt_tui.serve.listen import ACCEPT_BATCH, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
     from sgt_tui.view.server import ViewServer, create_view_app
 
     try:
@@ -117,7 +117,7 @@ def run(args) -> int:
     address = f"http://{host}:{port}/"
     server = ViewServer(uvicorn.Config(create_view_app(viewer, config, poser), log_level="warning", timeout_graceful_shutdown=1,
                                        http=protocol(config.header_timeout, connection_limit()),
-                                       timeout_keep_alive=KEEP_ALIVE, backlog=BACKLOG, loop="asyncio"), viewer)
+                                       timeout_keep_alive=KEEP_ALIVE, backlog=ACCEPT_BATCH, loop="asyncio"), viewer)
     # From here ctrl+c stops the server and raises nothing: before uvicorn runs too, where a
     # KeyboardInterrupt could land in an import (and CPython then ends by SIGINT, whatever caught it).
     previous = signal.signal(signal.SIGINT, server.handle_exit)

@@ -21,9 +21,14 @@ idle connections would stop the service answering anyone. Two bounds:
   a stream), is answered 503 and closed;
 - the listening socket (:class:`Listener`) never lets a connection take one of the top
   :data:`RESERVED_FDS` descriptors: such a connection is answered 503 and closed at once. This
-  bound holds while connections come faster than the first can act (asyncio accepts up to
-  :data:`BACKLOG` of them in one go, each a descriptor, and closes the ones it drops a few
-  turns of the loop later).
+  bound holds while connections come faster than the first can act (asyncio accepts a batch of
+  them in one go, each a descriptor, and closes the ones it drops a few turns of the loop later).
+
+asyncio accepts at most :data:`ACCEPT_BATCH` connections a turn (the ``backlog`` handed to
+uvicorn; the kernel's queue stays :data:`BACKLOG` long), so that a flood waiting in the queue
+is let in a few at a time, each batch's idle connections closed before the next: a request
+that comes after a thousand idle connections is answered, not refused for want of a
+descriptor.
 
 uvicorn's ``limit_concurrency`` cannot do either: it answers 503 to a request on a connection
 it has already accepted (its descriptor held until the client goes), and never to a WebSocket
@@ -42,9 +47,11 @@ KEEP_ALIVE = 5.0
 #: Descriptors kept for what is not a connection: the model's files, logs, the speech worker's
 #: pipes, a request's temporary files (an idle service holds 12).
 RESERVED_FDS = 64
-#: The listening socket's backlog (uvicorn's ``backlog``), which is also how many connections
-#: asyncio accepts in one go.
+#: How many connections the kernel queues for the listening socket.
 BACKLOG = 2048
+#: How many connections asyncio accepts in one turn of the loop (uvicorn's ``backlog``, which
+#: asyncio also hands to ``listen``: :meth:`Listener.listen` keeps the queue at :data:`BACKLOG`).
+ACCEPT_BATCH = 16
 BUSY = (b"HTTP/1.1 503 Service Unavailable\r\ncontent-type: application/json\r\nretry-after: 1\r\n"
         b"connection: close\r\ncontent-length: 72\r\n\r\n"
         b'{"error": "every connection this service can hold is busy: retry later"}')
@@ -59,6 +66,9 @@ class Listener(socket.socket):
     that would is answered 503 and closed before the server sees it."""
 
     ceiling = 1 << 30
+
+    def listen(self, backlog: int = BACKLOG) -> None:
+        super().listen(max(backlog, BACKLOG))
 
     def accept(self):
         conn, address = super().accept()
