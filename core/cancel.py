@@ -7,7 +7,9 @@ or its client disconnects, sgt_tui/serve/pool.py) or gives it a deadline; the wo
 utterance of speech, per window of the network, per chunk of the audio features, per pass of
 the face, hands and performance), which raises :class:`Cancelled` once the token is
 cancelled or past its deadline. Outside a scope :func:`check` is a context-variable lookup
-and never raises: the commands run without one.
+and never raises: the commands run without one. In every scope it also raises
+KeyboardInterrupt once the command has been sent ctrl+c (:func:`core.interrupts.interrupted`),
+however a library swallowed it.
 
 :class:`Cancelled` is a :class:`BaseException`, like ``KeyboardInterrupt``: the ``except
 Exception`` that turns a library's failure into a user's message does not swallow it.
@@ -22,6 +24,8 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
+
+from core.interrupts import interrupted
 
 #: Iterations of a per-frame loop between two checks (a few milliseconds of work): such a loop
 #: calls :func:`check` when ``not i % EVERY``.
@@ -62,10 +66,13 @@ _current: ContextVar[Token | None] = ContextVar("sgt_cancel_token", default=None
 
 
 def check() -> None:
-    """Raise :class:`Cancelled` when the work running here has been cancelled."""
+    """Raise :class:`Cancelled` when the work running here has been cancelled, and
+    KeyboardInterrupt when the command has been sent ctrl+c."""
     token = _current.get()
     if token is not None and token.cancelled:
         raise Cancelled(token.reason)
+    if interrupted():
+        raise KeyboardInterrupt
 
 
 def scope(token: Token):

@@ -11,6 +11,10 @@ an ImportError, which such code takes for a missing package (the neural engine f
 PyTorch and `sgt render` ran on). Import optional packages with :func:`import_optional`.
 :func:`caused_by_interrupt` tells an error that carries a KeyboardInterrupt in its chain.
 
+Whatever swallows one unforeseen, a SIGINT that :func:`noting_interrupts` has seen stops the
+work at its next loop point: :func:`core.cancel.check` raises KeyboardInterrupt once
+:func:`interrupted` is true.
+
 Standard library only.
 """
 
@@ -79,6 +83,13 @@ def noting_interrupts():
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+        _SEEN.clear()  # dealt with: the block has ended (a process that goes on is not interrupted)
+
+
+def interrupted() -> bool:
+    """Whether :func:`noting_interrupts`'s handler has seen a SIGINT (the command is to stop,
+    even where a library caught the KeyboardInterrupt and went on)."""
+    return bool(_SEEN)
 
 
 def caused_by_interrupt(exc: BaseException | None) -> bool:

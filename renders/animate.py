@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.cancel import check
 from core.counting import plural
 from core.fileio import atomic_write
 from core.hands import hand_positions
@@ -104,6 +105,7 @@ class _Panel:
 def _compose(panels, frame: int):
     from PIL import Image
 
+    check()  # a frame at a time: ctrl+c stops a render here, whatever swallowed it on its way
     images = [p.image(frame) for p in panels]
     if len(images) == 1:
         return images[0]

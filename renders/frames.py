@@ -20,6 +20,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from typing import Self
 
+from core.cancel import check
 from core.workers import spawn_context, stop
 
 #: Frames a worker draws per task: enough that the hand-over costs little, few enough that
@@ -69,6 +70,7 @@ class Workers:
                 if len(runs) >= AHEAD * self.jobs:
                     break
             while runs:
+                check()
                 done = runs.popleft().result()
                 first = next(starts, None)
                 if first is not None:

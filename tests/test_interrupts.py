@@ -91,6 +91,25 @@ def test_ctrl_c_inside_trimesh_import_is_not_swallowed(tmp_path, motion_file):
     assert not gif.exists()
 
 
+
+def test_a_ctrl_c_that_something_unforeseen_swallows_still_stops_the_render(tmp_path, motion_file):
+    """SIGINT inside an ``except BaseException`` that no one knows of (here the import hook
+    itself swallows it, as the module that draws frames starts to import): the render stops at
+    its next frame, 130, and writes nothing."""
+    boot = tmp_path / "boot.py"
+    boot.write_text(BOOT.replace("            os.kill(os.getpid(), signal.SIGINT)\n",
+                                 "            try:\n                os.kill(os.getpid(), signal.SIGINT)\n"
+                                 "                import time; time.sleep(0.05)\n"
+                                 "            except BaseException:\n                pass\n"))
+    assert "except BaseException" in boot.read_text()
+    gif = tmp_path / "out.gif"
+    r = subprocess.run([sys.executable, str(boot), "renders.animate", "render", str(motion_file), "-o", str(gif),
+                        "--size", "32x32"], cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=300)
+    assert r.returncode == 130, r.stderr
+    assert "interrupted" in r.stderr and "Traceback" not in r.stderr
+    assert not gif.exists()
+
+
 def _loaded(pid: int, library: str) -> bool:
     try:
         with open(f"/proc/{pid}/maps") as f:
