@@ -40,8 +40,10 @@ place.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
+from collections import OrderedDict
 from functools import lru_cache
 from pathlib import Path
 from typing import NamedTuple
@@ -149,6 +151,11 @@ EXTRA_WORD_ALL_GAIN, EXTRA_WORD_ALL_RATE = 10.0, 1.5
 PHONE_FIT_FILE = Path(__file__).with_name("phone_fit.json")
 #: Part of the cache key of an alignment: bumped when the words' times or the verdict change.
 VERSION = 8
+#: Decodes (:meth:`_Aligner.score`, :meth:`_Aligner._said`) remembered in this process, by
+#: their audio's digest and words: a transcript edited in one place is checked again with the
+#: other stretches' decodes as they were (each is a fresh decoder, so the same inputs give the
+#: same answer). A few hundred bytes each.
+DECODES_KEPT = 2048
 
 _LETTERS = {
     "a": "AE", "b": "B", "c": "K", "d": "D", "e": "EH", "f": "F", "g": "G", "h": "HH", "i": "IH",
@@ -203,11 +210,23 @@ def normalise_for_dict(word: str) -> str:
 class _Aligner:
     def __init__(self) -> None:
         self._free = None  # the recognizer of :meth:`_recognize` (language model, no transcript), made when needed
+        self._decodes: OrderedDict = OrderedDict()  # see DECODES_KEPT
         try:
             pocketsphinx = import_optional("pocketsphinx")
         except ImportError as e:  # pragma: no cover - dependency is declared
             raise SpeechError(f"pocketsphinx is not installed ({e}); supply a TextGrid or JSON timings file") from None
         self.ps = pocketsphinx
+
+    def _remembered(self, kind: str, pcm: bytes, key: tuple, compute):
+        """``compute()``, or what it gave before for this ``kind``, audio and ``key``."""
+        k = (kind, hashlib.blake2b(pcm, digest_size=16).digest(), key)
+        if k in self._decodes:
+            self._decodes.move_to_end(k)
+            return self._decodes[k]
+        value = self._decodes[k] = compute()
+        while len(self._decodes) > DECODES_KEPT:
+            self._decodes.popitem(last=False)
+        return value
 
     def fresh(self) -> None:
         """Forget the recognizer of :meth:`_recognize`: a decoder carries its cepstral mean
@@ -375,6 +394,9 @@ class _Aligner:
         phone pass fails. Two scores of the same audio compare: the higher fits it better
         (against ``every_state``, :meth:`_decode`, also where the two give a stretch of audio
         to different models)."""
+        return self._remembered("score", pcm, (every_state, *words), lambda: self._score_now(pcm, words, every_state))
+
+    def _score_now(self, pcm: bytes, words: list[str], every_state: bool):
         found = self._decode(pcm, words, every_state)
         if found is None:
             return None
@@ -455,6 +477,9 @@ class _Aligner:
     def _said(self, pcm: bytes, words: list[str], first: int, last: int) -> set[int] | None:
         """Which of ``words[first:last]`` the optional-word decode of ``pcm`` keeps (None: no
         verdict; every word without a pronunciation counts as said)."""
+        return self._remembered("said", pcm, (first, *words[first:last]), lambda: self._said_now(pcm, words, first, last))
+
+    def _said_now(self, pcm: bytes, words: list[str], first: int, last: int) -> set[int] | None:
         decoder = self.ps.Decoder(lm=None, loglevel="FATAL", wip=OPTIONAL_WORD_BONUS)
         names = []
         said = set()
