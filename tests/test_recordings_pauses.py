@@ -311,3 +311,20 @@ def test_a_word_is_grown_back_over_its_voice_across_a_closure(dip, grown):
     assert got[0] == pytest.approx((0.0, 0.30))
     want = runs[1][0] if grown else runs[2][0]
     assert got[1][0] == pytest.approx(want, abs=frame), (got, want)
+
+
+def test_a_transcript_checked_again_reuses_the_decodes_it_made(corpus, tmp_path, monkeypatch):
+    """The aligner keeps its fresh-decoder passes (align.DECODES_KEPT): the same recording and
+    transcript checked again (no file cache) runs none of them again and gives the same times."""
+    rec = corpus[DROPPED]
+    ran = []
+    for name in ("_score_now", "_said_now"):
+        real = getattr(align._Aligner, name)
+        monkeypatch.setattr(align._Aligner, name, lambda self, *a, _real=real, _name=name: ran.append(_name) or _real(self, *a))
+    if align._aligner is not None:
+        align._aligner._decodes.clear()  # what earlier tests kept
+    first = _load(rec, rec.text, tmp_path / "a")
+    assert ran.count("_said_now") >= 2  # one per stretch
+    ran.clear()
+    again = _load(rec, rec.text, tmp_path / "b")
+    assert ran == [] and [(w.word, w.start, w.end) for w in again.words] == [(w.word, w.start, w.end) for w in first.words]
