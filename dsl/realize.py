@@ -198,7 +198,8 @@ def _take(g: Placed, last_on: dict[str, Placed]) -> None:
     """One step of :func:`resolve`: place ``g`` after the last gestures on its limbs
     (``last_on``, updated) that still play on them where it would start."""
     cancel.check()
-    before = list({id(p): p for limb in g.limbs if (p := last_on.get(limb)) is not None}.values())
+    # the limbs in name order: a frozenset's order would depend on PYTHONHASHSEED, and ties below on it
+    before = list({id(p): p for limb in sorted(g.limbs) if (p := last_on.get(limb)) is not None}.values())
     mine = _bones(g.clip())
     before = [p for p in before if g.start < p.end_on(mine)]  # still playing on g's limbs when g would start
     if before:

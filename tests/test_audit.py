@@ -9,6 +9,7 @@ command's ``main`` in-process elsewhere); services in their own process on 127.0
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -59,11 +60,21 @@ def test_sgt_voices_lists_the_variants(tmp_path):
 SCRIPT = "guide: Hello [pose:wave] there.\nvisitor: And hello to you.\n"
 
 
-@pytest.fixture()
-def folder(tmp_path):
-    (tmp_path / "s.sgt").write_text(SCRIPT)
-    r = sgt("generate", "s.sgt", "-o", "take.json", "--engine", "keyframe", cwd=tmp_path)
+@pytest.fixture(scope="module")
+def made(tmp_path_factory) -> Path:
+    """The script and its take, generated once for the module."""
+    where = tmp_path_factory.mktemp("made")
+    (where / "s.sgt").write_text(SCRIPT)
+    r = sgt("generate", "s.sgt", "-o", "take.json", "--engine", "keyframe", cwd=where)
     assert r.returncode == 0, r.stderr
+    return where
+
+
+@pytest.fixture()
+def folder(tmp_path, made):
+    """A folder of the test's own holding a copy of the script and its take."""
+    for name in ("s.sgt", "take.json"):
+        shutil.copyfile(made / name, tmp_path / name)
     return tmp_path
 
 
