@@ -18,6 +18,7 @@ from typing import Iterable, Sequence
 
 from core.counting import plural
 from core.fileio import json_text
+from core.printable import escaped
 
 ERROR = "error"
 WARNING = "warning"
@@ -228,16 +229,17 @@ def format_text(diags: Sequence[Diagnostic], sources: dict[str, str] | None = No
         if color:
             code = {ERROR: "1;31", WARNING: "1;33", NOTE: "1;36"}.get(sev, "1")
             sev = f"\x1b[{code}m{sev}\x1b[0m"
-        where = f"{d.file}:{d.line}:{d.col}" if d.line else d.file
+        # names and messages escaped (core.printable): a file named with ESC [2J clears no screen
+        where = escaped(f"{d.file}:{d.line}:{d.col}" if d.line else d.file)
         tag = f"[{d.code}] " if d.code.startswith("SGT") else ""
-        out.append(f"{where}: {sev}: {tag}{d.message}")
+        out.append(f"{where}: {sev}: {tag}{escaped(d.message)}")
         excerpt(d.file, d.line, d.col, d.length)
         for r in d.related:
-            rwhere = f"{r.file}:{r.line}:{r.col}" if r.line else r.file
-            out.append(f"       = note: {rwhere}: {r.message}")
+            rwhere = escaped(f"{r.file}:{r.line}:{r.col}" if r.line else r.file)
+            out.append(f"       = note: {rwhere}: {escaped(r.message)}")
             excerpt(r.file, r.line, r.col, r.length)
         if d.hint:
-            out.append(f"       = hint: {d.hint}")
+            out.append(f"       = hint: {escaped(d.hint)}")
     return "\n".join(out)
 
 

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
 from core.counting import plural
 from core.fileio import make_folder
+from core.printable import UNSAFE, escaped
 from core.reading import read_bytes
 from sgt_tui.errors import InputError
 from sgt_tui.progress import ProgressBar
@@ -212,45 +212,21 @@ def _git(args: list[str], cwd: Path, text: bool = True):
 
 # -- text --------------------------------------------------------------------------------------
 
-#: What is never printed as it is: C0 and C1 control characters and DEL (a terminal obeys
-#: them: ``\x1b[2J`` in a file name would clear the screen), the bidirectional and invisible
-#: formatting marks (they reorder or hide the text around them), and lone surrogates (bytes of
-#: a file name that are not UTF-8).
-_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u200b\u200e\u200f\u202a-\u202e\u2060\u2066-\u2069\ufeff\ud800-\udfff]")
-_NAMED = {"\t": "\\t", "\n": "\\n", "\r": "\\r"}
-
-
-def _escape(m: re.Match) -> str:
-    c = m.group()
-    if c in _NAMED:
-        return _NAMED[c]
-    o = ord(c)
-    if 0xDC80 <= o <= 0xDCFF:  # a byte that is not UTF-8, as Python keeps it in a name
-        return f"\\x{o - 0xDC00:02x}"
-    return f"\\x{o:02x}" if o <= 0xFF else f"\\u{o:04x}"
-
-
-def escaped(text: str) -> str:
-    """``text`` (from the files compared: words, speakers, messages) with every character of
-    :data:`_UNSAFE` written as an escape (``\\x1b``, ``\\t``, ``\\u202e``): safe to print."""
-    return _UNSAFE.sub(_escape, text)
-
-
 def quoted(name: str) -> str:
-    """A file name as git shows one: as it is, or, when it holds a character of :data:`_UNSAFE`,
+    """A file name as git shows one: as it is, or, when it holds a character of :data:`UNSAFE`,
     in double quotes with those escaped (and ``\\`` and ``"`` too, so that the escapes are
     unambiguous)."""
-    if not _UNSAFE.search(name):
+    if not UNSAFE.search(name):
         return name
     return '"' + escaped(name.replace("\\", "\\\\").replace('"', '\\"')) + '"'
 
 
 def json_diff(doc) -> str:
     """``doc`` as ``sgt diff --format json`` prints it: JSON whose strings escape every character
-    of :data:`_UNSAFE` (json escapes the C0 controls itself; those left in the text are its
+    of :data:`UNSAFE` (json escapes the C0 controls itself; those left in the text are its
     own line breaks)."""
     text = json.dumps(doc, indent=1, ensure_ascii=False)
-    return _UNSAFE.sub(lambda m: m.group() if m.group() < "\x7f" else f"\\u{ord(m.group()):04x}", text)
+    return UNSAFE.sub(lambda m: m.group() if m.group() < "\x7f" else f"\\u{ord(m.group()):04x}", text)
 
 
 _MARK = {"changed": "~", "moved": ">", "added": "+", "removed": "-", "affected": ".", "same": "="}

@@ -239,3 +239,22 @@ def test_the_service_exits_1_when_it_cannot_listen(tmp_path):
     assert r.returncode == 1 and "in use" in r.stderr and "--port 0" in r.stderr
     r = sgt("serve", "--host", "no-such-host.invalid", "--token", "t" * 20, cwd=tmp_path)
     assert r.returncode == 1 and "no such address" in r.stderr
+
+
+def test_an_output_named_with_control_characters_is_printed_escaped(folder):
+    """A name that a terminal would obey (ESC [2J clears the screen) or that is not UTF-8 is
+    printed with those characters escaped, in the message that names it."""
+    name = "o\x1b[2J\u202e.json"
+    r = sgt("compile", "s.sgt", "-o", name, cwd=folder)
+    assert r.returncode == 0, r.stderr
+    assert (folder / name).exists()
+    assert "\x1b" not in r.stderr and "\u202e" not in r.stderr
+    assert "o\\x1b[2J\\u202e.json" in r.stderr, r.stderr
+
+
+def test_a_script_named_with_control_characters_is_named_escaped_in_its_diagnostics(tmp_path):
+    name = "e\x1b[31m.sgt"
+    (tmp_path / name).write_text("guide: Hello [pose:nope] there.\n")
+    r = sgt("check", name, cwd=tmp_path)
+    assert r.returncode == 1 and "\x1b" not in r.stdout + r.stderr
+    assert "e\\x1b[31m.sgt:1:20: error: [SGT201]" in r.stdout + r.stderr, r.stdout + r.stderr

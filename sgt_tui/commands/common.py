@@ -306,11 +306,14 @@ def is_stdout(target) -> bool:
 
 
 def shown(target) -> str:
-    """An output's name for messages (bytes that are not UTF-8 as ``\\x..`` escapes, so any
-    stream can print it)."""
+    """An output's name for messages: control characters, invisible marks and bytes that are
+    not UTF-8 as escapes (:func:`core.printable.escaped`), so that any terminal prints it as
+    it is named."""
     if is_stdout(target):
         return "standard output"
-    return str(target).encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    from core.printable import escaped
+
+    return escaped(str(target))
 
 
 def _isatty(stream) -> bool:

@@ -80,6 +80,6 @@ def run(args) -> int:
         seconds = sum(u.duration for u in plan.utterances)
         n_ctl = sum(len(u.controls) for u in plan.utterances)
         extra = f" and {shown(npz_out)}" if npz_out is not None else ""
-        print(f"wrote {args.output}{extra}: {plural(len(plan.utterances), 'utterance')}, {seconds:.1f}s, "
+        print(f"wrote {shown(args.output)}{extra}: {plural(len(plan.utterances), 'utterance')}, {seconds:.1f}s, "
               f"{plural(frames, 'frame')}, {plural(n_ctl, 'control')}", file=sys.stderr)
     return exit_code(diags)

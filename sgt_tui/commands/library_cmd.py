@@ -356,6 +356,7 @@ def _add(args) -> int:
     from core.skeleton import FPS
     from library.extract import spec_text_from_poses
     from sgt_tui.commands.common import existing_file, output_folder, text
+    from sgt_tui.commands.common import shown as shown_name
     from sgt_tui.errors import UsageError
 
     if not re.fullmatch(r"[a-z][a-z0-9_]*", args.name):
@@ -384,7 +385,7 @@ def _add(args) -> int:
         where = ""
     spec, err = spec_text_from_poses(args.name, poses, description=description, tags=tags, stroke=stroke, hands=hands)
     atomic_write_text(target, spec)
-    print(f"wrote {target} ({len(poses)} frames{where}; max error {err:.1f} degrees on re-load)")
+    print(f"wrote {shown_name(target)} ({len(poses)} frames{where}; max error {err:.1f} degrees on re-load)")
     return 0
 
 
