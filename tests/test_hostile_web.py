@@ -412,6 +412,21 @@ def test_requests_behind_a_flood_of_idle_connections_are_answered(folder):
     assert code == 0 and "Traceback" not in log, log[-2000:]
 
 
+
+@pytest.mark.parametrize("again_after", [0.0, 0.02, 0.05])
+def test_ctrl_c_twice_stops_the_service_quietly(folder, again_after):
+    """A second ctrl+c while the first stop is under way changes nothing: no traceback (uvicorn's
+    forced exit cancelled the application's lifespan task as the loop closed, and it was logged)."""
+    server = Served(folder, "serve")
+    server.proc.send_signal(signal.SIGINT)
+    time.sleep(again_after)
+    server.proc.send_signal(signal.SIGINT)
+    server.proc.wait(30)
+    log = server.log.read_text()
+    # 0; or death by the second SIGINT after the last line of Python (nothing printed)
+    assert server.proc.returncode in (0, -signal.SIGINT) and "Traceback" not in log and "Error" not in log, log[-2000:]
+
+
 # -- the page in Chromium ---------------------------------------------------------------------------------------------------
 
 

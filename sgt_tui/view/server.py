@@ -40,6 +40,7 @@ from fastapi.responses import HTMLResponse, JSONResponse, Response
 from sgt_tui.serve.app import authorized, error
 from sgt_tui.serve.config import ServeConfig
 from sgt_tui.serve.origin import SameOrigin
+from sgt_tui.serve.server import Server
 from sgt_tui.view.assets import asset, index_html
 from sgt_tui.view.posing import Poser, add_view_routes
 from sgt_tui.view.takes import STOPPING, Viewer, ViewError
@@ -56,9 +57,9 @@ THREADS = 16
 CUT_S = 0.5
 
 
-class ViewServer(uvicorn.Server):
-    """uvicorn's server, telling ``viewer`` at ctrl+c (its signal handler) that sgt view stops,
-    and cutting, :data:`CUT_S` after, the connections still busy; ctrl+c again changes nothing."""
+class ViewServer(Server):
+    """The server (ctrl+c again changes nothing), telling ``viewer`` at ctrl+c (its signal
+    handler) that sgt view stops, and cutting, :data:`CUT_S` after, the connections still busy."""
 
     def __init__(self, config: uvicorn.Config, viewer: Viewer) -> None:
         super().__init__(config)
@@ -66,11 +67,6 @@ class ViewServer(uvicorn.Server):
 
     def handle_exit(self, sig, frame) -> None:
         self.viewer.close()  # takes no lock: it may interrupt any code of the main thread
-        if self.should_exit:
-            # A second ctrl+c: the stop under way ends within a second anyway. uvicorn's forced
-            # exit would skip the application's shutdown and leave its lifespan task to be
-            # cancelled when the loop closes, with a traceback.
-            return
         super().handle_exit(sig, frame)
 
     async def shutdown(self, sockets=None) -> None:
