@@ -18,6 +18,7 @@ format is documented in :mod:`library.spec` and ``docs/library.md``.
 from __future__ import annotations
 
 import os
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -59,6 +60,19 @@ class Clip:
         return self.n_frames / FPS
 
 
+#: Clips each gesture keeps, by (speed, flip, hold): a script plays a few gestures many times,
+#: and building a clip (retiming, mirroring, the hands) was half of checking a long script.
+CLIPS_KEPT = 32
+
+
+def _read_only(clip: Clip) -> Clip:
+    """``clip`` with every array made read-only (it is shared: see :meth:`Gesture.clip`)."""
+    for a in (clip.poses, clip.bones, clip.hand_sides, clip.hands.palm, clip.hands.fingers):
+        if a is not None:
+            a.flags.writeable = False
+    return clip
+
+
 class Gesture:
     """One unit gesture of the library."""
 
@@ -68,6 +82,7 @@ class Gesture:
         self.overrides = overrides
         self._base: dict[float, tuple[np.ndarray, HandTrack]] = {}
         self._keys: dict[float, np.ndarray] = {}
+        self._clips: OrderedDict = OrderedDict()  # see CLIPS_KEPT
 
     name = property(lambda self: self.spec.name)
     description = property(lambda self: self.spec.description)
@@ -131,11 +146,25 @@ class Gesture:
 
         ``hold`` keeps the gesture's key pose ``hold`` more seconds (``frame_count(hold)``
         extra frames): the stroke pose, held right after the stroke and before the
-        retraction, or the final pose when the spec marks no stroke."""
+        retraction, or the final pose when the spec marks no stroke.
+
+        The clip is shared (the last :data:`CLIPS_KEPT` asked for are kept): its arrays are
+        read-only, and whoever needs to change one copies it."""
         if not isinstance(speed, (int, float)) or isinstance(speed, bool) or speed <= 0:
             raise ValueError(f"speed must be a positive number, got {speed!r}")
         if not isinstance(hold, (int, float)) or hold < 0:
             raise ValueError(f"hold must be >= 0 seconds, got {hold!r}")
+        kept = (float(speed), bool(flip), float(hold))
+        clip = self._clips.get(kept)
+        if clip is not None:
+            self._clips.move_to_end(kept)
+            return clip
+        clip = self._clips[kept] = _read_only(self._clip(speed, flip, hold))
+        while len(self._clips) > CLIPS_KEPT:
+            self._clips.popitem(last=False)
+        return clip
+
+    def _clip(self, speed, flip: bool, hold: float) -> Clip:
         key = float(speed)
         base = self._base.get(key)
         if base is None:

@@ -647,3 +647,21 @@ def test_weigh_holds_one_hand_well_above_the_other(lib):
     pos, _, _, clip = _scene(lib, "weigh")
     assert pos[JOINT_INDEX["right_wrist"], 1] - pos[JOINT_INDEX["left_wrist"], 1] > 0.22  # was 0.18
     assert (clip.hands.palm[clip.stroke_frame, :, 1] > 0.9).all()  # both palms up
+
+
+def test_a_clip_asked_for_again_is_the_same_read_only_clip():
+    """A long script plays a few gestures many times: each gesture keeps the clips it built (by
+    speed, flip and hold), and they are read-only, so no one sharing one can change it."""
+    import library
+
+    g = load_library().get("point_right")
+    a = g.clip(speed=2, flip=True, hold=0.5)
+    assert g.clip(speed=2, flip=True, hold=0.5) is a
+    assert g.clip(speed=2, flip=False, hold=0.5) is not a and g.clip(speed=1, flip=True, hold=0.5) is not a
+    for array in (a.poses, a.bones, a.hand_sides, a.hands.palm, a.hands.fingers):
+        with pytest.raises(ValueError, match="read-only"):
+            array[...] = 0
+    for k in range(library.CLIPS_KEPT + 1):  # the oldest is let go
+        g.clip(speed=1, hold=0.1 * (k + 1))
+    assert g.clip(speed=2, flip=True, hold=0.5) is not a
+    assert np.array_equal(g.clip(speed=2, flip=True, hold=0.5).poses, a.poses)
