@@ -69,7 +69,7 @@ def _read_only(clip: Clip) -> Clip:
     """``clip`` with every array made read-only (it is shared: see :meth:`Gesture.clip`)."""
     for a in (clip.poses, clip.bones, clip.hand_sides, clip.hands.palm, clip.hands.fingers):
         if a is not None:
-            a.flags.writeable = False
+            a.setflags(write=False)
     return clip
 
 
