@@ -77,9 +77,6 @@ class Placed:
     #: limbs over cuts those only; None = ``length`` everywhere
     bone_lengths: np.ndarray | None = None
     side_lengths: np.ndarray | None = None
-    #: the clips of one utterance's gestures by (gesture, speed, flip, hold), shared by its
-    #: placed gestures: each clip is built once (they are read, never changed)
-    clips: dict = field(default_factory=dict, repr=False, compare=False)
     #: where :func:`resolve` took this gesture (for :func:`hint`'s trials)
     turn: _Turn | None = field(default=None, repr=False, compare=False)
 
@@ -119,11 +116,8 @@ class Placed:
         return self.start
 
     def clip(self):
-        key = (self.gesture, self.mark.speed, self.mark.flip, self.mark.hold)
-        clip = self.clips.get(key)
-        if clip is None:
-            clip = self.clips[key] = self.gesture.clip(speed=self.mark.speed, flip=self.mark.flip, hold=self.mark.hold)
-        return clip
+        """The gesture's clip as the mark plays it (shared and read-only: :meth:`library.Gesture.clip`)."""
+        return self.gesture.clip(speed=self.mark.speed, flip=self.mark.flip, hold=self.mark.hold)
 
     @property
     def limbs(self) -> frozenset[str]:
@@ -137,23 +131,21 @@ def place(utt, words, lib) -> list[Placed]:
     onset of the word after the mark (the end of the previous word when none follows); ``words``
     are the utterance's timed words on its motion frames."""
     out: list[Placed] = []
-    clips: dict = {}
     for mark in utt.poses:
         gesture = lib.get(mark.name)
         if gesture is None:  # already reported by the analyser
             continue
         at = words[mark.word_index].start if mark.word_index is not None else words[mark.after_word].end
-        out.append(_natural(mark, gesture, seconds_to_frame(at), clips))
+        out.append(_natural(mark, gesture, seconds_to_frame(at)))
     return out
 
 
-def _natural(mark, gesture, word: int, clips: dict) -> Placed:
-    """``gesture`` played by ``mark`` whole, its stroke on frame ``word``; ``clips``: the
-    utterance's clips (:attr:`Placed.clips`)."""
+def _natural(mark, gesture, word: int) -> Placed:
+    """``gesture`` played by ``mark`` whole, its stroke on frame ``word``."""
     stroke = gesture.stroke_frame(mark.speed)
     length = gesture.clip_length(speed=mark.speed, hold=mark.hold)
     keep = length if stroke is None else stroke + 1 + (frame_count(mark.hold) if mark.hold > 0 else 0)
-    return Placed(mark, gesture, word - (stroke or 0), length, keep, stroke, word, clips=clips)
+    return Placed(mark, gesture, word - (stroke or 0), length, keep, stroke, word)
 
 
 def approach_frames(angle_deg: float) -> int:
@@ -322,7 +314,7 @@ def _makes_it(g: Placed, p: Placed, mark) -> bool:
     ``g``, not the utterance's.
     """
     turn = p.turn
-    changed = _natural(mark, p.gesture, p.word_frame, p.clips)
+    changed = _natural(mark, p.gesture, p.word_frame)
     key = (changed.start, turn.key[1])
     rank = bisect_left(turn.keys, key)  # p's rank in the trial's order
     if rank > turn.rank:
@@ -337,7 +329,7 @@ def _makes_it(g: Placed, p: Placed, mark) -> bool:
             copies[id(q)] = replace(q, bone_lengths=bone_lengths, side_lengths=side_lengths)
         last_on[limb] = copies[id(q)]
     for q in seq:
-        trial = changed if q is p else _natural(q.mark, q.gesture, q.word_frame, q.clips)
+        trial = changed if q is p else _natural(q.mark, q.gesture, q.word_frame)
         _take(trial, last_on)
         if q is g:
             return trial.late < LATE_WARN
