@@ -79,12 +79,11 @@ def run(args) -> int:
         runner = load_runner(weights)  # fail before listening when the weights cannot run
     except WeightsError as exc:
         raise InputError(str(exc)) from None
-    import uvicorn
-
     from sgt_tui.build.work import one_thread
     from sgt_tui.serve.app import create_app
-    from sgt_tui.serve.listen import ACCEPT_BATCH, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
+    from sgt_tui.serve.listen import ListenError, bind
     from sgt_tui.serve.server import Server
+    from sgt_tui.serve.server import config as server_config
 
     try:
         sock = bind(config.host, config.port)
@@ -98,10 +97,8 @@ def run(args) -> int:
     # top of them only spun waiting for a core (measured at 8 clients on 2 cores: 57 ms of CPU a
     # request with them, 21 ms with one thread each, the throughput doubled).
     one_thread()
-    server = Server(uvicorn.Config(
-        create_app(config), log_level="warning", ws_max_size=1 << 20, timeout_graceful_shutdown=5,
-        http=protocol(config.header_timeout, connection_limit()), timeout_keep_alive=KEEP_ALIVE, backlog=ACCEPT_BATCH,
-        loop="asyncio"))  # asyncio: its accept loop calls the Listener's accept (sgt_tui/serve/listen.py)
+    server = Server(server_config(create_app(config), config.header_timeout, ws_max_size=1 << 20,
+                                  timeout_graceful_shutdown=5))
     try:
         server.run(sockets=[sock])
     except KeyboardInterrupt:  # uvicorn re-raises the ctrl+c it shut down on: a clean stop, as uvicorn.run has it

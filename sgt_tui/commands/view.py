@@ -103,9 +103,8 @@ def run(args) -> int:
             sys.stderr.write(exc.details + "\n")
         raise InputError(str(exc), printed=False) from None
 
-    import uvicorn
-
-    from sgt_tui.serve.listen import ACCEPT_BATCH, KEEP_ALIVE, ListenError, bind, connection_limit, protocol
+    from sgt_tui.serve.listen import ListenError, bind
+    from sgt_tui.serve.server import config as server_config
     from sgt_tui.view.server import ViewServer, create_view_app
 
     try:
@@ -115,9 +114,8 @@ def run(args) -> int:
     port = sock.getsockname()[1]
     host = f"[{config.host}]" if ":" in config.host else config.host
     address = f"http://{host}:{port}/"
-    server = ViewServer(uvicorn.Config(create_view_app(viewer, config, poser), log_level="warning", timeout_graceful_shutdown=1,
-                                       http=protocol(config.header_timeout, connection_limit()),
-                                       timeout_keep_alive=KEEP_ALIVE, backlog=ACCEPT_BATCH, loop="asyncio"), viewer)
+    server = ViewServer(server_config(create_view_app(viewer, config, poser), config.header_timeout,
+                                     timeout_graceful_shutdown=1), viewer)
     # From here ctrl+c stops the server and raises nothing: before uvicorn runs too, where a
     # KeyboardInterrupt could land in an import (and CPython then ends by SIGINT, whatever caught it).
     previous = signal.signal(signal.SIGINT, server.handle_exit)
