@@ -79,35 +79,34 @@ def _env():
     return {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
-def test_ctrl_c_inside_trimesh_import_is_not_swallowed(tmp_path, motion_file):
-    """SIGINT while trimesh imports its optional parts (inside its ``except BaseException``)."""
+def _render_interrupted_at(target: str, boot_text: str, tmp_path, motion_file) -> None:
+    """`sgt render` started through ``boot_text`` (:data:`BOOT`, SIGINT as ``target`` starts to
+    import) ends with 130, one "interrupted", no traceback and no output."""
     boot = tmp_path / "boot.py"
-    boot.write_text(BOOT)
+    boot.write_text(boot_text)
     gif = tmp_path / "out.gif"
-    r = subprocess.run([sys.executable, str(boot), "trimesh.path", "render", str(motion_file), "-o", str(gif),
+    r = subprocess.run([sys.executable, str(boot), target, "render", str(motion_file), "-o", str(gif),
                         "--size", "32x32"], cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=300)
     assert r.returncode == 130, r.stderr
     assert "interrupted" in r.stderr and "Traceback" not in r.stderr
     assert not gif.exists()
 
+
+def test_ctrl_c_inside_trimesh_import_is_not_swallowed(tmp_path, motion_file):
+    """SIGINT while trimesh imports its optional parts (inside its ``except BaseException``)."""
+    _render_interrupted_at("trimesh.path", BOOT, tmp_path, motion_file)
 
 
 def test_a_ctrl_c_that_something_unforeseen_swallows_still_stops_the_render(tmp_path, motion_file):
     """SIGINT inside an ``except BaseException`` that no one knows of (here the import hook
     itself swallows it, as the module that draws frames starts to import): the render stops at
     its next frame, 130, and writes nothing."""
-    boot = tmp_path / "boot.py"
-    boot.write_text(BOOT.replace("            os.kill(os.getpid(), signal.SIGINT)\n",
-                                 "            try:\n                os.kill(os.getpid(), signal.SIGINT)\n"
-                                 "                import time; time.sleep(0.05)\n"
-                                 "            except BaseException:\n                pass\n"))
-    assert "except BaseException" in boot.read_text()
-    gif = tmp_path / "out.gif"
-    r = subprocess.run([sys.executable, str(boot), "renders.animate", "render", str(motion_file), "-o", str(gif),
-                        "--size", "32x32"], cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=300)
-    assert r.returncode == 130, r.stderr
-    assert "interrupted" in r.stderr and "Traceback" not in r.stderr
-    assert not gif.exists()
+    swallowing = BOOT.replace("            os.kill(os.getpid(), signal.SIGINT)\n",
+                              "            try:\n                os.kill(os.getpid(), signal.SIGINT)\n"
+                              "                import time; time.sleep(0.05)\n"
+                              "            except BaseException:\n                pass\n")
+    assert "except BaseException" in swallowing
+    _render_interrupted_at("renders.animate", swallowing, tmp_path, motion_file)
 
 
 def _loaded(pid: int, library: str) -> bool:

@@ -22,7 +22,7 @@ def _env(tmp_path, monkeypatch):
 
 
 def _run(capsys, *argv):
-    code = cli.main(list(argv))
+    code = cli.main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
 

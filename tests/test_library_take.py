@@ -21,25 +21,13 @@ import pytest
 from core.skeleton import BONE_INDEX, FPS
 from library import load_library
 from sgt_tui import cli
+from test_library_cli import _env, _run  # noqa: F401  (_env: the autouse fixture, a HOME of the test's own)
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The arm bones compared (sgt bone -> the source's (parent joint, child joint) roles).
 ARMS = {"left_elbow": ("l_arm", "l_fore"), "left_wrist": ("l_fore", "l_hand"),
         "right_elbow": ("r_arm", "r_fore"), "right_wrist": ("r_fore", "r_hand")}
 
-
-@pytest.fixture(autouse=True)
-def _env(tmp_path, monkeypatch):
-    monkeypatch.setenv("HOME", str(tmp_path / "home"))
-    monkeypatch.delenv("XDG_CONFIG_HOME", raising=False)
-    monkeypatch.delenv("SGT_LIBRARY_PATH", raising=False)
-    monkeypatch.chdir(tmp_path)
-
-
-def _run(capsys, *argv):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 # -- a rig and its take ---------------------------------------------------------------------

@@ -355,8 +355,7 @@ def _add(args) -> int:
     from core.fileio import atomic_write_text, check_not_input, check_output
     from core.skeleton import FPS
     from library.extract import spec_text_from_poses
-    from sgt_tui.commands.common import existing_file, output_folder, text
-    from sgt_tui.commands.common import shown as shown_name
+    from sgt_tui.commands.common import existing_file, output_folder, shown, text
     from sgt_tui.errors import UsageError
 
     if not re.fullmatch(r"[a-z][a-z0-9_]*", args.name):
@@ -371,21 +370,21 @@ def _add(args) -> int:
     check_not_input(target, [source] + ([map_file] if map_file else []), "--to")
     tags = [t.strip() for t in text(args.tags, "--tags").split(",") if t.strip()]
     description = text(args.description, "--description")
-    shown = Path(args.source).name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    source_name = Path(args.source).name.encode("utf-8", "surrogateescape").decode("utf-8", "replace")  # for the spec file
     if source.suffix.lower() in TAKE_SUFFIXES:
         poses, hands, stroke, a, b, fps, source_stroke = _from_take(args, source, map_file)
-        description = description or f"Recorded from {shown}, frames {a}:{b} at {fps:g} fps."
+        description = description or f"Recorded from {source_name}, frames {a}:{b} at {fps:g} fps."
         where = f" at {FPS} fps from frames {a}:{b} at {fps:g} fps, the stroke at frame {source_stroke}"
     else:
         for option, value in (("--map", args.map), ("--fps-in", args.fps_in), ("--animation", args.animation)):
             if value is not None:
                 raise UsageError(f"{option} is for takes ({', '.join(TAKE_SUFFIXES)}), not for motion files")
         poses, hands, stroke, a, b = _from_motion_file(args, source)
-        description = description or f"Recorded from {shown}, frames {a}:{b}."
+        description = description or f"Recorded from {source_name}, frames {a}:{b}."
         where = ""
     spec, err = spec_text_from_poses(args.name, poses, description=description, tags=tags, stroke=stroke, hands=hands)
     atomic_write_text(target, spec)
-    print(f"wrote {shown_name(target)} ({len(poses)} frames{where}; max error {err:.1f} degrees on re-load)")
+    print(f"wrote {shown(target)} ({len(poses)} frames{where}; max error {err:.1f} degrees on re-load)")
     return 0
 
 
